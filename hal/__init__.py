@@ -1,0 +1,1 @@
+"""Hardware abstraction layer: what behaviours see of the robot's devices."""

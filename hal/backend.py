@@ -1,0 +1,61 @@
+"""The set of devices a robot has, whichever backend (real drivers or the simulator) made them."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from enum import Enum
+from typing import Any
+
+from hal.devices import (
+    Audio,
+    Battery,
+    BeaconScanner,
+    Camera,
+    DockIr,
+    Encoders,
+    Leds,
+    Lidar,
+    LoadCell,
+    Motors,
+    RangeSensor,
+    ServoBox,
+)
+
+
+class Backend(Enum):
+    REAL = "real"
+    SIM = "sim"
+
+
+@dataclass
+class Devices:
+    """The robot's devices; a profile uses the ones it needs (None: the robot has none).
+
+    One driver may fill several slots: the Arduino link is motors, encoders, range sensor,
+    battery, servo box and LEDs at once.
+    """
+
+    motors: Motors | None = None
+    encoders: Encoders | None = None
+    front_range: RangeSensor | None = None
+    battery: Battery | None = None
+    servo: ServoBox | None = None
+    leds: Leds | None = None
+    camera: Camera | None = None
+    beacons: BeaconScanner | None = None
+    load_cell: LoadCell | None = None
+    dock_ir: DockIr | None = None
+    lidar: Lidar | None = None
+    audio: Audio | None = None
+
+    def distinct(self) -> list[Any]:
+        """Each device object once (a driver filling several slots counts once), in slot order."""
+        seen: list[Any] = []
+        for f in fields(self):
+            device = getattr(self, f.name)
+            if device is not None and not any(device is s for s in seen):
+                seen.append(device)
+        return seen
+
+    def present(self) -> list[str]:
+        return [f.name for f in fields(self) if getattr(self, f.name) is not None]

@@ -1,0 +1,139 @@
+"""Device interfaces behaviours program against: one Protocol per kind of device.
+
+A device reports its newest reading with ``latest()`` (None before the first one) and lets a
+caller wait for the next with ``await next_reading()``. ``status()`` returns a small dict of
+figures for ``robotctl sensors``. Devices are started and stopped by the daemon's supervisor.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, Protocol, runtime_checkable
+
+from hal.readings import (
+    BatteryReading,
+    BeaconSighting,
+    DockIrReading,
+    EncoderReading,
+    Frame,
+    LedMode,
+    LidarScan,
+    LinkStats,
+    MotorCommand,
+    RangeReading,
+    WeightReading,
+)
+
+
+@runtime_checkable
+class Device(Protocol):
+    """What every device offers the supervisor."""
+
+    name: str
+
+    async def start(self) -> None:
+        """Open the device; return once it delivers (or raise DeviceUnavailable)."""
+
+    async def stop(self) -> None:
+        """Close the device; safe to call twice."""
+
+    def status(self) -> dict[str, Any]:
+        """Figures for ``robotctl sensors``."""
+
+
+class DeviceUnavailable(Exception):  # noqa: N818 - reads as a condition, like TimeoutError
+    """A device cannot be opened; the message says which and what to check."""
+
+
+@runtime_checkable
+class Motors(Device, Protocol):
+    """The drive wheels behind the motor board."""
+
+    @property
+    def connected(self) -> bool:
+        """False while the link to the motor board is down: the wheels are stopped then."""
+
+    async def drive(self, command: MotorCommand) -> None:
+        """Send a wheel command; raises LinkDown while the board is unreachable."""
+
+    async def stop(self) -> None:
+        """Stop the wheels at once (never waits behind other commands)."""
+
+    def on_link_change(self, callback: Callable[[bool], None]) -> None:
+        """Call ``callback(connected)`` whenever the link goes up or down."""
+
+    def link_stats(self) -> LinkStats: ...
+
+
+class LinkDown(Exception):  # noqa: N818
+    """The motor board link is down; the command was not delivered."""
+
+
+@runtime_checkable
+class Encoders(Protocol):
+    def latest(self) -> EncoderReading | None: ...
+    async def next_reading(self) -> EncoderReading: ...
+
+
+@runtime_checkable
+class RangeSensor(Protocol):
+    def latest(self) -> RangeReading | None: ...
+    async def next_reading(self) -> RangeReading: ...
+
+
+@runtime_checkable
+class Battery(Protocol):
+    def latest(self) -> BatteryReading | None: ...
+    async def next_reading(self) -> BatteryReading: ...
+
+
+@runtime_checkable
+class ServoBox(Protocol):
+    async def set_angle(self, angle_deg: int) -> None: ...
+
+
+@runtime_checkable
+class Leds(Protocol):
+    async def show(self, mode: LedMode) -> None: ...
+
+
+@runtime_checkable
+class Camera(Device, Protocol):
+    """A frame source at a fixed size; ``next_reading`` returns the next frame."""
+
+    width_px: int
+    height_px: int
+
+    def latest(self) -> Frame | None: ...
+    async def next_reading(self) -> Frame: ...
+
+
+@runtime_checkable
+class BeaconScanner(Device, Protocol):
+    """iBeacon sightings; ``on_sighting`` callbacks run on the event loop."""
+
+    def on_sighting(self, callback: Callable[[BeaconSighting], None]) -> None: ...
+
+
+@runtime_checkable
+class LoadCell(Device, Protocol):
+    def latest(self) -> WeightReading | None: ...
+    async def next_reading(self) -> WeightReading: ...
+    async def tare(self) -> None: ...
+
+
+@runtime_checkable
+class DockIr(Device, Protocol):
+    def latest(self) -> DockIrReading | None: ...
+    async def next_reading(self) -> DockIrReading: ...
+
+
+@runtime_checkable
+class Lidar(Device, Protocol):
+    def latest(self) -> LidarScan | None: ...
+    async def next_reading(self) -> LidarScan: ...
+
+
+@runtime_checkable
+class Audio(Protocol):
+    async def play(self, sound: str) -> None: ...

@@ -1,0 +1,47 @@
+"""Low-level ports that real drivers are written against, and that the simulator provides.
+
+A port is the narrowest thing a driver needs from the operating system: a byte stream for a
+serial line, two GPIO lines for the HX711, a source of edge timestamps for IR receivers, BLE
+adverts for the scanner. The real implementation wraps the OS library; ``hal.sim`` feeds the
+same port from the simulated world, so the real driver code runs in both.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable
+from datetime import UTC, datetime
+from typing import Protocol, runtime_checkable
+
+StreamPair = tuple[asyncio.StreamReader, asyncio.StreamWriter]
+
+
+@runtime_checkable
+class SerialOpener(Protocol):
+    """Opens a serial port as an asyncio stream pair (raises OSError when it is absent)."""
+
+    async def __call__(self, port: str, baud: int) -> StreamPair: ...
+
+
+@runtime_checkable
+class Hx711Lines(Protocol):
+    """The HX711's two wires: PD_SCK (output) and DOUT (input), plus a microsecond clock."""
+
+    def set_sck(self, high: bool) -> None: ...
+    def read_dout(self) -> bool: ...
+    def now_us(self) -> int: ...
+
+
+@runtime_checkable
+class IrEdgeSource(Protocol):
+    """Edges seen by the IR receivers: (receiver name, level, timestamp in microseconds)."""
+
+    async def next_edge(self) -> tuple[str, bool, int]: ...
+
+
+WallClock = Callable[[], datetime]
+"""The one source of wall-clock timestamps (logs, fleet protocol); injected everywhere."""
+
+
+def system_wall_clock() -> datetime:
+    return datetime.now(UTC)

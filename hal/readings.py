@@ -1,0 +1,156 @@
+"""Readings that devices deliver: plain frozen dataclasses, timestamps in event-loop seconds."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+import numpy.typing as npt
+
+
+@dataclass(frozen=True, slots=True)
+class MotorCommand:
+    """One `MOTOR` command: PWM duty 0-255 and direction per wheel (1 = forward)."""
+
+    left_pwm: int
+    right_pwm: int
+    left_forward: bool = True
+    right_forward: bool = True
+
+    def __post_init__(self) -> None:
+        for name in ("left_pwm", "right_pwm"):
+            value = getattr(self, name)
+            if not 0 <= value <= 255:
+                msg = f"{name} must be 0-255, got {value}"
+                raise ValueError(msg)
+
+    @classmethod
+    def stopped(cls) -> MotorCommand:
+        return cls(0, 0, True, True)
+
+    @classmethod
+    def from_signed(cls, left: float, right: float) -> MotorCommand:
+        """Build from signed duties in [-1, 1] (negative = backwards)."""
+        lpwm = round(min(1.0, abs(left)) * 255)
+        rpwm = round(min(1.0, abs(right)) * 255)
+        return cls(lpwm, rpwm, left >= 0, right >= 0)
+
+    def signed(self) -> tuple[float, float]:
+        """Signed duties in [-1, 1]."""
+        left = self.left_pwm / 255 * (1 if self.left_forward else -1)
+        right = self.right_pwm / 255 * (1 if self.right_forward else -1)
+        return left, right
+
+    @property
+    def is_stop(self) -> bool:
+        return self.left_pwm == 0 and self.right_pwm == 0
+
+
+@dataclass(frozen=True, slots=True)
+class EncoderReading:
+    """Cumulative signed wheel encoder ticks."""
+
+    left_ticks: int
+    right_ticks: int
+    t_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class RangeReading:
+    """A front distance sensor reading."""
+
+    distance_cm: float
+    t_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class BatteryReading:
+    voltage_v: float
+    percent: float
+    charging: bool
+    on_dock_contacts: bool
+    t_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class Frame:
+    """A camera frame: BGR uint8 image, shape (height, width, 3)."""
+
+    image: npt.NDArray[np.uint8]
+    seq: int
+    t_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class BeaconSighting:
+    """One iBeacon advert as received: identity, RSSI and the advertised 1 m power."""
+
+    mac: str
+    uuid: str
+    major: int
+    minor: int
+    rssi_dbm: int
+    tx_power_dbm: int
+    t_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class WeightReading:
+    kg: float
+    raw: int
+    t_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class LidarScan:
+    """One 360 degree scan: angles (rad, robot frame, counter-clockwise) and ranges (m)."""
+
+    angles_rad: npt.NDArray[np.float64]
+    ranges_m: npt.NDArray[np.float64]
+    intensities: npt.NDArray[np.uint8]
+    t_s: float
+    speed_dps: float = 0.0
+
+
+class DockBeam(Enum):
+    """The dock's IR beams, each sent with its own code."""
+
+    LEFT = "left"
+    RIGHT = "right"
+    CENTER = "center"
+    NEAR = "near"
+
+
+@dataclass(frozen=True, slots=True)
+class DockIrReading:
+    """Which dock beams each receiver on the robot sees (receiver name -> beams)."""
+
+    beams: dict[str, frozenset[DockBeam]] = field(default_factory=dict)
+    t_s: float = 0.0
+
+
+class LedMode(Enum):
+    IDLE = "LED_IDLE"
+    WAITING = "LED_WAITING"
+    MOVING = "LED_MOVING"
+    SUCCESS_SCAN = "SUCCESS_SCAN"
+    FAILURE_SCAN = "FAILURE_SCAN"
+
+
+@dataclass(frozen=True, slots=True)
+class LinkStats:
+    """Statistics of a command link (the Arduino serial line)."""
+
+    connected: bool
+    sent: int = 0
+    acked: int = 0
+    resent: int = 0
+    lost: int = 0
+    dropped: int = 0
+    crc_errors: int = 0
+    nak: int = 0
+    reconnects: int = 0
+    rtt_p50_ms: float | None = None
+    rtt_p99_ms: float | None = None
+    firmware: str | None = None

@@ -1,0 +1,155 @@
+"""Load a TOML config file, check it against the schema, and say every problem with its line."""
+
+from __future__ import annotations
+
+import difflib
+import re
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from robotd.config.errors import ConfigError, ConfigProblem
+from robotd.config.schema import Section
+from robotd.config.sections import SECTIONS
+
+Values = dict[str, dict[str, Any]]
+
+_SYNTAX_LINE = re.compile(r"\(at line (\d+), column (\d+)\)")
+_HEADER = re.compile(r"^\s*\[\[?\s*([A-Za-z0-9_.\-\"' ]+?)\s*\]\]?\s*(#.*)?$")
+_KEY = re.compile(r"^\s*([A-Za-z0-9_\-.\"']+)\s*=")
+_MAX_SYNTAX_ERRORS = 50
+
+
+def defaults(sections: dict[str, Section] = SECTIONS) -> Values:
+    """Every section with every key at its default."""
+    return {name: {o.key: o.default for o in s.options} for name, s in sections.items()}
+
+
+def load_config(path: str | Path, *, overrides: str | Path | None = None) -> Values:
+    """Read and check ``path`` (and an overrides file over it); raise ConfigError."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError([ConfigProblem(str(path), None, "file", f"cannot read: {exc}")]) from exc
+    values = load_config_text(text, str(path))
+    if overrides is not None and Path(overrides).exists():
+        over_path = Path(overrides)
+        over = load_config_text(over_path.read_text(encoding="utf-8"), str(over_path),
+                                base=values, fill_defaults=False)
+        for section, keys in over.items():
+            values[section].update(keys)
+    return values
+
+
+def load_config_text(
+    text: str,
+    path: str = "<config>",
+    *,
+    base: Values | None = None,
+    fill_defaults: bool = True,
+    sections: dict[str, Section] = SECTIONS,
+) -> Values:
+    """Parse and check TOML text; collect every problem before raising ConfigError."""
+    problems: list[ConfigProblem] = []
+    lines = text.splitlines()
+    raw = _parse_tolerant(lines, path, problems)
+    where = _locate_keys(lines)
+    values: Values = defaults(sections) if fill_defaults else {}
+    del base  # overrides are checked on their own; merged by the caller
+    for section_name, table in raw.items():
+        section = sections.get(section_name)
+        if section is None:
+            line = where.get((section_name, ""))
+            problems.append(ConfigProblem(path, line, section_name, "unknown section"
+                                          + _suggest(section_name, list(sections))))
+            continue
+        if not isinstance(table, dict):
+            problems.append(ConfigProblem(path, where.get((section_name, "")), section_name,
+                                          "expected a table [" + section_name + "]"))
+            continue
+        out = values.setdefault(section_name, {})
+        for key, value in table.items():
+            dotted = f"{section_name}.{key}"
+            line = where.get((section_name, key))
+            option = section.by_key.get(key)
+            if option is None:
+                problems.append(ConfigProblem(path, line, dotted, "unknown key"
+                                              + _suggest(key, list(section.by_key))))
+                continue
+            checked, error = option.check(value)
+            if error is not None:
+                problems.append(ConfigProblem(path, line, dotted, error))
+            else:
+                out[key] = checked
+    if problems:
+        problems.sort(key=lambda p: (p.line is None, p.line or 0))
+        raise ConfigError(problems)
+    return values
+
+
+def _parse_tolerant(lines: list[str], path: str, problems: list[ConfigProblem]) -> dict[str, Any]:
+    """Parse TOML; on a syntax error, report it, blank that line and try again."""
+    work = list(lines)
+    for _ in range(_MAX_SYNTAX_ERRORS):
+        try:
+            return tomllib.loads("\n".join(work))
+        except tomllib.TOMLDecodeError as exc:
+            match = _SYNTAX_LINE.search(str(exc))
+            message = _SYNTAX_LINE.sub("", str(exc)).strip()
+            if match is None:
+                problems.append(ConfigProblem(path, None, "toml", f"syntax error: {message}"))
+                return {}
+            line_no = int(match.group(1))
+            key = _key_at(lines, line_no)
+            problems.append(ConfigProblem(path, line_no, key, f"TOML syntax error: {message}"))
+            if line_no - 1 >= len(work) or work[line_no - 1] == "":
+                return {}
+            work[line_no - 1] = ""
+    return {}
+
+
+def _key_at(lines: list[str], line_no: int) -> str:
+    """The ``section.key`` that a line belongs to, as well as can be told."""
+    section = ""
+    for index, line in enumerate(lines[:line_no]):
+        header = _HEADER.match(line)
+        if header and index < line_no - 1:
+            section = header.group(1).strip().strip("\"'")
+        elif header:
+            return header.group(1).strip().strip("\"'") or "toml"
+    key_match = _KEY.match(lines[line_no - 1]) if 0 < line_no <= len(lines) else None
+    key = key_match.group(1).strip("\"'") if key_match else ""
+    if section and key:
+        return f"{section}.{key}"
+    return section or key or "toml"
+
+
+def _locate_keys(lines: list[str]) -> dict[tuple[str, str], int]:
+    """Map (section, key) and (section, "") to the line they are on (1-based)."""
+    where: dict[tuple[str, str], int] = {}
+    section = ""
+    for number, line in enumerate(lines, start=1):
+        header = _HEADER.match(line)
+        if header:
+            section = header.group(1).strip().strip("\"'").split(".")[0]
+            where.setdefault((section, ""), number)
+            continue
+        key_match = _KEY.match(line)
+        if key_match:
+            parts = [p.strip().strip("\"'") for p in key_match.group(1).split(".")]
+            if section:
+                where.setdefault((section, parts[0]), number)
+            elif len(parts) >= 2:
+                where.setdefault((parts[0], ""), number)
+                where.setdefault((parts[0], parts[1]), number)
+            else:
+                where.setdefault((parts[0], ""), number)
+    return where
+
+
+def _suggest(word: str, known: list[str]) -> str:
+    close = difflib.get_close_matches(word, known, n=1)
+    if close:
+        return f" (did you mean {close[0]!r}?)"
+    return f" (known: {', '.join(sorted(known))})" if len(known) <= 12 else ""

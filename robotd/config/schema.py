@@ -1,0 +1,102 @@
+"""Typed options with bounds and defaults, and how a value is checked against one."""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field
+from typing import Any
+
+
+@dataclass(frozen=True, slots=True)
+class Option:
+    """One ``section.key``: its type, default, bounds and whether it can be tuned live.
+
+    ``kind`` is one of ``bool``, ``int``, ``float``, ``str``, ``list[str]``, ``list[float]``,
+    ``table`` (a free-form table, e.g. per-beacon settings).
+    """
+
+    key: str
+    kind: str
+    default: Any
+    help: str
+    min: float | None = None
+    max: float | None = None
+    choices: tuple[str, ...] | None = None
+    tunable: bool = False
+    required: bool = False
+
+    def check(self, value: Any) -> tuple[Any, str | None]:
+        """Return (normalised value, None) or (None, what was expected)."""
+        kind = self.kind
+        if kind == "bool":
+            if isinstance(value, bool):
+                return value, None
+            return None, f"expected true or false, got {_show(value)}"
+        if kind == "int":
+            if isinstance(value, bool) or not isinstance(value, int):
+                return None, f"expected an integer, got {_show(value)}"
+            return self._bounded(value)
+        if kind == "float":
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                return None, f"expected a number, got {_show(value)}"
+            return self._bounded(float(value))
+        if kind == "str":
+            if not isinstance(value, str):
+                return None, f"expected a string, got {_show(value)}"
+            if self.choices is not None and value not in self.choices:
+                return None, f"expected one of {', '.join(map(repr, self.choices))}, got {value!r}"
+            if self.min is not None and len(value) < self.min:
+                return None, f"expected at least {int(self.min)} characters"
+            return value, None
+        if kind == "list[str]":
+            if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+                return None, f"expected a list of strings, got {_show(value)}"
+            return list(value), None
+        if kind == "list[float]":
+            if not isinstance(value, list) or not all(
+                isinstance(v, int | float) and not isinstance(v, bool) for v in value
+            ):
+                return None, f"expected a list of numbers, got {_show(value)}"
+            return [float(v) for v in value], None
+        if kind == "table":
+            if not isinstance(value, dict):
+                return None, f"expected a table, got {_show(value)}"
+            return value, None
+        msg = f"unknown option kind {kind!r}"
+        raise AssertionError(msg)
+
+    def _bounded(self, value: float) -> tuple[Any, str | None]:
+        if self.min is not None and value < self.min:
+            return None, f"must be >= {_num(self.min)}, got {_num(value)}"
+        if self.max is not None and value > self.max:
+            return None, f"must be <= {_num(self.max)}, got {_num(value)}"
+        return value, None
+
+    def parse_text(self, text: str) -> tuple[Any, str | None]:
+        """Parse a value typed on the command line (``robotctl tune set``) and check it."""
+        try:
+            value = tomllib.loads(f"v = {text}")["v"]
+        except tomllib.TOMLDecodeError:
+            value = text  # a bare word is a string
+        return self.check(value)
+
+
+@dataclass(frozen=True, slots=True)
+class Section:
+    name: str
+    help: str
+    options: tuple[Option, ...]
+    by_key: dict[str, Option] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "by_key", {o.key: o for o in self.options})
+
+
+def _show(value: Any) -> str:
+    kinds = {bool: "a boolean", int: "an integer", float: "a number", str: "a string",
+             list: "a list", dict: "a table"}
+    return f"{kinds.get(type(value), type(value).__name__)} ({value!r})"
+
+
+def _num(value: float) -> str:
+    return f"{value:g}"

@@ -1,0 +1,102 @@
+"""The running configuration: read by dotted key, tuned live, watched by the components."""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Callable
+from typing import Any
+
+from robotd.config.schema import Option
+from robotd.config.sections import SECTIONS
+
+Values = dict[str, dict[str, Any]]
+Listener = Callable[[str, Any], None]
+
+
+class Settings:
+    """Holds the checked config values; ``set`` validates like the file and tells listeners."""
+
+    def __init__(self, values: Values, *, source: str = "<defaults>") -> None:
+        self._values = copy.deepcopy(values)
+        self.source = source
+        self._listeners: list[tuple[str, Listener]] = []
+
+    def get(self, dotted: str) -> Any:
+        section, key = _split(dotted)
+        try:
+            return self._values[section][key]
+        except KeyError:
+            msg = f"{dotted}: unknown key"
+            raise KeyError(msg) from None
+
+    def section(self, name: str) -> dict[str, Any]:
+        """A copy of one section's values."""
+        return dict(self._values[name])
+
+    def as_dict(self) -> Values:
+        return copy.deepcopy(self._values)
+
+    @staticmethod
+    def option(dotted: str) -> Option:
+        """The schema entry of a dotted key; KeyError with a message when unknown."""
+        section, key = _split(dotted)
+        try:
+            return SECTIONS[section].by_key[key]
+        except KeyError:
+            msg = f"{dotted}: unknown key"
+            raise KeyError(msg) from None
+
+    def check(self, dotted: str, value: Any) -> Any:
+        """Validate a value for a key; return it normalised or raise ValueError with why."""
+        option = self.option(dotted)
+        checked, error = option.check(value)
+        if error is not None:
+            msg = f"{dotted}: {error}"
+            raise ValueError(msg)
+        return checked
+
+    def set(self, dotted: str, value: Any) -> Any:
+        """Validate and apply one value at once; listeners hear of it. Returns the value."""
+        checked = self.check(dotted, value)
+        section, key = _split(dotted)
+        self._values[section][key] = checked
+        for prefix, listener in list(self._listeners):
+            if dotted == prefix or dotted.startswith(prefix + ".") or prefix == "":
+                listener(dotted, checked)
+        return checked
+
+    def replace(self, values: Values, *, source: str) -> list[str]:
+        """Take a whole new config (a reload); tell listeners of each changed key."""
+        changed = [
+            f"{s}.{k}"
+            for s, keys in values.items()
+            for k, v in keys.items()
+            if self._values.get(s, {}).get(k) != v
+        ]
+        self._values = copy.deepcopy(values)
+        self.source = source
+        for dotted in changed:
+            value = self.get(dotted)
+            for prefix, listener in list(self._listeners):
+                if dotted == prefix or dotted.startswith(prefix + ".") or prefix == "":
+                    listener(dotted, value)
+        return changed
+
+    def watch(self, prefix: str, listener: Listener) -> Callable[[], None]:
+        """Call ``listener(key, value)`` when a key under ``prefix`` changes; returns unwatch."""
+        entry = (prefix, listener)
+        self._listeners.append(entry)
+
+        def unwatch() -> None:
+            if entry in self._listeners:
+                self._listeners.remove(entry)
+
+        return unwatch
+
+
+def _split(dotted: str) -> tuple[str, str]:
+    section, _, key = dotted.partition(".")
+    if not section or not key:
+        msg = f"{dotted!r}: expected section.key"
+        raise KeyError(msg)
+    return section, key

@@ -1,0 +1,171 @@
+"""A differential-drive robot body: motors that answer PWM, wheels that slip, a battery.
+
+The body implements ``MotorPlant``: the simulated motor board sets PWM on it and reads its
+encoders, front range and battery. ``step(dt_s)`` advances the physics; the simulator calls it
+at a fixed rate on the event loop's clock.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from hal.sim.geometry import Pose, raycast, wrap_angle
+from hal.sim.world import World
+
+
+@dataclass(frozen=True, slots=True)
+class BodyParams:
+    wheel_base_m: float = 0.30
+    wheel_radius_m: float = 0.035
+    ticks_per_rev: int = 360
+    max_wheel_speed_mps: float = 0.6  # at PWM 255
+    deadband_pwm: int = 20  # below this the motors do not turn (static friction)
+    motor_tau_s: float = 0.08  # first-order lag of wheel speed
+    slip_std: float = 0.01  # relative ground-speed error per wheel, per step
+    radius_m: float = 0.18  # footprint, for collisions
+    range_max_cm: float = 150.0  # front IR sensor (Sharp GP2Y0A02: 20-150 cm)
+    range_min_cm: float = 20.0
+    range_noise_cm: float = 1.0
+    battery_wh: float = 40.0
+    idle_w: float = 3.0
+    motor_w: float = 12.0  # per wheel at full duty
+    charge_w: float = 30.0
+
+
+@dataclass(frozen=True, slots=True)
+class Collision:
+    t_s: float
+    x_m: float
+    y_m: float
+
+
+@dataclass
+class DiffDriveBody:
+    """One robot's body on the floor plan."""
+
+    world: World
+    pose: Pose
+    params: BodyParams = field(default_factory=BodyParams)
+    rng: random.Random = field(default_factory=random.Random)
+    charge_pct: float = 100.0
+    payload_kg: float = 0.0
+    servo_deg: int = 0
+    pwm: tuple[int, int, bool, bool] = (0, 0, True, True)
+    wheel_mps: list[float] = field(default_factory=lambda: [0.0, 0.0])
+    collisions: list[Collision] = field(default_factory=list)
+    distance_m: float = 0.0
+    time_s: float = 0.0
+    _ticks: list[float] = field(default_factory=lambda: [0.0, 0.0])
+    _in_contact: bool = False
+
+    # --- MotorPlant -------------------------------------------------------------------------
+    def apply_pwm(self, left_pwm: int, right_pwm: int, left_forward: bool,
+                  right_forward: bool) -> None:
+        self.pwm = (left_pwm, right_pwm, left_forward, right_forward)
+
+    def encoder_ticks(self) -> tuple[int, int]:
+        return math.floor(self._ticks[0]), math.floor(self._ticks[1])
+
+    def front_range_cm(self) -> float:
+        p = self.params
+        x, y = self.pose.to_world(p.radius_m, 0.0)
+        hit_m = float(raycast(self.world.walls, x, y,
+                              np.array([self.pose.heading_rad]), p.range_max_cm / 100)[0])
+        for person in self.world.people:
+            if person.present:
+                hit_m = min(hit_m, _ray_circle(x, y, self.pose.heading_rad,
+                                               person.x_m, person.y_m, person.radius_m))
+        cm = hit_m * 100 + self.rng.gauss(0, p.range_noise_cm)
+        return float(min(p.range_max_cm, max(p.range_min_cm, cm)))
+
+    def battery(self) -> tuple[float, float, bool]:
+        # A 3S Li-ion pack: 9.6 V empty to 12.6 V full, close enough to linear for a sim.
+        voltage = 9.6 + 3.0 * self.charge_pct / 100
+        return voltage, self.charge_pct, self.on_dock
+
+    def servo(self, angle_deg: int) -> None:
+        self.servo_deg = angle_deg
+
+    # --- physics ----------------------------------------------------------------------------
+    @property
+    def on_dock(self) -> bool:
+        dock = self.world.dock
+        if dock is None:
+            return False
+        return (self.pose.distance_to(dock.x_m, dock.y_m) < 0.03
+                and abs(wrap_angle(self.pose.heading_rad - dock.heading_rad)) < math.radians(10))
+
+    def _target_mps(self, pwm: int, forward: bool) -> float:
+        p = self.params
+        if pwm <= p.deadband_pwm:
+            return 0.0
+        duty = (pwm - p.deadband_pwm) / (255 - p.deadband_pwm)
+        return duty * p.max_wheel_speed_mps * (1 if forward else -1)
+
+    def step(self, dt_s: float) -> None:
+        p = self.params
+        self.time_s += dt_s
+        targets = (self._target_mps(self.pwm[0], self.pwm[2]),
+                   self._target_mps(self.pwm[1], self.pwm[3]))
+        blend = 1 - math.exp(-dt_s / p.motor_tau_s)
+        for i in (0, 1):
+            self.wheel_mps[i] += (targets[i] - self.wheel_mps[i]) * blend
+            if abs(self.wheel_mps[i]) < 1e-5 and targets[i] == 0:
+                self.wheel_mps[i] = 0.0
+        left_m = self.wheel_mps[0] * dt_s
+        right_m = self.wheel_mps[1] * dt_s
+        per_tick_m = 2 * math.pi * p.wheel_radius_m / p.ticks_per_rev
+        self._ticks[0] += left_m / per_tick_m
+        self._ticks[1] += right_m / per_tick_m
+        if left_m or right_m:
+            left_m *= 1 + self.rng.gauss(0, p.slip_std)
+            right_m *= 1 + self.rng.gauss(0, p.slip_std)
+        self._move(left_m, right_m)
+        self._drain(dt_s)
+
+    def _move(self, left_m: float, right_m: float) -> None:
+        if left_m == 0 and right_m == 0:
+            return
+        d = (left_m + right_m) / 2
+        dtheta = (right_m - left_m) / self.params.wheel_base_m
+        mid = self.pose.heading_rad + dtheta / 2
+        x = self.pose.x_m + d * math.cos(mid)
+        y = self.pose.y_m + d * math.sin(mid)
+        heading = wrap_angle(self.pose.heading_rad + dtheta)
+        blocked = (self.world.clearance_m(x, y) < self.params.radius_m
+                   and self.world.clearance_m(x, y) < self.world.clearance_m(self.pose.x_m,
+                                                                               self.pose.y_m))
+        if blocked:
+            if not self._in_contact:
+                self.collisions.append(Collision(self.time_s, x, y))
+            self._in_contact = True
+            self.pose = Pose(self.pose.x_m, self.pose.y_m, heading)
+            return
+        self._in_contact = False
+        self.distance_m += abs(d)
+        self.pose = Pose(x, y, heading)
+
+    def _drain(self, dt_s: float) -> None:
+        p = self.params
+        duty = (self.pwm[0] + self.pwm[1]) / 255
+        watts = p.idle_w + p.motor_w * duty
+        if self.on_dock:
+            watts -= p.charge_w
+        self.charge_pct -= watts * dt_s / 3600 / p.battery_wh * 100
+        self.charge_pct = min(100.0, max(0.0, self.charge_pct))
+
+
+def _ray_circle(x: float, y: float, heading: float, cx: float, cy: float, r: float) -> float:
+    dx, dy = math.cos(heading), math.sin(heading)
+    fx, fy = x - cx, y - cy
+    b = fx * dx + fy * dy
+    c = fx * fx + fy * fy - r * r
+    disc = b * b - c
+    if disc < 0:
+        return math.inf
+    t = -b - math.sqrt(disc)
+    return t if t >= 0 else math.inf

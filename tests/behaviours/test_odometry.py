@@ -1,0 +1,66 @@
+"""Wheel odometry from cumulative encoder ticks."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from behaviours.odometry import Odometry
+from hal.readings import EncoderReading
+
+TICKS_PER_M = 360 / (2 * math.pi * 0.035)
+
+
+def _odo() -> Odometry:
+    return Odometry(0.30, 0.035, 360)
+
+
+class TestOdometry:
+    def test_first_reading_only_sets_the_reference(self) -> None:
+        odo = _odo()
+        odo.update(EncoderReading(5000, 5000, 0.0))
+        assert odo.pose().x_m == 0.0
+
+    def test_equal_ticks_move_straight(self) -> None:
+        odo = _odo()
+        odo.update(EncoderReading(0, 0, 0.0))
+        for i in range(1, 11):
+            odo.update(EncoderReading(round(i * 0.1 * TICKS_PER_M), round(i * 0.1 * TICKS_PER_M),
+                                      i * 0.1))
+        assert odo.pose().x_m == pytest.approx(1.0, abs=0.002)
+        assert odo.pose().y_m == pytest.approx(0.0)
+
+    def test_opposite_ticks_turn_in_place(self) -> None:
+        """A quarter turn: each wheel travels pi/2 * b/2."""
+        odo = _odo()
+        odo.update(EncoderReading(0, 0, 0.0))
+        ticks = round(math.pi / 2 * 0.15 * TICKS_PER_M)
+        odo.update(EncoderReading(-ticks, ticks, 1.0))
+        assert odo.pose().theta_rad == pytest.approx(math.pi / 2, abs=0.01)
+        assert math.hypot(odo.pose().x_m, odo.pose().y_m) < 1e-9
+
+    def test_a_board_reset_rebases_instead_of_jumping(self) -> None:
+        odo = _odo()
+        odo.update(EncoderReading(0, 0, 0.0))
+        odo.update(EncoderReading(9000, 9000, 1.0))
+        assert odo.pose().x_m == 0.0
+        assert odo.rebases == 1
+
+    @given(st.lists(st.tuples(st.integers(-50, 50), st.integers(-50, 50)), max_size=60))
+    def test_driving_back_along_the_same_ticks_returns_home(
+        self, steps: list[tuple[int, int]]
+    ) -> None:
+        """Replaying the same tick deltas backwards, in reverse order, undoes the motion."""
+        odo = _odo()
+        left = right = 0
+        odo.update(EncoderReading(0, 0, 0.0))
+        for dl, dr in steps:
+            left, right = left + dl, right + dr
+            odo.update(EncoderReading(left, right, 0.0))
+        for dl, dr in reversed(steps):
+            left, right = left - dl, right - dr
+            odo.update(EncoderReading(left, right, 0.0))
+        assert math.hypot(odo.pose().x_m, odo.pose().y_m) < 1e-6

@@ -1,0 +1,78 @@
+"""The TOML loader: every problem reported with file, line and section.key."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from robotd.config import ConfigError, load_config, load_config_text
+from robotd.config.loader import defaults
+
+
+class TestLoadConfigText:
+    def test_fills_defaults_for_missing_keys(self) -> None:
+        """A file naming one key gets every other key at its default."""
+        values = load_config_text('[robot]\nname = "r7"\n', "x.toml")
+        assert values["robot"]["name"] == "r7"
+        assert values["serial"]["baud"] == 115200
+        assert values["line_follow"]["fps"] == 13.0
+
+    def test_reports_wrong_type_unknown_key_and_syntax_error_each_on_its_line(self) -> None:
+        """Three different problems give three lines, each naming its line and key."""
+        text = "[serial]\nbaud = \"fast\"\ncolour = 3\n\n[line_follow]\nkp = = 0.4\n"
+        with pytest.raises(ConfigError) as info:
+            load_config_text(text, "bad.toml")
+        lines = str(info.value).splitlines()
+        assert lines == [
+            "bad.toml:2: serial.baud: expected an integer, got a string ('fast')",
+            lines[1],
+            "bad.toml:6: line_follow.kp: TOML syntax error: Invalid value",
+        ]
+        assert lines[1].startswith("bad.toml:3: serial.colour: unknown key")
+
+    def test_unknown_section_suggests_the_close_one(self) -> None:
+        """A misspelt section is named and the likely one suggested."""
+        with pytest.raises(ConfigError, match=r"x.toml:1: serail: unknown section .*'serial'"):
+            load_config_text("[serail]\nport = 'x'\n", "x.toml")
+
+    def test_bounds_are_checked(self) -> None:
+        """A value out of its bounds says the bound."""
+        with pytest.raises(ConfigError, match=r"docking.battery_threshold_pct: must be <= 100"):
+            load_config_text("[docking]\nbattery_threshold_pct = 150\n", "x.toml")
+
+    def test_choices_are_checked(self) -> None:
+        with pytest.raises(ConfigError, match=r"serial.framing: expected one of 'crc', 'plain'"):
+            load_config_text("[serial]\nframing = 'crc16'\n", "x.toml")
+
+    def test_dotted_keys_at_top_level_are_located(self) -> None:
+        """``serial.baud = ...`` outside a table is found on its line."""
+        with pytest.raises(ConfigError, match=r"x.toml:2: serial.baud: expected an integer"):
+            load_config_text("# top\nserial.baud = 1.5\n", "x.toml")
+
+    def test_integer_given_for_float_is_accepted(self) -> None:
+        assert load_config_text("[line_follow]\nkp = 1\n")["line_follow"]["kp"] == 1.0
+
+
+class TestLoadConfig:
+    def test_missing_file_is_one_clear_problem(self, tmp_path: Path) -> None:
+        with pytest.raises(ConfigError, match=r"nope.toml:\?: file: cannot read"):
+            load_config(tmp_path / "nope.toml")
+
+    def test_overrides_file_wins_over_the_main_file(self, tmp_path: Path) -> None:
+        main = tmp_path / "robotd.toml"
+        main.write_text("[line_follow]\nkp = 0.2\nki = 0.1\n")
+        over = tmp_path / "overrides.toml"
+        over.write_text("[line_follow]\nkp = 0.7\n")
+        values = load_config(main, overrides=over)
+        assert values["line_follow"]["kp"] == 0.7
+        assert values["line_follow"]["ki"] == 0.1
+
+    def test_every_default_passes_its_own_check(self) -> None:
+        """The schema's defaults are valid values of their own options."""
+        from robotd.config.sections import SECTIONS
+
+        for name, section in SECTIONS.items():
+            for option in section.options:
+                _, error = option.check(defaults()[name][option.key])
+                assert error is None, f"{name}.{option.key}: {error}"

@@ -1,0 +1,43 @@
+"""Live settings: validated like the file, listeners told of changes."""
+
+from __future__ import annotations
+
+import pytest
+
+from robotd.config.loader import defaults
+from robotd.config.settings import Settings
+
+
+class TestSettings:
+    def test_set_validates_like_the_file(self) -> None:
+        """An out-of-range value is refused with the key and the bound; nothing changes."""
+        s = Settings(defaults())
+        with pytest.raises(ValueError, match=r"line_follow.kp: must be >= 0"):
+            s.set("line_follow.kp", -1)
+        assert s.get("line_follow.kp") == 0.5
+
+    def test_listeners_hear_changes_under_their_prefix(self) -> None:
+        s = Settings(defaults())
+        heard: list[tuple[str, object]] = []
+        unwatch = s.watch("line_follow", lambda k, v: heard.append((k, v)))
+        s.set("line_follow.kp", 0.6)
+        s.set("fleet.period_s", 2.0)
+        unwatch()
+        s.set("line_follow.kd", 0.3)
+        assert heard == [("line_follow.kp", 0.6)]
+
+    def test_unknown_key_is_a_key_error_naming_it(self) -> None:
+        with pytest.raises(KeyError, match="line_follow.kq: unknown key"):
+            Settings(defaults()).set("line_follow.kq", 1)
+
+    def test_replace_reports_changed_keys(self) -> None:
+        s = Settings(defaults())
+        new = defaults()
+        new["fleet"]["period_s"] = 3.0
+        assert s.replace(new, source="f.toml") == ["fleet.period_s"]
+        assert s.get("fleet.period_s") == 3.0
+
+    def test_parse_text_reads_numbers_words_and_booleans(self) -> None:
+        assert Settings.option("line_follow.kp").parse_text("0.6") == (0.6, None)
+        assert Settings.option("logging.level").parse_text("debug") == ("debug", None)
+        assert Settings.option("serial.baud").parse_text("fast")[1] is not None

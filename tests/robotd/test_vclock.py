@@ -1,0 +1,77 @@
+"""The virtual-time event loop: jumps to the next timer, holds for outside work."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+
+from robotd import vclock
+
+
+class TestVirtualTimeLoop:
+    def test_an_hour_of_sleep_takes_no_wall_time(self) -> None:
+        """Virtual time jumps straight to the timer."""
+
+        async def main() -> float:
+            await asyncio.sleep(3600)
+            return asyncio.get_running_loop().time()
+
+        start = time.monotonic()
+        assert vclock.run(main()) == 3600.0
+        assert time.monotonic() - start < 30  # generous: only guards against real sleeping
+
+    def test_timers_fire_in_order_at_their_times(self) -> None:
+        async def main() -> list[tuple[str, float]]:
+            loop = asyncio.get_running_loop()
+            seen: list[tuple[str, float]] = []
+
+            async def tick(name: str, period: float, n: int) -> None:
+                for _ in range(n):
+                    await asyncio.sleep(period)
+                    seen.append((name, round(loop.time(), 9)))
+
+            await asyncio.gather(tick("a", 0.3, 3), tick("b", 0.5, 2))
+            return seen
+
+        assert vclock.run(main()) == [("a", 0.3), ("b", 0.5), ("a", 0.6), ("a", 0.9),
+                                      ("b", 1.0)]
+
+    def test_executor_work_holds_the_clock(self) -> None:
+        """A timeout does not fire while a thread is still working (time is held)."""
+
+        async def main() -> float:
+            loop = asyncio.get_running_loop()
+            before = loop.time()
+            await asyncio.wait_for(loop.run_in_executor(None, time.sleep, 0.05), 0.01)
+            return loop.time() - before
+
+        assert vclock.run(main()) == 0.0
+
+    def test_speed_mode_follows_the_wall_clock(self) -> None:
+        async def main() -> float:
+            loop = asyncio.get_running_loop()
+            before = loop.time()
+            await asyncio.sleep(0.5)
+            return loop.time() - before
+
+        assert vclock.run(main(), speed=10.0) >= 0.5
+
+    def test_real_sockets_still_work(self) -> None:
+        """I/O on real file descriptors is polled while virtual time runs."""
+
+        async def main() -> bytes:
+            async def echo(r: asyncio.StreamReader, w: asyncio.StreamWriter) -> None:
+                w.write(await r.readline())
+                await w.drain()
+                w.close()
+
+            server = await asyncio.start_server(echo, "127.0.0.1", 0)
+            port = server.sockets[0].getsockname()[1]
+            reader, writer = await asyncio.open_connection("127.0.0.1", port)
+            writer.write(b"ping\n")
+            line = await asyncio.wait_for(reader.readline(), 5)
+            writer.close()
+            server.close()
+            return line
+
+        assert vclock.run(main()) == b"ping\n"

@@ -8,6 +8,7 @@ down the drive waits for it to return, then carries on from where odometry says 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import math
 from dataclasses import dataclass
 
@@ -101,10 +102,9 @@ class WaypointDrive:
                 self._link_up.clear()
 
     async def stop(self) -> None:
-        try:
+        # Without the link the board's deadman stops the wheels by itself.
+        with contextlib.suppress(LinkDown):
             await self.motors.stop()
-        except LinkDown:
-            pass  # the board's deadman stops the wheels when the link is gone
 
     async def go_to(self, x_m: float, y_m: float) -> float:
         """Drive to a point; returns the remaining distance by odometry."""

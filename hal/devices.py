@@ -41,7 +41,7 @@ class Device(Protocol):
         """Figures for ``robotctl sensors``."""
 
 
-class DeviceUnavailable(Exception):  # noqa: N818 - reads as a condition, like TimeoutError
+class DeviceUnavailable(Exception):
     """A device cannot be opened; the message says which and what to check."""
 
 
@@ -65,7 +65,7 @@ class Motors(Device, Protocol):
     def link_stats(self) -> LinkStats: ...
 
 
-class LinkDown(Exception):  # noqa: N818
+class LinkDown(Exception):
     """The motor board link is down; the command was not delivered."""
 
 

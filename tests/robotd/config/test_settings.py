@@ -27,7 +27,7 @@ class TestSettings:
         assert heard == [("line_follow.kp", 0.6)]
 
     def test_unknown_key_is_a_key_error_naming_it(self) -> None:
-        with pytest.raises(KeyError, match="line_follow.kq: unknown key"):
+        with pytest.raises(KeyError, match=r"line_follow\.kq: unknown key"):
             Settings(defaults()).set("line_follow.kq", 1)
 
     def test_replace_reports_changed_keys(self) -> None:

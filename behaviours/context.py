@@ -1,0 +1,79 @@
+"""What a behaviour receives: the devices, the settings, the state store, triggers and events."""
+
+from __future__ import annotations
+
+import asyncio
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+
+from hal.backend import Devices
+from hal.ports import WallClock
+
+if TYPE_CHECKING:
+    from robotd.config.settings import Settings
+
+
+@runtime_checkable
+class KeyValueStore(Protocol):
+    """Mission state that must survive a restart (JSON-able values by key)."""
+
+    def get(self, key: str, default: Any = None) -> Any: ...
+    def put(self, key: str, value: Any) -> None: ...
+    def delete(self, key: str) -> None: ...
+
+
+@runtime_checkable
+class MachineHandle(Protocol):
+    """The part of the state machine a behaviour may use."""
+
+    @property
+    def state(self) -> str: ...
+    async def trigger(self, name: str, **kwargs: Any) -> bool: ...
+
+
+class EventSink(Protocol):
+    def __call__(self, kind: str, /, **fields: Any) -> None: ...
+
+
+class RobotContext:
+    """Everything a behaviour may touch; nothing else is passed to behaviours.
+
+    Args:
+        devices: the robot's devices (a slot is None when the robot has no such device).
+        settings: the running config (``settings.get("line_follow.kp")``, ``watch``).
+        store: crash-safe key/value store for mission state.
+        wall_clock: the one source of wall-clock timestamps.
+        emit: records an event (``emit("beacon.arrived", room="A")``).
+    """
+
+    def __init__(self, devices: Devices, settings: Settings, store: KeyValueStore,
+                 wall_clock: WallClock, emit: EventSink) -> None:
+        self.devices = devices
+        self.settings = settings
+        self.store = store
+        self.wall_clock = wall_clock
+        self._emit = emit
+        self._machine: MachineHandle | None = None
+
+    def attach(self, machine: MachineHandle) -> None:
+        """Called once by the state machine that this context drives."""
+        self._machine = machine
+
+    @property
+    def state(self) -> str:
+        """The dotted state path, e.g. ``docking.approach``."""
+        return self._machine.state if self._machine is not None else "boot"
+
+    async def trigger(self, name: str, **kwargs: Any) -> bool:
+        """Fire a machine trigger; False (not an exception) when the current state refuses it."""
+        if self._machine is None:
+            return False
+        return await self._machine.trigger(name, **kwargs)
+
+    def emit(self, kind: str, **fields: Any) -> None:
+        """Record an event: it goes to the event log, ``robotctl events`` and subscribers."""
+        self._emit(kind, **fields)
+
+    @staticmethod
+    def loop_time_s() -> float:
+        """The event loop's clock (virtual in the simulator)."""
+        return asyncio.get_running_loop().time()

@@ -1,0 +1,231 @@
+"""The robot's hierarchical state machine: tables from ``machine_tables`` plus the profile's.
+
+All triggers go through one queue and one driver task, so transitions never overlap (the
+``transitions`` async machine cancels a running transition when another starts) and state
+timeouts cannot fire into a state that was already left.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Awaitable, Callable, Coroutine
+from dataclasses import dataclass, field
+from typing import Any
+
+import structlog
+from transitions.extensions.asyncio import (
+    AsyncTimeout,
+    HierarchicalAsyncMachine,
+    NestedAsyncState,
+)
+
+from behaviours.context import RobotContext
+from behaviours.machine_tables import (
+    CORE_TRANSITIONS,
+    MAX_DOCK_RETRIES,
+    callback_names,
+    root_states,
+)
+from behaviours.profile import Profile, StateTask
+
+log = structlog.get_logger(__name__)
+
+TransitionSink = Callable[[str, str, str], None]
+
+
+class DottedState(AsyncTimeout, NestedAsyncState):
+    """Nested, async, with state timeouts; paths are written ``docking.approach``."""
+
+    separator = "."
+
+
+class _Machine(HierarchicalAsyncMachine):
+    state_cls = DottedState
+
+
+class MachineModel:
+    """The machine's model: the guards and actions the core tables name (kept short)."""
+
+    def __init__(self, runtime: RobotMachine, profile: Profile) -> None:
+        self._runtime = runtime
+        self._profile = profile
+        self.dock_attempts = 0
+        self.state = "boot"
+
+    def __getattr__(self, name: str) -> Any:
+        # Names in a profile's own tables are the profile's methods.
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return getattr(self._profile, name)
+
+    async def stop_motors(self, _event: Any) -> None:
+        await self._runtime.stop_motors()
+
+    def timed_out(self, _event: Any) -> None:
+        self._runtime.post_timeout()
+
+    def reset_dock_attempts(self, _event: Any) -> None:
+        self.dock_attempts = 0
+
+    def count_dock_attempt(self, _event: Any) -> None:
+        self.dock_attempts += 1
+
+    def may_retry_docking(self, _event: Any) -> bool:
+        return self.dock_attempts < MAX_DOCK_RETRIES
+
+
+@dataclass
+class _Request:
+    trigger: str
+    kwargs: dict[str, Any]
+    result: asyncio.Future[bool] | None = None
+    generation: int | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+class RobotMachine:
+    """Owns the machine and runs it as a service (``run``) that processes triggers in order.
+
+    Args:
+        profile: nests its mission states and transitions, names its state tasks and hooks.
+        ctx: the behaviours' context; attached to this machine.
+        on_transition: told (src, dst, trigger) after every transition.
+        stop_motors: stops the wheels (bounded in time); awaited on entering estop and idle.
+    """
+
+    name = "machine"
+    critical = True
+    depends_on: tuple[str, ...] = ()
+
+    def __init__(self, profile: Profile, ctx: RobotContext, *, on_transition: TransitionSink,
+                 stop_motors: Callable[[], Awaitable[None]]) -> None:
+        self.profile = profile
+        self.ctx = ctx
+        self._on_transition = on_transition
+        self._stop_motors = stop_motors
+        self._queue: asyncio.Queue[_Request] = asyncio.Queue()
+        self._generation = 0
+        self._before = "boot"
+        self._driver: asyncio.Task[None] | None = None
+        self._tasks: dict[str, asyncio.Task[None]] = {}
+        self._state_tasks: dict[str, StateTask] = dict(profile.state_tasks())
+        self.states = root_states(profile.mission_states())
+        self.transitions = [*CORE_TRANSITIONS, *profile.mission_transitions()]
+        self.model = MachineModel(self, profile)
+        self.machine = _Machine(
+            model=self.model, states=self.states, transitions=self.transitions,
+            initial="boot", send_event=True, auto_transitions=False,
+            ignore_invalid_triggers=True, after_state_change=[self._changed],
+        )
+        self._triggers = set(self.machine.events)
+        for path in self.machine.get_nested_state_names():
+            state = self.machine.get_state(path)
+            state.add_callback("enter", self._enter_hook(path))
+            state.add_callback("exit", self._exit_hook(path))
+        unknown = set(self._state_tasks) - set(self.machine.get_nested_state_names())
+        if unknown:
+            msg = f"profile {profile.name}: state_tasks name unknown states: {sorted(unknown)}"
+            raise ValueError(msg)
+        ctx.attach(self)
+
+    @property
+    def state(self) -> str:
+        return str(self.model.state)
+
+    @property
+    def triggers(self) -> list[str]:
+        return sorted(self._triggers)
+
+    def allowed_triggers(self) -> list[str]:
+        """Triggers that the current state (or a state around it) has a transition for."""
+        return sorted(t for t in self.machine.get_triggers(self.state) if t in self._triggers)
+
+    def missing_callbacks(self) -> list[str]:
+        """Callback names in the tables that neither the model nor the profile defines."""
+        names = callback_names(self.states, self.transitions)
+        return sorted(n for n in names if not hasattr(self.model, n))
+
+    async def stop_motors(self) -> None:
+        await self._stop_motors()
+
+    async def trigger(self, name: str, **kwargs: Any) -> bool:
+        """Fire ``name`` after the triggers before it; False if the state does not allow it."""
+        if name not in self._triggers:
+            log.warning("state.unknown_trigger", trigger=name, state=self.state)
+            return False
+        if self._driver is None or self._driver.done() or asyncio.current_task() is self._driver:
+            # From inside a transition (or with no driver running) it cannot be awaited: queue it.
+            self._queue.put_nowait(_Request(name, kwargs))
+            return name in self.allowed_triggers()
+        future: asyncio.Future[bool] = asyncio.get_running_loop().create_future()
+        self._queue.put_nowait(_Request(name, kwargs, future))
+        return await future
+
+    def post(self, name: str, **kwargs: Any) -> None:
+        """Queue a trigger without waiting for it."""
+        self._queue.put_nowait(_Request(name, kwargs))
+
+    def post_timeout(self) -> None:
+        self._queue.put_nowait(_Request("timeout", {}, generation=self._generation))
+
+    def halt_behaviours(self) -> None:
+        """Cancel every state task (before the motors are stopped at shutdown)."""
+        for task in self._tasks.values():
+            task.cancel()
+        self._tasks.clear()
+
+    async def run(self, ready: Callable[[], None]) -> None:
+        self._driver = asyncio.current_task()
+        ready()
+        try:
+            while True:
+                request = await self._queue.get()
+                result = await self._fire(request)
+                if request.result is not None and not request.result.done():
+                    request.result.set_result(result)
+        finally:
+            self.halt_behaviours()
+
+    async def _fire(self, request: _Request) -> bool:
+        if request.generation is not None and request.generation != self._generation:
+            return False  # a timeout of a state that was left meanwhile
+        self._before = self.state
+        try:
+            result = bool(await self.model.trigger(request.trigger, **request.kwargs))
+        except Exception:
+            log.exception("state.trigger_failed", trigger=request.trigger, state=self.state)
+            return False
+        if not result:
+            log.debug("state.refused", trigger=request.trigger, state=self.state)
+        return result
+
+    def _changed(self, event: Any) -> None:
+        self._generation += 1
+        self._on_transition(self._before, self.state, event.event.name)
+
+    def _enter_hook(self, path: str) -> Callable[[Any], Coroutine[Any, Any, None]]:
+        async def entered(_event: Any) -> None:
+            self.profile.on_enter(path, self.ctx)
+            task_fn = self._state_tasks.get(path)
+            if task_fn is not None:
+                self._tasks[path] = asyncio.create_task(self._run_state_task(path, task_fn),
+                                                        name=f"state:{path}")
+        return entered
+
+    def _exit_hook(self, path: str) -> Callable[[Any], Coroutine[Any, Any, None]]:
+        async def exited(_event: Any) -> None:
+            task = self._tasks.pop(path, None)
+            if task is not None:
+                task.cancel()
+            self.profile.on_exit(path, self.ctx)
+        return exited
+
+    async def _run_state_task(self, path: str, task_fn: StateTask) -> None:
+        try:
+            await task_fn(self.ctx)
+        except asyncio.CancelledError:
+            raise
+        except Exception as exc:  # a failing behaviour sends the robot to recovery
+            log.exception("behaviour.failed", state=path)
+            self.ctx.emit("behaviour", state=path, status="failed", error=repr(exc))
+            self.post("fault", reason=f"{path}: {exc!r}")

@@ -1,0 +1,117 @@
+"""The robot's root states and transitions as data (``transitions`` dict format).
+
+Callback and condition names refer to methods of ``behaviours.machine.MachineModel`` (or of
+the profile, for names in a profile's own tables). State paths are dotted: ``docking.search``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+DOCK_SEARCH_TIMEOUT_S = 180.0
+DOCK_STEP_TIMEOUT_S = 60.0
+EMPTYING_TIMEOUT_S = 60.0
+RECOVERY_TIMEOUT_S = 120.0
+MAX_DOCK_RETRIES = 3
+"""The docking seed: fewer than 3 failed attempts retry, the 3rd falls back (section 4)."""
+
+ROOT_STATES = ("boot", "idle", "mission", "docking", "relocate", "recovery", "estop",
+               "maintenance")
+MOVING_STATES = ["mission", "docking", "relocate", "recovery"]
+DOCK_STEPS = ["docking.approach", "docking.align", "docking.dock"]
+
+
+def docking_states() -> list[str | dict[str, Any]]:
+    """Seed 001: search (wall follow, turn to the beam), approach, align, dock, charge, empty."""
+    return [
+        {"name": "search", "initial": "wall_follow", "children": ["wall_follow", "turn_to_beam"],
+         "timeout": DOCK_SEARCH_TIMEOUT_S, "on_timeout": "timed_out"},
+        {"name": "approach", "timeout": DOCK_STEP_TIMEOUT_S, "on_timeout": "timed_out"},
+        {"name": "align", "timeout": DOCK_STEP_TIMEOUT_S, "on_timeout": "timed_out"},
+        {"name": "dock", "timeout": DOCK_STEP_TIMEOUT_S, "on_timeout": "timed_out",
+         "on_enter": "count_dock_attempt"},
+        {"name": "charging", "on_enter": "stop_motors"},
+        {"name": "emptying", "timeout": EMPTYING_TIMEOUT_S, "on_timeout": "timed_out",
+         "on_enter": "stop_motors"},
+    ]
+
+
+def root_states(mission_children: list[str | dict[str, Any]]) -> list[dict[str, Any]]:
+    """Every root state; the profile's mission states nest under ``mission``."""
+    mission: dict[str, Any] = {"name": "mission"}
+    if mission_children:
+        first = mission_children[0]
+        mission["children"] = mission_children
+        mission["initial"] = first if isinstance(first, str) else first["name"]
+    return [
+        {"name": "boot"},
+        {"name": "idle", "on_enter": "stop_motors"},
+        mission,
+        {"name": "docking", "initial": "search", "children": docking_states(),
+         "on_enter": "reset_dock_attempts"},
+        {"name": "relocate"},
+        {"name": "recovery", "on_enter": "stop_motors", "timeout": RECOVERY_TIMEOUT_S,
+         "on_timeout": "timed_out"},
+        {"name": "estop", "on_enter": "stop_motors"},
+        {"name": "maintenance", "on_enter": "stop_motors"},
+    ]
+
+
+CORE_TRANSITIONS: list[dict[str, Any]] = [
+    {"trigger": "booted", "source": "boot", "dest": "idle"},
+    {"trigger": "start_mission", "source": "idle", "dest": "mission"},
+    {"trigger": "mission_done", "source": "mission", "dest": "idle"},
+    {"trigger": "go_dock", "source": ["idle", "mission", "relocate", "recovery"],
+     "dest": "docking"},
+    {"trigger": "beam_found", "source": "docking.search", "dest": "docking.approach"},
+    {"trigger": "beams_overlap", "source": "docking.approach", "dest": "docking.align"},
+    {"trigger": "aligned", "source": "docking.align", "dest": "docking.dock"},
+    {"trigger": "misaligned", "source": "docking.dock", "dest": "docking.align"},
+    {"trigger": "contact", "source": "docking.dock", "dest": "docking.charging"},
+    {"trigger": "signal_lost", "source": DOCK_STEPS, "dest": "docking.search",
+     "conditions": "may_retry_docking"},
+    {"trigger": "signal_lost", "source": DOCK_STEPS, "dest": "recovery"},
+    {"trigger": "timeout", "source": DOCK_STEPS, "dest": "docking.search",
+     "conditions": "may_retry_docking"},
+    {"trigger": "timeout", "source": DOCK_STEPS, "dest": "recovery"},
+    {"trigger": "timeout", "source": "docking.search", "dest": "recovery"},
+    {"trigger": "empty_bin", "source": "docking.charging", "dest": "docking.emptying"},
+    {"trigger": "emptied", "source": "docking.emptying", "dest": "docking.charging"},
+    {"trigger": "timeout", "source": "docking.emptying", "dest": "docking.charging"},
+    {"trigger": "undock", "source": "docking.charging", "dest": "idle"},
+    {"trigger": "lost", "source": ["idle", "mission"], "dest": "relocate"},
+    {"trigger": "relocated", "source": "relocate", "dest": "idle"},
+    {"trigger": "fault", "source": ["mission", "docking", "relocate"], "dest": "recovery"},
+    {"trigger": "recovered", "source": "recovery", "dest": "idle"},
+    {"trigger": "timeout", "source": "recovery", "dest": "estop"},
+    {"trigger": "estop", "source": "*", "dest": "estop"},
+    {"trigger": "resume", "source": "estop", "dest": "idle"},
+    {"trigger": "maintenance", "source": ["idle", *MOVING_STATES], "dest": "maintenance"},
+    {"trigger": "end_maintenance", "source": "maintenance", "dest": "idle"},
+]
+
+CALLBACK_KEYS = ("on_enter", "on_exit", "on_timeout", "before", "after", "prepare",
+                 "conditions", "unless")
+
+
+def callback_names(states: list[Any], transitions: list[dict[str, Any]]) -> set[str]:
+    """Every callback or condition named (as a string) in state and transition tables."""
+    names: set[str] = set()
+
+    def collect(entry: dict[str, Any]) -> None:
+        for key in CALLBACK_KEYS:
+            value = entry.get(key)
+            for item in value if isinstance(value, list | tuple) else [value]:
+                if isinstance(item, str):
+                    names.add(item)
+
+    def walk(items: list[Any]) -> None:
+        for item in items:
+            if isinstance(item, dict):
+                collect(item)
+                walk(item.get("children", []))
+
+    walk(states)
+    for transition in transitions:
+        collect(transition)
+    return names

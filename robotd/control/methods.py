@@ -1,0 +1,180 @@
+"""The control socket's methods (DESIGN.md contract), served from the running daemon."""
+
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+import os
+from typing import TYPE_CHECKING, Any
+
+from robotd import __version__
+from robotd.config.overrides import overrides_path, persist_override
+from robotd.control.rpc import APP_ERROR, INVALID_PARAMS, RpcError
+from robotd.control.server import Client, Handler
+
+if TYPE_CHECKING:
+    from robotd.daemon import Daemon
+
+TOPICS = ("state", "events", "service", "estop", "link", "config", "tune", "behaviour", "*")
+MAX_EVENTS = 1000
+
+
+def control_handlers(daemon: Daemon) -> dict[str, Handler]:
+    """Method name -> handler for the control server."""
+    methods = _Methods(daemon)
+    return {
+        "status": methods.status,
+        "sensors": methods.sensors,
+        "events": methods.events,
+        "tune.get": methods.tune_get,
+        "tune.set": methods.tune_set,
+        "reload": methods.reload,
+        "estop": methods.estop,
+        "resume": methods.resume,
+        "trigger": methods.trigger,
+        "subscribe": methods.subscribe,
+        "unsubscribe": methods.unsubscribe,
+    }
+
+
+class _Methods:
+    def __init__(self, daemon: Daemon) -> None:
+        self.d = daemon
+
+    async def status(self, _params: dict[str, Any], _client: Client) -> dict[str, Any]:
+        d = self.d
+        motors = d.devices.motors
+        return {
+            "robot": d.settings.get("robot.name"),
+            "profile": d.profile.name,
+            "state": d.state,
+            "estop": d.state == "estop",
+            "ready": d.ready.is_set(),
+            "uptime_s": round(d.uptime_s, 3),
+            "services": d.supervisor.status(),
+            "loop_lag_ms": d.monitor.figures(),
+            "link": None if motors is None else ("up" if motors.connected else "down"),
+            "triggers": d.machine.allowed_triggers(),
+            "config": d.settings.source,
+            "clients": len(d.control.clients) if d.control else 0,
+            "pid": os.getpid(),
+            "version": __version__,
+        }
+
+    async def sensors(self, _params: dict[str, Any], _client: Client) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for device in self.d.devices.distinct():
+            name = str(getattr(device, "name", type(device).__name__))
+            try:
+                figures = dict(device.status())
+                if hasattr(device, "link_stats"):
+                    figures["link"] = dataclasses.asdict(device.link_stats())
+            except Exception as exc:  # one broken device must not hide the others
+                figures = {"error": repr(exc)}
+            out[name] = figures
+        return {"devices": out, "present": self.d.devices.present()}
+
+    async def events(self, params: dict[str, Any], _client: Client) -> list[dict[str, Any]]:
+        limit = params.get("limit", 50)
+        if isinstance(limit, bool) or not isinstance(limit, int) or limit < 0:
+            raise RpcError(INVALID_PARAMS, "limit: expected an integer >= 0")
+        kind = params.get("kind")
+        events = list(self.d.events)
+        if kind is not None:
+            events = [e for e in events if e["kind"] == kind]
+        return events[-min(limit, MAX_EVENTS):] if limit else []
+
+    async def tune_get(self, params: dict[str, Any], _client: Client) -> dict[str, Any]:
+        key = _key(params)
+        try:
+            value = self.d.settings.get(key)
+            option = self.d.settings.option(key)
+        except KeyError as exc:
+            raise RpcError(INVALID_PARAMS, str(exc.args[0])) from None
+        return {"key": key, "value": value, "tunable": option.tunable, "help": option.help}
+
+    async def tune_set(self, params: dict[str, Any], _client: Client) -> dict[str, Any]:
+        key = _key(params)
+        if "value" not in params:
+            raise RpcError(INVALID_PARAMS, "missing param 'value'")
+        persist = params.get("persist", False)
+        if not isinstance(persist, bool):
+            raise RpcError(INVALID_PARAMS, "persist: expected true or false")
+        settings = self.d.settings
+        try:
+            option = settings.option(key)
+        except KeyError as exc:
+            raise RpcError(INVALID_PARAMS, str(exc.args[0])) from None
+        if not option.tunable:
+            raise RpcError(INVALID_PARAMS, f"{key}: cannot be tuned live (read at start); "
+                           "change it in the config file and restart")
+        value = params["value"]
+        if isinstance(value, str) and option.kind != "str":
+            value, error = option.parse_text(value)
+            if error is not None:
+                raise RpcError(INVALID_PARAMS, f"{key}: {error}")
+        try:
+            value = settings.set(key, value)
+        except ValueError as exc:
+            raise RpcError(INVALID_PARAMS, str(exc)) from None
+        if persist:
+            path = overrides_path(self.d.state_dir)
+            try:
+                await asyncio.get_running_loop().run_in_executor(
+                    None, persist_override, path, key, value)
+            except OSError as exc:
+                raise RpcError(APP_ERROR, f"{key}: applied but not persisted: {exc}") from None
+        self.d.emit("tune", key=key, value=value, persisted=persist)
+        return {"key": key, "value": value, "persisted": persist}
+
+    async def reload(self, _params: dict[str, Any], _client: Client) -> dict[str, Any]:
+        ok, lines = self.d.reload()
+        if not ok:
+            raise RpcError(APP_ERROR, "config not reloaded; the running config is kept",
+                           {"problems": lines})
+        return {"reloaded": True, "changed": lines, "source": self.d.settings.source}
+
+    async def estop(self, params: dict[str, Any], _client: Client) -> dict[str, Any]:
+        reason = params.get("reason", "robotctl estop")
+        await self.d.estop(str(reason))
+        return {"state": self.d.state, "estop": self.d.state == "estop"}
+
+    async def resume(self, _params: dict[str, Any], _client: Client) -> dict[str, Any]:
+        if not await self.d.machine.trigger("resume"):
+            raise RpcError(APP_ERROR, f"cannot resume: not in estop (state {self.d.state})")
+        return {"state": self.d.state, "estop": False}
+
+    async def trigger(self, params: dict[str, Any], _client: Client) -> dict[str, Any]:
+        name = params.get("name")
+        if not isinstance(name, str) or name not in self.d.machine.triggers:
+            raise RpcError(INVALID_PARAMS, f"name: expected one of {self.d.machine.triggers}")
+        ok = await self.d.machine.trigger(name)
+        if not ok:
+            raise RpcError(APP_ERROR, f"{name}: not allowed in state {self.d.state}")
+        return {"state": self.d.state}
+
+    async def subscribe(self, params: dict[str, Any], client: Client) -> dict[str, Any]:
+        topics = _topics(params)
+        client.topics.update(topics)
+        return {"topics": sorted(client.topics)}
+
+    async def unsubscribe(self, params: dict[str, Any], client: Client) -> dict[str, Any]:
+        client.topics.difference_update(_topics(params))
+        return {"topics": sorted(client.topics)}
+
+
+def _key(params: dict[str, Any]) -> str:
+    key = params.get("key")
+    if not isinstance(key, str) or "." not in key:
+        raise RpcError(INVALID_PARAMS, "key: expected 'section.key', e.g. 'line_follow.kp'")
+    return key
+
+
+def _topics(params: dict[str, Any]) -> list[str]:
+    topics = params.get("topics")
+    if not isinstance(topics, list) or not all(isinstance(t, str) for t in topics):
+        raise RpcError(INVALID_PARAMS, f"topics: expected a list of names from {list(TOPICS)}")
+    unknown = [t for t in topics if t not in TOPICS]
+    if unknown:
+        raise RpcError(INVALID_PARAMS, f"topics: unknown {unknown}; known: {list(TOPICS)}")
+    return topics

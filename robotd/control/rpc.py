@@ -1,0 +1,92 @@
+"""JSON-RPC 2.0 messages: parsing one line into a request, and building replies."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from typing import Any
+
+PARSE_ERROR = -32700
+INVALID_REQUEST = -32600
+METHOD_NOT_FOUND = -32601
+INVALID_PARAMS = -32602
+INTERNAL_ERROR = -32603
+APP_ERROR = -32000
+"""The daemon refused (e.g. a new config that does not validate)."""
+
+_NO_ID = object()
+
+
+class RpcError(Exception):
+    """An error reply: a JSON-RPC code, a message that says what was wrong, optional data."""
+
+    def __init__(self, code: int, message: str, data: Any = None, *,
+                 request_id: Any = None) -> None:
+        super().__init__(message)
+        self.code = code
+        self.message = message
+        self.data = data
+        self.request_id = request_id
+
+
+@dataclass(frozen=True, slots=True)
+class Request:
+    method: str
+    params: dict[str, Any]
+    id: Any = _NO_ID
+
+    @property
+    def is_notification(self) -> bool:
+        return self.id is _NO_ID
+
+
+def parse_request(line: bytes) -> Request:
+    """One line to a Request; RpcError (with the request id when known) when it is not one."""
+    try:
+        message = json.loads(line)
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise RpcError(PARSE_ERROR, f"parse error: {exc}") from None
+    if isinstance(message, list):
+        raise RpcError(INVALID_REQUEST, "invalid request: batches are not supported")
+    if not isinstance(message, dict):
+        raise RpcError(INVALID_REQUEST, "invalid request: expected a JSON object")
+    request_id = message.get("id", _NO_ID)
+    if request_id is not _NO_ID and not (
+        request_id is None
+        or (isinstance(request_id, str | int) and not isinstance(request_id, bool))
+    ):
+        raise RpcError(INVALID_REQUEST, "invalid request: id must be a string, integer or null")
+    error_id = None if request_id is _NO_ID else request_id
+    if message.get("jsonrpc") != "2.0":
+        raise RpcError(INVALID_REQUEST, 'invalid request: "jsonrpc" must be "2.0"',
+                       request_id=error_id)
+    method = message.get("method")
+    if not isinstance(method, str) or not method:
+        raise RpcError(INVALID_REQUEST, 'invalid request: "method" must be a non-empty string',
+                       request_id=error_id)
+    params = message.get("params", {})
+    if params is None:
+        params = {}
+    if not isinstance(params, dict):
+        raise RpcError(INVALID_PARAMS, "invalid params: expected an object of named parameters",
+                       request_id=error_id)
+    return Request(method, params, request_id)
+
+
+def result_line(request_id: Any, result: Any) -> bytes:
+    return _line({"jsonrpc": "2.0", "id": request_id, "result": result})
+
+
+def error_line(request_id: Any, code: int, message: str, data: Any = None) -> bytes:
+    error: dict[str, Any] = {"code": code, "message": message}
+    if data is not None:
+        error["data"] = data
+    return _line({"jsonrpc": "2.0", "id": request_id, "error": error})
+
+
+def notification_line(method: str, params: dict[str, Any]) -> bytes:
+    return _line({"jsonrpc": "2.0", "method": method, "params": params})
+
+
+def _line(message: dict[str, Any]) -> bytes:
+    return json.dumps(message, separators=(",", ":"), default=str).encode() + b"\n"

@@ -17,13 +17,16 @@ SECTIONS: dict[str, Section] = {
         Section("robot", "Who this robot is.", (
             opt("name", "str", "robot-1", "Robot name, as the fleet server knows it.", min=1),
             opt("profile", "str", "laundry", "Which robot this is.",
-              choices=("laundry", "delivery", "cabinet", "docking", "square")),
+              choices=("laundry", "delivery", "cabinet", "docking", "square", "idle")),
             opt("state_dir", "str", "/var/lib/robotd",
               "Where mission state and tuning overrides are kept ($STATE_DIRECTORY wins)."),
         )),
         Section("hal", "Hardware backend.", (
             opt("backend", "str", "real", "real: the drivers; sim: the simulated world.",
               choices=("real", "sim")),
+            opt("devices", "list[str]", [],
+              "Devices to open besides those the profile needs: motors (the Arduino board), "
+              "camera, beacons, load_cell, dock_ir, lidar, audio."),
         )),
         Section("control", "The local control socket for robotctl.", (
             opt("socket", "str", "/run/robotd/control.sock", "Unix socket path."),

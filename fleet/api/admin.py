@@ -1,0 +1,178 @@
+"""Admin endpoints: robots, rooms, beacons, customers, settings, notifications."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Path, Query
+from fastapi import Request as HttpRequest
+from pydantic import ValidationError
+from sqlalchemy import select
+
+from fleet.api.deps import ERRORS, robot_out, server_of
+from fleet.api.schemas import (
+    BeaconIn,
+    BeaconOut,
+    CustomerIn,
+    CustomerOut,
+    NotificationOut,
+    RobotIn,
+    RobotOut,
+    RobotPatch,
+    RoomIn,
+    RoomOut,
+)
+from fleet.errors import Invalid, NotFound
+from fleet.models import Beacon, Customer, Notification, Robot, Room
+from fleet.services import admin
+from fleet.services.common import robot_by_name
+from fleet.settings import SettingsUpdate, store_settings
+
+router = APIRouter(prefix="/api", tags=["admin"])
+
+Name = Annotated[str, Path(min_length=1, max_length=100, pattern=r"^[^\x00-\x1f\x7f]+$")]
+
+
+@router.get("/robots", response_model=list[RobotOut])
+async def list_robots(http: HttpRequest) -> list[RobotOut]:
+    async with server_of(http).db.read() as session:
+        robots = (await session.execute(select(Robot).order_by(Robot.id))).scalars().all()
+        return [robot_out(r) for r in robots]
+
+
+@router.post("/robots", status_code=201, response_model=RobotOut, responses=ERRORS)
+async def add_robot(body: RobotIn, http: HttpRequest) -> RobotOut:
+    server = server_of(http)
+    async with server.db.write() as session:
+        robot = await admin.add_robot(session, server.clock(), body.Name, exist_ok=False)
+        return robot_out(robot)
+
+
+@router.get("/robots/{name}", response_model=RobotOut, responses=ERRORS)
+async def get_robot(name: Name, http: HttpRequest) -> RobotOut:
+    async with server_of(http).db.read() as session:
+        return robot_out(await _robot(session, name))
+
+
+@router.patch("/robots/{name}", response_model=RobotOut, responses=ERRORS)
+async def patch_robot(name: Name, body: RobotPatch, http: HttpRequest) -> RobotOut:
+    """Enable/disable a robot, emergency stop, maintenance mode."""
+    server = server_of(http)
+    async with server.db.write() as session:
+        robot = await admin.update_robot(
+            session, server.clock(), await _robot(session, name), is_active=body.IsActive,
+            emergency_stop=body.EmergencyStop, maintenance_mode=body.MaintenanceMode)
+        return robot_out(robot)
+
+
+async def _robot(session: Any, name: str) -> Robot:
+    robot = await robot_by_name(session, name)
+    if robot is None:
+        msg = f"robot {name!r} is not registered"
+        raise NotFound(msg)
+    return robot
+
+
+@router.get("/rooms", response_model=list[RoomOut])
+async def list_rooms(http: HttpRequest) -> list[RoomOut]:
+    async with server_of(http).db.read() as session:
+        rooms = (await session.execute(select(Room).order_by(Room.id))).scalars().all()
+        return [RoomOut(Id=r.id, Name=r.name, FloorColor=r.floor_color) for r in rooms]
+
+
+@router.put("/rooms", response_model=RoomOut, responses=ERRORS)
+async def put_room(body: RoomIn, http: HttpRequest) -> RoomOut:
+    """Create a room, or set the floor colour of an existing one."""
+    async with server_of(http).db.write() as session:
+        room = await admin.put_room(session, body.Name, body.FloorColor)
+        return RoomOut(Id=room.id, Name=room.name, FloorColor=room.floor_color)
+
+
+@router.get("/beacons", response_model=list[BeaconOut])
+async def list_beacons(http: HttpRequest) -> list[BeaconOut]:
+    async with server_of(http).db.read() as session:
+        rows = (await session.execute(
+            select(Beacon, Room).join(Room, Beacon.room_id == Room.id).order_by(Beacon.id)
+        )).all()
+        return [_beacon_out(b, r) for b, r in rows]
+
+
+@router.put("/beacons", response_model=BeaconOut, responses=ERRORS)
+async def put_beacon(body: BeaconIn, http: HttpRequest) -> BeaconOut:
+    """Create or update the beacon with this MAC address."""
+    async with server_of(http).db.write() as session:
+        beacon = await admin.put_beacon(
+            session, mac=body.MacAddress, name=body.Name, room=body.RoomName,
+            rssi_threshold_dbm=body.RssiThreshold, is_base=body.IsBase, is_active=body.IsActive)
+        room = await session.get(Room, beacon.room_id)
+        assert room is not None
+        return _beacon_out(beacon, room)
+
+
+def _beacon_out(beacon: Beacon, room: Room) -> BeaconOut:
+    return BeaconOut(Id=beacon.id, MacAddress=beacon.mac_address, Name=beacon.name,
+                     RoomName=room.name, RssiThreshold=beacon.rssi_threshold_dbm,
+                     IsBase=beacon.is_base, IsActive=beacon.is_active)
+
+
+@router.get("/customers", response_model=list[CustomerOut])
+async def list_customers(http: HttpRequest) -> list[CustomerOut]:
+    async with server_of(http).db.read() as session:
+        customers = (await session.execute(select(Customer).order_by(Customer.id))).scalars()
+        return [await _customer_out(session, c) for c in customers.all()]
+
+
+@router.post("/customers", status_code=201, response_model=CustomerOut, responses=ERRORS)
+async def add_customer(body: CustomerIn, http: HttpRequest) -> CustomerOut:
+    async with server_of(http).db.write() as session:
+        customer = await admin.put_customer(session, name=body.Name, room=body.RoomName,
+                                            beacon=body.BeaconMacAddress, customer_id=None,
+                                            create=True)
+        return await _customer_out(session, customer)
+
+
+async def _customer_out(session: Any, customer: Customer) -> CustomerOut:
+    beacon = (await session.get(Beacon, customer.beacon_id)
+              if customer.beacon_id is not None else None)
+    return CustomerOut(Id=customer.id, Name=customer.name, RoomId=customer.room_id,
+                       BeaconMacAddress=beacon.mac_address if beacon is not None else None)
+
+
+@router.get("/settings")
+async def get_settings(http: HttpRequest) -> dict[str, Any]:
+    return (await server_of(http).settings()).public()
+
+
+@router.put("/settings", responses=ERRORS)
+async def put_settings(body: SettingsUpdate, http: HttpRequest) -> dict[str, Any]:
+    """Change settings (AutoAccept, timeouts, weights...); only the keys given change."""
+    async with server_of(http).db.write() as session:
+        try:
+            merged = await store_settings(session, body.given())
+        except ValidationError as exc:
+            raise Invalid("; ".join(str(e["msg"]) for e in exc.errors())) from exc
+        return merged.public()
+
+
+@router.get("/notifications", response_model=list[NotificationOut])
+async def list_notifications(
+    http: HttpRequest,
+    recipient: Annotated[str | None, Query(pattern="^(customer|admin)$")] = None,
+    request_id: Annotated[int | None, Query(ge=1, le=2**31 - 1)] = None,
+    customer_id: Annotated[int | None, Query(ge=1, le=2**31 - 1)] = None,
+    limit: Annotated[int, Query(ge=1, le=1000)] = 100,
+) -> list[NotificationOut]:
+    """Stored notifications, newest first."""
+    query = select(Notification).order_by(Notification.id.desc()).limit(limit)
+    if recipient is not None:
+        query = query.where(Notification.recipient == recipient)
+    if request_id is not None:
+        query = query.where(Notification.request_id == request_id)
+    if customer_id is not None:
+        query = query.where(Notification.customer_id == customer_id)
+    async with server_of(http).db.read() as session:
+        rows = (await session.execute(query)).scalars().all()
+        return [NotificationOut(
+            Id=n.id, CreatedAt=n.created_at, Recipient=n.recipient, Level=n.level, Kind=n.kind,
+            Message=n.message, CustomerId=n.customer_id, RequestId=n.request_id,
+            RobotName=n.robot_name) for n in rows]

@@ -1,0 +1,63 @@
+"""What every router needs: the server, and turning rows into response bodies."""
+
+from __future__ import annotations
+
+from fastapi import Request as HttpRequest
+from sqlalchemy.ext.asyncio import AsyncSession
+
+from fleet.api.schemas import ErrorOut, RequestOut, RobotOut
+from fleet.models import Request, Robot
+from fleet.server import FleetServer
+from fleet.services.weight import can_confirm_loaded, can_confirm_unloaded
+from fleet.settings import FleetSettings
+
+ERRORS: dict[int | str, dict[str, object]] = {
+    code: {"description": text, "model": ErrorOut}
+    for code, text in ((404, "Not found"), (409, "Not allowed now"), (422, "Bad input"))
+}
+
+
+def server_of(http: HttpRequest) -> FleetServer:
+    server = http.app.state.fleet
+    assert isinstance(server, FleetServer)
+    return server
+
+
+async def request_out(session: AsyncSession, cfg: FleetSettings, request: Request) -> RequestOut:
+    robot = (await session.get(Robot, request.assigned_robot_id)
+             if request.assigned_robot_id is not None else None)
+    return RequestOut(
+        Id=request.id, CustomerId=request.customer_id, Status=request.status,
+        AssignedRobotName=robot.name if robot is not None else None,
+        IsApproved=request.is_approved, CreatedAt=request.created_at,
+        StatusChangedAt=request.status_changed_at, IsPaid=request.is_paid,
+        RefundDue=request.refund_due, CancelReason=request.cancel_reason,
+        CancelledFrom=request.cancelled_from, LaundryDisposition=request.disposition,
+        RobotReturned=request.robot_returned, WeightKg=request.weight_kg,
+        Overweight=request.overweight,
+        CanConfirmLoaded=can_confirm_loaded(request, cfg),
+        CanConfirmUnloaded=can_confirm_unloaded(request, cfg),
+        AdminAlert=request.admin_alert,
+    )
+
+
+def robot_status(robot: Robot) -> str:
+    if not robot.is_active:
+        return "Inactive"
+    if robot.is_offline:
+        return "Offline"
+    if robot.emergency_stop:
+        return "EmergencyStop"
+    if robot.maintenance_mode:
+        return "Maintenance"
+    return "Busy" if robot.current_request_id is not None else "Available"
+
+
+def robot_out(robot: Robot) -> RobotOut:
+    return RobotOut(
+        Name=robot.name, Status=robot_status(robot), IsActive=robot.is_active,
+        IsOffline=robot.is_offline, EmergencyStop=robot.emergency_stop,
+        MaintenanceMode=robot.maintenance_mode, CurrentRequestId=robot.current_request_id,
+        LastPingAt=robot.last_ping_at, LastAssignedAt=robot.last_assigned_at,
+        WeightKg=robot.weight_kg,
+    )

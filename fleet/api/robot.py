@@ -1,0 +1,48 @@
+"""The robot's 1 s data exchange (contract "Fleet data exchange")."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import APIRouter, Path
+from fastapi import Request as HttpRequest
+
+from fleet.api.deps import ERRORS, server_of
+from fleet.api.schemas import ActiveBeacon, DataExchangeIn, DataExchangeOut
+from fleet.errors import Invalid
+from fleet.services.arrival import Sighting
+from fleet.services.exchange import Report, exchange
+
+router = APIRouter(prefix="/api/Robot", tags=["robot"])
+
+RobotName = Annotated[str, Path(min_length=1, max_length=100, pattern=r"^[^\x00-\x1f\x7f]+$")]
+
+
+@router.post("/{RobotName}/data-exchange", response_model=DataExchangeOut, responses=ERRORS)
+async def data_exchange(
+    RobotName: RobotName, body: DataExchangeIn, http: HttpRequest  # noqa: N803
+) -> DataExchangeOut:
+    """The robot reports beacons, arrival, weight and distance; the server answers with the
+    beacon configuration, navigation targets and orders."""
+    if body.RobotName is not None and body.RobotName != RobotName:
+        msg = f"RobotName {body.RobotName!r} in the body does not match {RobotName!r} in the URL"
+        raise Invalid(msg)
+    server = server_of(http)
+    report = Report(
+        robot_name=RobotName,
+        sightings=[Sighting(b.MacAddress, b.Rssi) for b in body.DetectedBeacons],
+        is_in_target=body.IsInTarget, weight_kg=body.WeightKg,
+        ultrasonic_distance=body.UltrasonicDistance,
+    )
+    reply = await exchange(server.db, server.clock, report)
+    nav = reply.navigation
+    return DataExchangeOut(
+        ActiveBeacons=[
+            ActiveBeacon(MacAddress=b.mac_address, Name=b.name, RoomName=b.room_name,
+                         RssiThreshold=b.rssi_threshold_dbm,
+                         IsNavigationTarget=b.is_navigation_target)
+            for b in nav.beacons
+        ],
+        IsLineFollowing=nav.is_line_following, FollowColor=nav.follow_color,
+        EmergencyStop=reply.emergency_stop, MaintenanceMode=reply.maintenance_mode,
+    )

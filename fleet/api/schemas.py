@@ -1,0 +1,166 @@
+"""Request and response bodies, PascalCase as the contracts say. Inputs are strict and bounded
+so bad input is a 4xx with a message, never a database error."""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Annotated
+
+from pydantic import BaseModel, ConfigDict, Field, StringConstraints
+
+Id = Annotated[int, Field(strict=True, ge=1, le=2**31 - 1)]
+Text = Annotated[str, StringConstraints(min_length=1, max_length=100,
+                                        pattern=r"^[^\x00-\x1f\x7f]+$")]
+Mac = Annotated[str, StringConstraints(pattern=r"^[0-9A-Fa-f]{2}(:[0-9A-Fa-f]{2}){5}$")]
+Real = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-1e6, le=1e6)]
+Rssi = Annotated[int, Field(strict=True, ge=-200, le=50)]
+Flag = Annotated[bool, Field(strict=True)]
+
+
+class Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class RequestCreate(Strict):
+    CustomerId: Id
+
+
+class RequestOut(BaseModel):
+    Id: int
+    CustomerId: int
+    Status: str
+    AssignedRobotName: str | None
+    IsApproved: bool
+    CreatedAt: datetime
+    StatusChangedAt: datetime
+    IsPaid: bool
+    RefundDue: bool
+    CancelReason: str | None
+    CancelledFrom: str | None
+    LaundryDisposition: str
+    RobotReturned: bool
+    WeightKg: float | None
+    Overweight: bool
+    CanConfirmLoaded: bool
+    CanConfirmUnloaded: bool
+    AdminAlert: str | None
+
+
+class DetectedBeacon(BaseModel):
+    model_config = ConfigDict(extra="ignore")
+
+    MacAddress: Annotated[str, StringConstraints(min_length=1, max_length=64)]
+    Uuid: Annotated[str, StringConstraints(max_length=64)] | None = None
+    Major: Annotated[int, Field(strict=True, ge=0, le=65535)] | None = None
+    Minor: Annotated[int, Field(strict=True, ge=0, le=65535)] | None = None
+    Rssi: Rssi
+    Distance: Real | None = None
+
+
+class DataExchangeIn(BaseModel):
+    model_config = ConfigDict(extra="ignore")
+
+    RobotName: Text | None = None
+    Timestamp: datetime | None = None
+    DetectedBeacons: Annotated[list[DetectedBeacon], Field(max_length=512)] = []
+    IsInTarget: Flag = False
+    WeightKg: Real | None = None
+    UltrasonicDistance: Real | None = None
+
+
+class ActiveBeacon(BaseModel):
+    MacAddress: str
+    Name: str
+    RoomName: str
+    RssiThreshold: int
+    IsNavigationTarget: bool
+
+
+class DataExchangeOut(BaseModel):
+    ActiveBeacons: list[ActiveBeacon]
+    IsLineFollowing: bool
+    FollowColor: str | None
+    EmergencyStop: bool
+    MaintenanceMode: bool
+
+
+class RobotIn(Strict):
+    Name: Text
+
+
+class RobotPatch(Strict):
+    IsActive: Flag | None = None
+    EmergencyStop: Flag | None = None
+    MaintenanceMode: Flag | None = None
+
+
+class RobotOut(BaseModel):
+    Name: str
+    Status: str
+    IsActive: bool
+    IsOffline: bool
+    EmergencyStop: bool
+    MaintenanceMode: bool
+    CurrentRequestId: int | None
+    LastPingAt: datetime | None
+    LastAssignedAt: datetime | None
+    WeightKg: float | None
+
+
+class RoomIn(Strict):
+    Name: Text
+    FloorColor: Text | None = None
+
+
+class RoomOut(BaseModel):
+    Id: int
+    Name: str
+    FloorColor: str | None
+
+
+class BeaconIn(Strict):
+    MacAddress: Mac
+    Name: Text
+    RoomName: Text
+    RssiThreshold: Rssi = -70
+    IsBase: Flag = False
+    IsActive: Flag = True
+
+
+class BeaconOut(BaseModel):
+    Id: int
+    MacAddress: str
+    Name: str
+    RoomName: str
+    RssiThreshold: int
+    IsBase: bool
+    IsActive: bool
+
+
+class CustomerIn(Strict):
+    Name: Text
+    RoomName: Text | None = None
+    BeaconMacAddress: Mac | None = None
+
+
+class CustomerOut(BaseModel):
+    Id: int
+    Name: str
+    RoomId: int | None
+    BeaconMacAddress: str | None
+
+
+class NotificationOut(BaseModel):
+    Id: int
+    CreatedAt: datetime
+    Recipient: str
+    Level: str
+    Kind: str
+    Message: str
+    CustomerId: int | None
+    RequestId: int | None
+    RobotName: str | None
+
+
+class ErrorOut(BaseModel):
+    detail: str

@@ -1,0 +1,88 @@
+"""The FastAPI application of the fleet server.
+
+``create_app(db_url, site=None, clock=None, settings=None)`` builds the app around one
+``FleetServer`` (``app.state.fleet``). Served by uvicorn, its lifespan starts and stops the
+server and the monitors. Driven in-process through ``httpx.ASGITransport`` (no lifespan), the
+caller runs ``await app.state.fleet.start()`` and ``await app.state.fleet.stop()`` itself.
+"""
+
+from __future__ import annotations
+
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from pathlib import Path
+from typing import Any
+
+import structlog
+from fastapi import FastAPI
+from fastapi import Request as HttpRequest
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+
+from fleet.api import admin, requests, robot
+from fleet.clock import Clock
+from fleet.errors import FleetError
+from fleet.server import FleetServer
+from fleet.settings import FleetSettings
+from fleet.site import Site
+from fleet.timehold import HoldTimeMiddleware
+
+log = structlog.get_logger(__name__)
+
+
+def create_app(
+    db_url: str,
+    site: Site | str | Path | None = None,
+    clock: Clock | None = None,
+    settings: FleetSettings | dict[str, Any] | None = None,
+    *,
+    monitors: bool = True,
+) -> FastAPI:
+    """Args:
+        db_url: ``sqlite:///PATH`` or ``postgresql://USER@HOST/DB`` (async drivers are chosen).
+        site: site TOML file (or a parsed ``Site``) applied at start.
+        clock: the wall clock (aware UTC datetimes); all server logic takes "now" from it.
+        settings: settings written at start over the stored ones.
+        monitors: whether the lifespan starts the timeout and offline monitors.
+    """
+    server = FleetServer(db_url, site=site, clock=clock, settings=settings)
+
+    @asynccontextmanager
+    async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
+        if not server.started:
+            await server.start(monitors=monitors)
+        try:
+            yield
+        finally:
+            await server.stop()
+
+    app = FastAPI(
+        title="robotd fleet server",
+        version="1",
+        summary="Laundry robot fleet: requests, assignment, data exchange, monitors.",
+        lifespan=lifespan,
+    )
+    app.state.fleet = server
+    app.add_middleware(HoldTimeMiddleware)
+    app.include_router(requests.router)
+    app.include_router(robot.router)
+    app.include_router(admin.router)
+
+    @app.exception_handler(FleetError)
+    async def fleet_error(_http: HttpRequest, exc: FleetError) -> JSONResponse:
+        return JSONResponse({"detail": exc.message}, status_code=exc.status_code)
+
+    @app.exception_handler(RequestValidationError)
+    async def bad_input(_http: HttpRequest, exc: RequestValidationError) -> JSONResponse:
+        problems = []
+        for err in exc.errors():
+            where = ".".join(str(p) for p in err.get("loc", ()))
+            problems.append(f"{where}: {err.get('msg', 'invalid')}")
+        return JSONResponse({"detail": "; ".join(problems) or "invalid request"},
+                            status_code=422)
+
+    @app.get("/health", tags=["meta"])
+    async def health() -> dict[str, str]:
+        return {"status": "ok"}
+
+    return app

@@ -1,0 +1,50 @@
+"""``robotd-fleet serve [--db URL] [--site FILE] [--host H] [--port P]``."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import os
+import sys
+
+import uvicorn
+
+from fleet.app import create_app
+from fleet.site import SiteError, load_site
+from robotd.logs import configure_logging
+
+DEFAULT_DB = "sqlite:////var/lib/robotd-fleet/fleet.db"
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="robotd-fleet", description="The laundry fleet server.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    serve = sub.add_parser("serve", help="run the HTTP server")
+    serve.add_argument("--db", default=os.environ.get("ROBOTD_FLEET_DB", DEFAULT_DB),
+                       help="database URL: sqlite:///PATH (default) or postgresql://...")
+    serve.add_argument("--site", default=os.environ.get("ROBOTD_FLEET_SITE"),
+                       help="site TOML file: rooms, beacons, customers, robots, settings")
+    serve.add_argument("--host", default="127.0.0.1")
+    serve.add_argument("--port", type=int, default=8080)
+    serve.add_argument("--log-level", default="info",
+                       choices=("debug", "info", "warning", "error"))
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    configure_logging(args.log_level)
+    try:
+        site = load_site(args.site) if args.site else None
+        app = create_app(args.db, site=site)
+    except (SiteError, ValueError) as exc:
+        print(f"robotd-fleet: {exc}", file=sys.stderr)
+        return 2
+    config = uvicorn.Config(app, host=args.host, port=args.port, log_config=None,
+                            access_log=False, lifespan="on")
+    server = uvicorn.Server(config)
+    try:
+        asyncio.run(server.serve())
+    except KeyboardInterrupt:
+        return 0
+    return 0 if server.started else 1

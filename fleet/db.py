@@ -1,0 +1,127 @@
+"""Database access: one engine per URL, serialized write transactions, Alembic at start.
+
+SQLite (WAL) is the default; PostgreSQL runs the same code. Every transaction that changes a
+request or an assignment is *serialized*: on SQLite by one process-wide lock plus
+``BEGIN IMMEDIATE``; on PostgreSQL by a transaction-scoped advisory lock, so several server
+processes on one database never assign a robot twice.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from typing import Any
+
+import structlog
+from alembic import command
+from alembic.config import Config
+from sqlalchemy import event, text
+from sqlalchemy.engine import Connection, make_url
+from sqlalchemy.ext.asyncio import (
+    AsyncEngine,
+    AsyncSession,
+    async_sessionmaker,
+    create_async_engine,
+)
+from sqlalchemy.pool import StaticPool
+
+log = structlog.get_logger(__name__)
+
+_ADVISORY_LOCK_KEY = 0x726F_626F  # "robo"
+
+
+def normalize_url(url: str) -> str:
+    """Accept plain ``sqlite:///`` and ``postgresql://`` URLs and pick the async drivers."""
+    parsed = make_url(url)
+    backend = parsed.get_backend_name()
+    if backend == "sqlite":
+        return parsed.set(drivername="sqlite+aiosqlite").render_as_string(hide_password=False)
+    if backend in ("postgresql", "postgres"):
+        return parsed.set(drivername="postgresql+asyncpg").render_as_string(hide_password=False)
+    msg = f"unsupported database URL {url!r}: use sqlite:///PATH or postgresql://..."
+    raise ValueError(msg)
+
+
+def _sqlite_engine(url: str, begin: str) -> AsyncEngine:
+    memory = make_url(url).database in (None, "", ":memory:")
+    kwargs: dict[str, Any] = {"poolclass": StaticPool} if memory else {}
+    engine = create_async_engine(url, connect_args={"timeout": 30}, **kwargs)
+
+    @event.listens_for(engine.sync_engine, "connect")
+    def _on_connect(dbapi_connection: Any, _record: Any) -> None:
+        # Let SQLAlchemy's "begin" event (below) emit BEGIN, not the driver.
+        dbapi_connection.isolation_level = None
+        cursor = dbapi_connection.cursor()
+        if not memory:
+            cursor.execute("PRAGMA journal_mode=WAL")
+        cursor.execute("PRAGMA synchronous=NORMAL")
+        cursor.execute("PRAGMA foreign_keys=ON")
+        cursor.execute("PRAGMA busy_timeout=30000")
+        cursor.close()
+
+    @event.listens_for(engine.sync_engine, "begin")
+    def _on_begin(conn: Connection) -> None:
+        conn.exec_driver_sql(begin)
+
+    return engine
+
+
+class Database:
+    """The engines and sessions of one database URL."""
+
+    def __init__(self, url: str) -> None:
+        self.url = normalize_url(url)
+        self.dialect = make_url(self.url).get_backend_name()
+        self._write_lock = asyncio.Lock()
+        if self.dialect == "sqlite":
+            self.read_engine = _sqlite_engine(self.url, "BEGIN")
+            self.write_engine = (
+                self.read_engine if make_url(self.url).database in (None, "", ":memory:")
+                else _sqlite_engine(self.url, "BEGIN IMMEDIATE"))
+        else:
+            self.read_engine = create_async_engine(self.url, pool_size=10, max_overflow=20)
+            self.write_engine = self.read_engine
+        self._reads = async_sessionmaker(self.read_engine, expire_on_commit=False)
+        self._writes = async_sessionmaker(self.write_engine, expire_on_commit=False)
+
+    @asynccontextmanager
+    async def read(self) -> AsyncIterator[AsyncSession]:
+        """A read-only session (its transaction is rolled back when it closes)."""
+        async with self._reads() as session:
+            yield session
+
+    @asynccontextmanager
+    async def write(self, *, serial: bool = True) -> AsyncIterator[AsyncSession]:
+        """A transaction committed at the end; ``serial`` ones run one at a time site-wide."""
+        if self.dialect == "sqlite":
+            async with self._write_lock, self._writes() as session, session.begin():
+                yield session
+            return
+        async with self._writes() as session, session.begin():
+            if serial:
+                await session.execute(
+                    text("SELECT pg_advisory_xact_lock(:key)"), {"key": _ADVISORY_LOCK_KEY})
+            yield session
+
+    async def migrate(self) -> None:
+        """Bring the schema to the newest migration."""
+        cfg = Config()
+        cfg.set_main_option("script_location", "fleet:migrations")
+        cfg.set_main_option("sqlalchemy.url", self.url)
+
+        def upgrade(connection: Connection) -> None:
+            cfg.attributes["connection"] = connection
+            command.upgrade(cfg, "head")
+
+        async with self.write_engine.begin() as conn:
+            if self.dialect != "sqlite":
+                await conn.execute(
+                    text("SELECT pg_advisory_xact_lock(:key)"), {"key": _ADVISORY_LOCK_KEY})
+            await conn.run_sync(upgrade)
+        log.info("fleet.db.migrated", dialect=self.dialect)
+
+    async def dispose(self) -> None:
+        await self.read_engine.dispose()
+        if self.write_engine is not self.read_engine:
+            await self.write_engine.dispose()

@@ -1,0 +1,29 @@
+"""Errors the services raise; the API turns each into its status code and a message."""
+
+from __future__ import annotations
+
+
+class FleetError(Exception):
+    """A request the server refuses; ``status_code`` is the HTTP answer."""
+
+    status_code = 400
+
+    def __init__(self, message: str) -> None:
+        super().__init__(message)
+        self.message = message
+
+
+class NotFound(FleetError):
+    status_code = 404
+
+
+class Conflict(FleetError):
+    status_code = 409
+
+
+class Invalid(FleetError):
+    status_code = 422
+
+
+class NoRobotAvailable(FleetError):
+    status_code = 503

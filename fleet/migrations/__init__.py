@@ -1,0 +1,1 @@
+"""Alembic migrations of the fleet database (shipped as package data, run at start)."""

@@ -1,0 +1,109 @@
+"""The fleet database: rooms, beacons, customers, robots, requests, notifications, settings."""
+
+from __future__ import annotations
+
+from datetime import datetime
+
+from sqlalchemy import Boolean, Float, ForeignKey, Integer, String, Text
+from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
+
+from fleet.clock import UtcDateTime
+from fleet.status import Disposition, Status
+
+
+class Base(DeclarativeBase):
+    pass
+
+
+class Room(Base):
+    __tablename__ = "rooms"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    name: Mapped[str] = mapped_column(String(100), unique=True)
+    floor_color: Mapped[str | None] = mapped_column(String(32), default=None)
+
+
+class Beacon(Base):
+    __tablename__ = "beacons"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    mac_address: Mapped[str] = mapped_column(String(17), unique=True)
+    name: Mapped[str] = mapped_column(String(100))
+    room_id: Mapped[int] = mapped_column(ForeignKey("rooms.id"), index=True)
+    rssi_threshold_dbm: Mapped[int] = mapped_column(Integer, default=-70)
+    is_base: Mapped[bool] = mapped_column(Boolean, default=False)
+    is_active: Mapped[bool] = mapped_column(Boolean, default=True)
+
+
+class Customer(Base):
+    __tablename__ = "customers"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    name: Mapped[str] = mapped_column(String(100))
+    room_id: Mapped[int | None] = mapped_column(ForeignKey("rooms.id"), default=None)
+    beacon_id: Mapped[int | None] = mapped_column(ForeignKey("beacons.id"), default=None)
+
+
+class Robot(Base):
+    __tablename__ = "robots"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    name: Mapped[str] = mapped_column(String(100), unique=True)
+    is_active: Mapped[bool] = mapped_column(Boolean, default=True)
+    is_offline: Mapped[bool] = mapped_column(Boolean, default=False)
+    emergency_stop: Mapped[bool] = mapped_column(Boolean, default=False)
+    maintenance_mode: Mapped[bool] = mapped_column(Boolean, default=False)
+    # The request the robot serves, or the cancelled one it still brings back to base.
+    current_request_id: Mapped[int | None] = mapped_column(Integer, default=None)
+    last_ping_at: Mapped[datetime | None] = mapped_column(UtcDateTime(), default=None)
+    last_assigned_at: Mapped[datetime | None] = mapped_column(UtcDateTime(), default=None)
+    weight_kg: Mapped[float | None] = mapped_column(Float, default=None)
+    ultrasonic_distance: Mapped[float | None] = mapped_column(Float, default=None)
+    is_in_target: Mapped[bool] = mapped_column(Boolean, default=False)
+
+
+class Request(Base):
+    __tablename__ = "requests"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    customer_id: Mapped[int] = mapped_column(ForeignKey("customers.id"), index=True)
+    status: Mapped[str] = mapped_column(String(40), default=Status.PENDING, index=True)
+    # Approved by an admin or by AutoAccept; an approved Pending request waits in the queue.
+    is_approved: Mapped[bool] = mapped_column(Boolean, default=False)
+    assigned_robot_id: Mapped[int | None] = mapped_column(ForeignKey("robots.id"), default=None)
+    created_at: Mapped[datetime] = mapped_column(UtcDateTime())
+    status_changed_at: Mapped[datetime] = mapped_column(UtcDateTime())
+    accepted_at: Mapped[datetime | None] = mapped_column(UtcDateTime(), default=None)
+    arrived_at: Mapped[datetime | None] = mapped_column(UtcDateTime(), default=None)
+    washing_started_at: Mapped[datetime | None] = mapped_column(UtcDateTime(), default=None)
+    finished_at: Mapped[datetime | None] = mapped_column(UtcDateTime(), default=None)
+    weight_kg: Mapped[float | None] = mapped_column(Float, default=None)
+    overweight: Mapped[bool] = mapped_column(Boolean, default=False)
+    is_paid: Mapped[bool] = mapped_column(Boolean, default=False)
+    refund_due: Mapped[bool] = mapped_column(Boolean, default=False)
+    cancel_reason: Mapped[str | None] = mapped_column(String(200), default=None)
+    cancelled_from: Mapped[str | None] = mapped_column(String(40), default=None)
+    disposition: Mapped[str] = mapped_column(String(40), default=Disposition.NONE)
+    robot_returned: Mapped[bool] = mapped_column(Boolean, default=False)
+    admin_alert: Mapped[str | None] = mapped_column(String(200), default=None)
+
+
+class Notification(Base):
+    __tablename__ = "notifications"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    created_at: Mapped[datetime] = mapped_column(UtcDateTime())
+    recipient: Mapped[str] = mapped_column(String(20))  # customer | admin
+    level: Mapped[str] = mapped_column(String(20))  # info | warning | critical
+    kind: Mapped[str] = mapped_column(String(60))
+    message: Mapped[str] = mapped_column(Text)
+    customer_id: Mapped[int | None] = mapped_column(Integer, default=None)
+    request_id: Mapped[int | None] = mapped_column(Integer, default=None, index=True)
+    robot_name: Mapped[str | None] = mapped_column(String(100), default=None)
+
+
+class Setting(Base):
+    __tablename__ = "settings"
+
+    key: Mapped[str] = mapped_column(String(60), primary_key=True)
+    value: Mapped[str] = mapped_column(Text)  # JSON

@@ -1,0 +1,132 @@
+"""The fleet server's state: database, clock, settings and the background monitors.
+
+The HTTP app holds one ``FleetServer`` (``app.state.fleet``). Its lifespan calls ``start()``
+and ``stop()``; a simulator that drives the app through ``httpx.ASGITransport`` (which runs no
+lifespan) calls them itself, and can run a monitor pass at will with ``check_timeouts()`` and
+``check_offline()``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from collections.abc import Awaitable, Callable
+from pathlib import Path
+from typing import Any
+
+import structlog
+from sqlalchemy import text
+
+from fleet.clock import Clock, system_clock
+from fleet.db import Database
+from fleet.services.assignment import process_queue
+from fleet.services.offline import check_offline
+from fleet.services.timeouts import check_timeouts
+from fleet.settings import FleetSettings, load_settings, store_settings
+from fleet.site import Site, apply_site, load_site
+from fleet.timehold import hold_loop_time
+
+log = structlog.get_logger(__name__)
+
+
+class FleetServer:
+    """Args:
+        db_url: ``sqlite:///PATH`` (default driver aiosqlite) or ``postgresql://...``.
+        site: a site file path or a parsed ``Site``, applied at start.
+        clock: returns aware UTC datetimes; the system clock by default.
+        settings: values written to the database at start (``FleetSettings`` or a dict of
+            PascalCase keys), over whatever it held.
+    """
+
+    def __init__(
+        self,
+        db_url: str,
+        site: Site | str | Path | None = None,
+        clock: Clock | None = None,
+        settings: FleetSettings | dict[str, Any] | None = None,
+    ) -> None:
+        self.db = Database(db_url)
+        self.clock: Clock = clock or system_clock
+        self._site = load_site(site) if isinstance(site, str | Path) else site
+        if isinstance(settings, FleetSettings):
+            settings = settings.public()
+        self._settings = settings
+        self._tasks: list[asyncio.Task[None]] = []
+        self.started = False
+
+    async def start(self, *, monitors: bool = True) -> None:
+        """Migrate the schema, apply the site and settings, start the monitors."""
+        with hold_loop_time():
+            await self.db.migrate()
+            async with self.db.write() as session:
+                now = self.clock()
+                if self._site is not None:
+                    await apply_site(session, now, self._site)
+                if self._settings:
+                    await store_settings(session, dict(self._settings))
+                if self.db.dialect == "postgresql":
+                    # Site files may give customer ids; keep the id sequence past them.
+                    await session.execute(text(
+                        "SELECT setval(pg_get_serial_sequence('customers', 'id'), "
+                        "COALESCE((SELECT MAX(id) FROM customers), 0) + 1, false)"))
+                await process_queue(session, now)
+        self.started = True
+        if monitors:
+            self.start_monitors()
+        log.info("fleet.started", dialect=self.db.dialect, monitors=monitors)
+
+    def start_monitors(self) -> None:
+        if self._tasks:
+            return
+        self._tasks = [
+            asyncio.create_task(self._monitor(
+                "timeouts", lambda c: c.timeout_check_period_s, self.check_timeouts)),
+            asyncio.create_task(self._monitor(
+                "offline", lambda c: c.offline_check_period_s, self.check_offline)),
+        ]
+
+    async def stop(self) -> None:
+        for task in self._tasks:
+            task.cancel()
+        for task in self._tasks:
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+        self._tasks = []
+        await self.db.dispose()
+        self.started = False
+        log.info("fleet.stopped")
+
+    async def settings(self) -> FleetSettings:
+        with hold_loop_time():
+            async with self.db.read() as session:
+                return await load_settings(session)
+
+    async def check_timeouts(self) -> list[int]:
+        """One pass of the timeout monitor (seed section 10); returns cancelled request ids."""
+        with hold_loop_time():
+            async with self.db.write() as session:
+                return await check_timeouts(session, self.clock(), await load_settings(session))
+
+    async def check_offline(self) -> list[str]:
+        """One pass of the offline monitor (seed section 13); returns robots gone offline."""
+        with hold_loop_time():
+            async with self.db.write() as session:
+                return await check_offline(session, self.clock(), await load_settings(session))
+
+    async def _monitor(
+        self, name: str, period: Callable[[FleetSettings], float],
+        check: Callable[[], Awaitable[object]],
+    ) -> None:
+        while True:
+            try:
+                cfg = await self.settings()
+            except Exception:
+                log.exception("fleet.monitor.failed", monitor=name)
+                cfg = FleetSettings.model_validate({})
+            await asyncio.sleep(period(cfg))
+            try:
+                found = await check()
+                if found:
+                    log.info("fleet.monitor.acted", monitor=name, found=found)
+            except Exception:
+                log.exception("fleet.monitor.failed", monitor=name)

@@ -1,0 +1,1 @@
+"""The seed's algorithms, one module each; every function runs inside a caller's transaction."""

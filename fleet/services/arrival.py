@@ -1,0 +1,92 @@
+"""What a robot's IsInTarget report means for its request (seed section 4)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from datetime import datetime
+
+import structlog
+from sqlalchemy import select
+from sqlalchemy.ext.asyncio import AsyncSession
+
+from fleet.models import Beacon, Robot
+from fleet.services.assignment import process_queue
+from fleet.services.common import current_request, release, set_status
+from fleet.services.navigation import customer_room_beacons
+from fleet.services.notify import notify
+from fleet.status import Disposition, Status
+
+log = structlog.get_logger(__name__)
+
+
+@dataclass(frozen=True)
+class Sighting:
+    """One beacon the robot heard."""
+
+    mac_address: str
+    rssi_dbm: int
+
+
+def reached(targets: Sequence[Beacon], sightings: Sequence[Sighting]) -> bool:
+    """A target beacon heard at or above its RSSI threshold."""
+    by_mac = {b.mac_address.upper(): b for b in targets}
+    for seen in sightings:
+        beacon = by_mac.get(seen.mac_address.upper())
+        if beacon is not None and seen.rssi_dbm >= beacon.rssi_threshold_dbm:
+            return True
+    return False
+
+
+async def base_beacons(session: AsyncSession) -> list[Beacon]:
+    result = await session.execute(
+        select(Beacon).where(Beacon.is_base.is_(True), Beacon.is_active.is_(True)))
+    return list(result.scalars().all())
+
+
+async def handle_arrival(
+    session: AsyncSession, now: datetime, robot: Robot, sightings: Sequence[Sighting]
+) -> str:
+    """Apply an IsInTarget=true report; returns what happened (for logs and tests)."""
+    request = await current_request(session, robot)
+    if request is None:
+        return "ignored"
+    status = Status(request.status)
+    if status in (Status.ACCEPTED, Status.GOING_TO_ROOM):
+        # A robot that names the beacons it hears must hear a target; one that names none is
+        # trusted, as in the seed.
+        if sightings and not reached(await customer_room_beacons(session, request), sightings):
+            return "still-travelling"
+        arrived = (Status.ARRIVED_AT_ROOM if status == Status.ACCEPTED
+                   else Status.ARRIVED_FOR_DELIVERY)
+        set_status(request, arrived, now)
+        what = "load" if arrived == Status.ARRIVED_AT_ROOM else "take out"
+        notify(session, now, recipient="customer", kind="robot.arrived", request=request,
+               robot_name=robot.name,
+               message=f"Robot {robot.name} is at your room: please {what} your laundry.")
+        return str(arrived)
+    if status not in (Status.LAUNDRY_LOADED, Status.GOING_TO_BASE, Status.CANCELLED):
+        return "ignored"
+    if not reached(await base_beacons(session), sightings):
+        return "not-at-base"
+    if status == Status.LAUNDRY_LOADED:
+        set_status(request, Status.WASHING, now)
+        notify(session, now, recipient="admin", kind="laundry.at_base", request=request,
+               robot_name=robot.name, message=f"Laundry of request {request.id} is at base.")
+    elif status == Status.GOING_TO_BASE:
+        set_status(request, Status.COMPLETED, now)
+        notify(session, now, recipient="customer", kind="request.completed", request=request,
+               message=("Your laundry was delivered." if request.is_paid
+                        else "Your laundry was delivered; please pay."))
+    else:
+        request.robot_returned = True
+        if request.cancelled_from in (Status.GOING_TO_ROOM, Status.ARRIVED_FOR_DELIVERY):
+            request.disposition = Disposition.HELD_AT_BASE
+            notify(session, now, recipient="admin", kind="laundry.held_at_base",
+                   request=request, robot_name=robot.name,
+                   message=f"Clean laundry of cancelled request {request.id} is held at base.")
+    release(robot)
+    await process_queue(session, now)
+    log.info("fleet.robot.at_base", robot=robot.name, request_id=request.id,
+             status=request.status)
+    return "at-base"

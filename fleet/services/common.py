@@ -1,0 +1,59 @@
+"""Small helpers the services share: status changes and robot/request lookups."""
+
+from __future__ import annotations
+
+from datetime import datetime
+
+import structlog
+from sqlalchemy import select
+from sqlalchemy.ext.asyncio import AsyncSession
+
+from fleet.models import Request, Robot
+from fleet.status import Status
+
+log = structlog.get_logger(__name__)
+
+
+def set_status(request: Request, status: Status, now: datetime) -> None:
+    old = request.status
+    request.status = status
+    request.status_changed_at = now
+    if status in (Status.ARRIVED_AT_ROOM, Status.ARRIVED_FOR_DELIVERY):
+        request.arrived_at = now
+    if status in (Status.COMPLETED, Status.DECLINED, Status.CANCELLED):
+        request.finished_at = now
+    log.info("fleet.request.status", request_id=request.id, old=old, new=str(status))
+
+
+def can_serve(robot: Robot) -> bool:
+    """Active, online, not stopped: the seed's "active online robot"."""
+    return (robot.is_active and not robot.is_offline and not robot.maintenance_mode
+            and not robot.emergency_stop)
+
+
+def is_available(robot: Robot) -> bool:
+    return can_serve(robot) and robot.current_request_id is None
+
+
+async def robot_by_name(session: AsyncSession, name: str) -> Robot | None:
+    result = await session.execute(select(Robot).where(Robot.name == name))
+    return result.scalar_one_or_none()
+
+
+async def robot_serving(session: AsyncSession, request: Request) -> Robot | None:
+    """The robot whose current request this is (serving it or bringing it back to base)."""
+    result = await session.execute(select(Robot).where(Robot.current_request_id == request.id))
+    return result.scalar_one_or_none()
+
+
+async def current_request(session: AsyncSession, robot: Robot) -> Request | None:
+    if robot.current_request_id is None:
+        return None
+    return await session.get(Request, robot.current_request_id)
+
+
+def release(robot: Robot) -> None:
+    """The robot is free for the next request (the caller then processes the queue)."""
+    log.info("fleet.robot.released", robot=robot.name, request_id=robot.current_request_id)
+    robot.current_request_id = None
+    robot.is_in_target = False

@@ -1,0 +1,87 @@
+"""Site-wide fleet settings (`PUT /api/settings`), kept in the database so every server process
+of a site sees the same values."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+from sqlalchemy import select
+from sqlalchemy.ext.asyncio import AsyncSession
+
+from fleet.models import Setting
+
+
+class FleetSettings(BaseModel):
+    """Every tunable of the server, with the seed's behaviour as default."""
+
+    model_config = ConfigDict(populate_by_name=True, extra="forbid", frozen=True)
+
+    auto_accept: bool = Field(True, alias="AutoAccept")
+    # Seed section 3: with no available robot, take the least recently assigned busy one.
+    preempt_busy_robot: bool = Field(True, alias="PreemptBusyRobot")
+    accepted_timeout_s: float = Field(600.0, alias="AcceptedTimeoutS", gt=0, le=86400)
+    arrived_timeout_s: float = Field(300.0, alias="ArrivedTimeoutS", gt=0, le=86400)
+    delivery_arrived_timeout_s: float = Field(
+        300.0, alias="DeliveryArrivedTimeoutS", gt=0, le=86400)
+    timeout_check_period_s: float = Field(10.0, alias="TimeoutCheckPeriodS", gt=0, le=3600)
+    offline_after_s: float = Field(30.0, alias="OfflineAfterS", gt=0, le=86400)
+    offline_check_period_s: float = Field(30.0, alias="OfflineCheckPeriodS", gt=0, le=3600)
+    min_weight_kg: float = Field(0.5, alias="MinWeightKg", ge=0, le=1000)
+    max_weight_kg: float = Field(10.0, alias="MaxWeightKg", gt=0, le=1000)
+    require_weight_check: bool = Field(True, alias="RequireWeightCheck")
+    use_floor_color: bool = Field(False, alias="UseFloorColor")
+
+    @model_validator(mode="after")
+    def _weights_ordered(self) -> FleetSettings:
+        if self.min_weight_kg >= self.max_weight_kg:
+            msg = "MinWeightKg must be below MaxWeightKg"
+            raise ValueError(msg)
+        return self
+
+    def public(self) -> dict[str, Any]:
+        return self.model_dump(by_alias=True)
+
+
+class SettingsUpdate(BaseModel):
+    """A partial update: only the keys given change."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    AutoAccept: bool | None = None
+    PreemptBusyRobot: bool | None = None
+    AcceptedTimeoutS: float | None = Field(None, gt=0, le=86400)
+    ArrivedTimeoutS: float | None = Field(None, gt=0, le=86400)
+    DeliveryArrivedTimeoutS: float | None = Field(None, gt=0, le=86400)
+    TimeoutCheckPeriodS: float | None = Field(None, gt=0, le=3600)
+    OfflineAfterS: float | None = Field(None, gt=0, le=86400)
+    OfflineCheckPeriodS: float | None = Field(None, gt=0, le=3600)
+    MinWeightKg: float | None = Field(None, ge=0, le=1000)
+    MaxWeightKg: float | None = Field(None, gt=0, le=1000)
+    RequireWeightCheck: bool | None = None
+    UseFloorColor: bool | None = None
+
+    def given(self) -> dict[str, Any]:
+        return {k: v for k, v in self.model_dump().items() if v is not None}
+
+
+async def load_settings(session: AsyncSession) -> FleetSettings:
+    rows = (await session.execute(select(Setting.key, Setting.value))).all()
+    stored = {key: json.loads(value) for key, value in rows}
+    known = {f.alias for f in FleetSettings.model_fields.values()}
+    return FleetSettings.model_validate({k: v for k, v in stored.items() if k in known})
+
+
+async def store_settings(session: AsyncSession, values: dict[str, Any]) -> FleetSettings:
+    """Validate the merged settings, then write the given keys. Raises ValueError if invalid."""
+    current = (await load_settings(session)).public()
+    merged = FleetSettings.model_validate({**current, **values})
+    for key in values:
+        value = json.dumps(merged.public()[key])
+        row = await session.get(Setting, key)
+        if row is None:
+            session.add(Setting(key=key, value=value))
+        else:
+            row.value = value
+    return merged

@@ -1,0 +1,149 @@
+"""The site file: rooms, beacons, customers, robots and settings of one site, in TOML.
+
+```toml
+[settings]
+AutoAccept = true
+
+[[rooms]]
+name = "Laundry"
+floor_color = "blue"        # optional
+
+[[beacons]]
+mac = "C3:00:00:00:00:01"
+name = "base-1"
+room = "Laundry"
+rssi_threshold_dbm = -65    # optional, default -70
+base = true                 # optional, default false
+
+[[customers]]
+id = 1                      # optional
+name = "Alice"
+beacon = "C3:00:00:00:00:02"   # her room's beacon; optional
+room = "Room 101"              # optional (the beacon's room by default)
+
+[[robots]]
+name = "robot-1"
+```
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+from sqlalchemy.ext.asyncio import AsyncSession
+
+from fleet.errors import FleetError
+from fleet.services import admin
+from fleet.settings import store_settings
+
+_KEYS: dict[str, dict[str, type]] = {
+    "rooms": {"name": str, "floor_color": str},
+    "beacons": {"mac": str, "name": str, "room": str, "rssi_threshold_dbm": int, "base": bool,
+                "active": bool},
+    "customers": {"id": int, "name": str, "beacon": str, "room": str},
+    "robots": {"name": str},
+}
+_REQUIRED: dict[str, set[str]] = {
+    "rooms": {"name"}, "beacons": {"mac", "name", "room"}, "customers": {"name"},
+    "robots": {"name"},
+}
+
+
+class SiteError(ValueError):
+    """A site file that cannot be used; the message names the file and the entry."""
+
+
+@dataclass
+class Site:
+    settings: dict[str, Any] = field(default_factory=dict)
+    rooms: list[dict[str, Any]] = field(default_factory=list)
+    beacons: list[dict[str, Any]] = field(default_factory=list)
+    customers: list[dict[str, Any]] = field(default_factory=list)
+    robots: list[dict[str, Any]] = field(default_factory=list)
+    source: str = "<site>"
+
+
+def parse_site(text: str, source: str = "<site>") -> Site:
+    """Check a site document; raises SiteError naming ``source`` and the bad entry."""
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        msg = f"{source}: {exc}"
+        raise SiteError(msg) from exc
+    site = Site(source=source)
+    for key, value in doc.items():
+        if key == "settings":
+            if not isinstance(value, dict):
+                msg = f"{source}: settings: must be a table"
+                raise SiteError(msg)
+            site.settings = value
+        elif key in _KEYS:
+            setattr(site, key, _entries(source, key, value))
+        else:
+            msg = f"{source}: {key}: unknown section (known: settings, {', '.join(_KEYS)})"
+            raise SiteError(msg)
+    return site
+
+
+def _entries(source: str, section: str, value: Any) -> list[dict[str, Any]]:
+    if not isinstance(value, list):
+        msg = f"{source}: {section}: must be an array of tables ([[{section}]])"
+        raise SiteError(msg)
+    for i, entry in enumerate(value):
+        where = f"{source}: {section}[{i}]"
+        if not isinstance(entry, dict):
+            msg = f"{where}: must be a table"
+            raise SiteError(msg)
+        for key, item in entry.items():
+            want = _KEYS[section].get(key)
+            if want is None:
+                msg = f"{where}.{key}: unknown key (known: {', '.join(_KEYS[section])})"
+                raise SiteError(msg)
+            if not isinstance(item, want) or (want is int and isinstance(item, bool)):
+                msg = f"{where}.{key}: must be {want.__name__}, got {item!r}"
+                raise SiteError(msg)
+        missing = _REQUIRED[section] - entry.keys()
+        if missing:
+            msg = f"{where}: missing {', '.join(sorted(missing))}"
+            raise SiteError(msg)
+    return value
+
+
+def load_site(path: str | Path) -> Site:
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        msg = f"{path}: cannot read: {exc.strerror}"
+        raise SiteError(msg) from exc
+    return parse_site(text, str(path))
+
+
+async def apply_site(session: AsyncSession, now: datetime, site: Site) -> None:
+    """Create or update everything the site names (existing rows stay)."""
+    try:
+        if site.settings:
+            await store_settings(session, site.settings)
+        for room in site.rooms:
+            await admin.put_room(session, room["name"], room.get("floor_color"))
+        for b in site.beacons:
+            await admin.put_beacon(
+                session, mac=b["mac"], name=b["name"], room=b["room"],
+                rssi_threshold_dbm=b.get("rssi_threshold_dbm", -70),
+                is_base=b.get("base", False), is_active=b.get("active", True))
+        for c in site.customers:
+            await admin.put_customer(session, name=c["name"], room=c.get("room"),
+                                     beacon=c.get("beacon"), customer_id=c.get("id"))
+        for r in site.robots:
+            await admin.add_robot(session, now, r["name"], exist_ok=True)
+    except ValidationError as exc:
+        msg = f"{site.source}: settings: {exc.errors()[0]['msg']}"
+        raise SiteError(msg) from exc
+    except FleetError as exc:
+        msg = f"{site.source}: {exc.message}"
+        raise SiteError(msg) from exc

@@ -1,0 +1,1 @@
+"""Example site files for robotd-fleet (package data)."""

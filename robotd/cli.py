@@ -1,0 +1,158 @@
+"""``robotd``: run the service, run the simulator, check a config file, probe a device."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import importlib
+import os
+import sys
+from pathlib import Path
+
+from robotd import __version__
+from robotd.config import ConfigError, Settings, load_config
+from robotd.config.overrides import overrides_path
+from robotd.probes import PROBES
+
+DEFAULT_CONFIG = "/etc/robotd/robotd.toml"
+SCENARIO_HELP = "built-in scenario (laundry, docking, delivery, cabinet, square) or a TOML file"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="robotd", description="An asyncio robot runtime.")
+    parser.add_argument("--version", action="version", version=f"robotd {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    run = sub.add_parser("run", help="run the robot (real hardware); the systemd service")
+    run.add_argument("--config", help=f"config file (default $ROBOTD_CONFIG or {DEFAULT_CONFIG})")
+
+    sim = sub.add_parser("sim", help="run the daemon on the simulator")
+    sim.add_argument("scenario", nargs="?", default="laundry", metavar="SCENARIO",
+                     help=SCENARIO_HELP)
+    sim.add_argument("--config", help="robot config laid over the scenario's")
+    sim.add_argument("--seed", type=int, help="random seed (same seed, same run)")
+    pace = sim.add_mutually_exclusive_group()
+    pace.add_argument("--realtime", action="store_true", help="run against the wall clock")
+    pace.add_argument("--speed", type=float, metavar="X", help="X times faster than real time")
+    sim.add_argument("--socket", help="control socket path (for robotctl)")
+    sim.add_argument("--report", metavar="DIR", help="write events.jsonl and trajectory.png")
+    sim.add_argument("--quiet", action="store_true", help="print only the result")
+    sim.add_argument("--mcu", choices=("fake", "simavr"), default="fake",
+                     help="motor board: the Python fake MCU or the firmware in simavr")
+
+    check = sub.add_parser("check-config", help="check a config file; one line per problem")
+    check.add_argument("path", metavar="PATH")
+
+    probe = sub.add_parser("probe", help="check one real device through its driver",
+                           description="Devices: " + "; ".join(
+                               f"{name}: {what}" for name, (_, what) in PROBES.items()))
+    probe.add_argument("device", choices=sorted(PROBES), metavar="DEVICE",
+                       help=", ".join(sorted(PROBES)))
+    probe.add_argument("options", nargs=argparse.REMAINDER,
+                       help="the device's options (robotd probe DEVICE --help)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    if args.command == "run":
+        return cmd_run(args)
+    if args.command == "sim":
+        return cmd_sim(args)
+    if args.command == "check-config":
+        return cmd_check_config(args)
+    return cmd_probe(args)
+
+
+def cmd_check_config(args: argparse.Namespace) -> int:
+    try:
+        load_config(args.path)
+    except ConfigError as exc:
+        for problem in exc.problems:
+            print(problem)
+        return 2
+    print(f"{args.path}: ok")
+    return 0
+
+
+def cmd_sim(args: argparse.Namespace) -> int:
+    try:
+        sim_runner = importlib.import_module("robotd.sim_runner")
+    except ImportError as exc:
+        print(f"robotd sim: the simulator is not available in this installation ({exc})",
+              file=sys.stderr)
+        return 1
+    code: int = sim_runner.run_sim(args)
+    return code
+
+
+def cmd_probe(args: argparse.Namespace) -> int:
+    module_name, what = PROBES[args.device]
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        print(f"robotd probe: no probe for {args.device!r} in this installation "
+              f"({module_name}: {exc})", file=sys.stderr)
+        return 2
+    parser = argparse.ArgumentParser(prog=f"robotd probe {args.device}", description=what)
+    module.add_arguments(parser)
+    if not any("--json" in action.option_strings for action in parser._actions):
+        parser.add_argument("--json", action="store_true", help="print one JSON object")
+    options = parser.parse_args(args.options)
+    from robotd.logs import configure_logging
+
+    configure_logging("warning")
+    code: int = asyncio.run(module.run(options))
+    return code
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from behaviours.profile import load_profile
+    from hal.ports import system_wall_clock
+    from robotd.daemon import Daemon
+    from robotd.hardware import HardwareMissing, build_devices
+    from robotd.logs import configure_logging
+
+    config_path = Path(args.config or os.environ.get("ROBOTD_CONFIG") or DEFAULT_CONFIG)
+    try:
+        values = load_config(config_path)
+        state_dir = _state_dir(values["robot"]["state_dir"])
+        values = load_config(config_path, overrides=overrides_path(state_dir))
+    except ConfigError as exc:
+        for problem in exc.problems:
+            print(problem, file=sys.stderr)
+        return 2
+    settings = Settings(values, source=str(config_path))
+    configure_logging(settings.get("logging.level"))
+    if settings.get("hal.backend") == "sim":
+        print(f"{config_path}: hal.backend is 'sim': use `robotd sim` for the simulator",
+              file=sys.stderr)
+        return 2
+    try:
+        profile = load_profile(settings.get("robot.profile"))
+    except ValueError as exc:
+        print(f"{config_path}: {exc}", file=sys.stderr)
+        return 2
+    try:
+        devices = build_devices(settings, profile.devices)
+    except HardwareMissing as exc:
+        for missing in exc.problems:
+            print(f"robotd: missing device: {missing}", file=sys.stderr)
+        return 1
+    daemon = Daemon(settings, devices, profile, state_dir=state_dir,
+                    socket_path=settings.get("control.socket"), wall_clock=system_wall_clock,
+                    config_path=config_path)
+    code = asyncio.run(daemon.run())
+    for failure in daemon.start_problems:
+        print(f"robotd: could not start: {failure}", file=sys.stderr)
+    return code
+
+
+def _state_dir(configured: str) -> Path:
+    """systemd's ``$STATE_DIRECTORY`` (first entry) wins over ``robot.state_dir``."""
+    from_systemd = os.environ.get("STATE_DIRECTORY", "").split(":")[0]
+    return Path(from_systemd or configured)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,253 @@
+"""``robotctl``: look at and steer a running robotd through its control socket.
+
+Exit codes: 0 ok, 1 the daemon answered with an error, 2 usage, 3 cannot connect.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import os
+import socket
+import sys
+import time
+from typing import Any, TextIO
+
+DEFAULT_SOCKET = "/run/robotd/control.sock"
+EXIT_OK, EXIT_ERROR, EXIT_USAGE, EXIT_CONNECT = 0, 1, 2, 3
+
+
+class CannotConnect(Exception):
+    pass
+
+
+class DaemonError(Exception):
+    def __init__(self, error: dict[str, Any]) -> None:
+        self.error = error
+        super().__init__(error.get("message", "error"))
+
+
+class Connection:
+    """A blocking JSON-RPC client over the Unix socket (robotctl is a short-lived process)."""
+
+    def __init__(self, path: str, timeout_s: float) -> None:
+        self.path = path
+        self._ids = itertools.count(1)
+        self._sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        self._sock.settimeout(timeout_s)
+        try:
+            self._sock.connect(path)
+        except FileNotFoundError:
+            raise CannotConnect(f"no control socket at {path}: is robotd running? "
+                                "(systemctl status robotd; or give --socket PATH)") from None
+        except PermissionError:
+            raise CannotConnect(f"permission denied on {path}: the socket is mode 0660; run "
+                                "as the robot user or a member of its group, or use sudo") from None
+        except ConnectionRefusedError:
+            raise CannotConnect(f"nothing listens on {path}: robotd is not running (a stale "
+                                "socket left by a crash?)") from None
+        except OSError as exc:
+            raise CannotConnect(f"cannot connect to {path}: {exc}") from None
+        self._file = self._sock.makefile("rb")
+
+    def call(self, method: str, params: dict[str, Any] | None = None) -> Any:
+        request_id = next(self._ids)
+        message = {"jsonrpc": "2.0", "id": request_id, "method": method, "params": params or {}}
+        try:
+            self._sock.sendall(json.dumps(message).encode() + b"\n")
+            while True:
+                line = self._file.readline()
+                if not line:
+                    raise CannotConnect(f"robotd closed the connection on {self.path}")
+                reply = json.loads(line)
+                if reply.get("id") == request_id:
+                    break
+        except TimeoutError:
+            raise CannotConnect(f"robotd did not answer {method!r} in time") from None
+        except OSError as exc:
+            raise CannotConnect(f"connection to {self.path} failed: {exc}") from None
+        if "error" in reply:
+            raise DaemonError(reply["error"])
+        return reply.get("result")
+
+    def close(self) -> None:
+        self._file.close()
+        self._sock.close()
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="robotctl", description="Steer a running robotd.")
+    parser.add_argument("--socket", default=os.environ.get("ROBOTD_SOCKET", DEFAULT_SOCKET),
+                        help=f"control socket (default $ROBOTD_SOCKET or {DEFAULT_SOCKET})")
+    parser.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    parser.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for answers")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub.add_parser("status", help="state, estop, uptime, services, loop lag")
+    sub.add_parser("sensors", help="each device's figures (link statistics ...)")
+    events = sub.add_parser("events", help="recent events")
+    events.add_argument("--limit", type=int, default=20)
+    events.add_argument("--kind", help="only events of this kind (transition, service ...)")
+    watch = sub.add_parser("watch", help="a live view that refreshes in place (Ctrl-C ends)")
+    watch.add_argument("--interval", type=float, default=1.0, help="seconds between refreshes")
+    tune = sub.add_parser("tune", help="read or set a setting live")
+    tune_sub = tune.add_subparsers(dest="tune_command", required=True, metavar="get|set")
+    get = tune_sub.add_parser("get", help="tune get KEY")
+    get.add_argument("key", metavar="KEY", help="section.key, e.g. line_follow.kp")
+    tset = tune_sub.add_parser("set", help="tune set KEY VALUE [--persist]")
+    tset.add_argument("key", metavar="KEY")
+    tset.add_argument("value", metavar="VALUE")
+    tset.add_argument("--persist", action="store_true",
+                      help="also keep it across restarts (overrides file in the state dir)")
+    sub.add_parser("reload", help="read the config file again (kept if the new one is bad)")
+    estop = sub.add_parser("estop", help="emergency stop: motors stopped, state estop")
+    estop.add_argument("--reason", default="robotctl estop")
+    sub.add_parser("resume", help="leave estop for idle")
+    trigger = sub.add_parser("trigger", help="fire a state machine trigger (e.g. go_dock)")
+    trigger.add_argument("name", metavar="NAME")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        conn = Connection(args.socket, args.timeout)
+    except CannotConnect as exc:
+        print(f"robotctl: {exc}", file=sys.stderr)
+        return EXIT_CONNECT
+    try:
+        if args.command == "watch":
+            return watch(conn, args.interval, sys.stdout)
+        method, params = _request(args)
+        result = conn.call(method, params)
+        if args.json:
+            print(json.dumps(result, indent=2, default=str))
+        else:
+            print(render(args.command, result), end="")
+        return EXIT_OK
+    except DaemonError as exc:
+        _print_error(exc, args.json)
+        return EXIT_ERROR
+    except CannotConnect as exc:
+        print(f"robotctl: {exc}", file=sys.stderr)
+        return EXIT_CONNECT
+    except KeyboardInterrupt:
+        return EXIT_OK
+    finally:
+        conn.close()
+
+
+def _request(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
+    if args.command == "events":
+        params: dict[str, Any] = {"limit": args.limit}
+        if args.kind:
+            params["kind"] = args.kind
+        return "events", params
+    if args.command == "tune":
+        if args.tune_command == "get":
+            return "tune.get", {"key": args.key}
+        return "tune.set", {"key": args.key, "value": args.value, "persist": args.persist}
+    if args.command == "estop":
+        return "estop", {"reason": args.reason}
+    if args.command == "trigger":
+        return "trigger", {"name": args.name}
+    return args.command, {}
+
+
+def _print_error(exc: DaemonError, as_json: bool) -> None:
+    if as_json:
+        print(json.dumps({"error": exc.error}, indent=2))
+        return
+    print(f"robotctl: robotd refused: {exc.error.get('message')}", file=sys.stderr)
+    data = exc.error.get("data")
+    if isinstance(data, dict):
+        for problem in data.get("problems", []):
+            print(f"  {problem}", file=sys.stderr)
+
+
+def watch(conn: Connection, interval_s: float, out: TextIO) -> int:
+    """Redraw status, sensors and the last events every ``interval_s`` until Ctrl-C."""
+    in_place = out.isatty()
+    try:
+        while True:
+            status = conn.call("status")
+            sensors = conn.call("sensors")
+            events = conn.call("events", {"limit": 8})
+            screen = (render("status", status) + "\n" + render("sensors", sensors) + "\n"
+                      + render("events", events))
+            if in_place:
+                out.write("\x1b[H\x1b[2J")  # cursor home, clear screen
+            else:
+                out.write(f"--- {time.strftime('%H:%M:%S')}\n")
+            out.write(screen)
+            out.flush()
+            time.sleep(interval_s)
+    except KeyboardInterrupt:
+        return EXIT_OK
+
+
+def render(command: str, result: Any) -> str:
+    """Readable text for a command's result."""
+    if command == "status":
+        return _render_status(result)
+    if command == "sensors":
+        return _render_sensors(result)
+    if command == "events":
+        rows = [[f"{e.get('t', 0):.3f}", str(e.get("kind", "")),
+                 " ".join(f"{k}={_short(v)}" for k, v in e.items() if k not in ("t", "kind"))]
+                for e in result]
+        return table(["t_s", "kind", "details"], rows) if rows else "no events\n"
+    if command == "tune":
+        suffix = " (persisted)" if result.get("persisted") else ""
+        return f"{result['key']} = {json.dumps(result['value'])}{suffix}\n"
+    if isinstance(result, dict):
+        return table(["key", "value"], [[k, _short(v)] for k, v in result.items()])
+    return f"{result}\n"
+
+
+def _render_status(s: dict[str, Any]) -> str:
+    lag = s.get("loop_lag_ms", {})
+    head: list[list[Any]] = [
+        ["robot", s.get("robot")], ["profile", s.get("profile")], ["state", s.get("state")],
+        ["estop", "YES" if s.get("estop") else "no"], ["uptime", f"{s.get('uptime_s', 0):.1f} s"],
+        ["link", s.get("link") or "-"],
+        ["loop lag", f"p50 {lag.get('p50_ms', 0):.2f} ms, p99 {lag.get('p99_ms', 0):.2f} ms, "
+                     f"max {lag.get('max_ms', 0):.2f} ms"],
+        ["triggers", ", ".join(s.get("triggers", []))], ["config", s.get("config")],
+    ]
+    services = [[v["name"], v["state"], "yes" if v["critical"] else "no", v["restarts"],
+                 v.get("last_error") or ""] for v in s.get("services", [])]
+    return (table(["key", "value"], head) + "\n"
+            + table(["service", "state", "critical", "restarts", "last error"], services))
+
+
+def _render_sensors(result: dict[str, Any]) -> str:
+    rows: list[list[Any]] = []
+    for device, figures in result.get("devices", {}).items():
+        for key, value in figures.items():
+            if isinstance(value, dict):
+                rows += [[device, f"{key}.{k}", _short(v)] for k, v in value.items()]
+            else:
+                rows.append([device, key, _short(value)])
+    return table(["device", "figure", "value"], rows) if rows else "no devices\n"
+
+
+def table(headers: list[str], rows: list[list[Any]]) -> str:
+    cells = [[str(c) for c in row] for row in rows]
+    widths = [max(len(h), *(len(r[i]) for r in cells)) if cells else len(h)
+              for i, h in enumerate(headers)]
+    lines = ["  ".join(h.upper().ljust(w) for h, w in zip(headers, widths, strict=True))]
+    lines += ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)) for r in cells]
+    return "\n".join(line.rstrip() for line in lines) + "\n"
+
+
+def _short(value: Any) -> str:
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    if isinstance(value, dict | list):
+        return json.dumps(value, default=str)
+    return str(value)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,118 @@
+"""Builds the real devices a robot needs from its config; one clear line per missing device.
+
+Each kind of hardware has a cheap check that runs first (does the serial port exist, is there a
+camera, a Bluetooth adapter, a GPIO chip) and a driver factory imported only when needed:
+``drivers.<module>.from_settings(settings)`` returns the device object.
+"""
+
+from __future__ import annotations
+
+import glob
+import importlib
+import os
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+
+from hal.backend import Devices
+from robotd.config.settings import Settings
+
+Check = Callable[[Settings], str | None]
+
+
+class HardwareMissing(Exception):
+    """Devices the robot needs are not there; ``problems`` holds one line per device."""
+
+    def __init__(self, problems: list[str]) -> None:
+        self.problems = problems
+        super().__init__("\n".join(problems))
+
+
+@dataclass(frozen=True, slots=True)
+class Hardware:
+    """One piece of hardware: the ``Devices`` slots it fills, a check, its driver factory."""
+
+    slots: tuple[str, ...]
+    check: Check
+    factory: str
+    """``module:function`` called with the settings."""
+
+
+def _serial_check(settings: Settings) -> str | None:
+    port = str(settings.get("serial.port"))
+    if not Path(port).exists():
+        return (f"serial port {port} does not exist (check serial.port, the USB cable, and "
+                "ls /dev/ttyACM* /dev/ttyUSB*)")
+    if not os.access(port, os.R_OK | os.W_OK):
+        return f"no permission to open {port} (is the user in the dialout group?)"
+    return None
+
+
+def _any_path(pattern: str, what: str) -> Check:
+    def check(_settings: Settings) -> str | None:
+        return None if glob.glob(pattern) else f"no {what} found ({pattern})"
+    return check
+
+
+HARDWARE: dict[str, Hardware] = {
+    "arduino": Hardware(("motors", "encoders", "front_range", "battery", "servo", "leds"),
+                        _serial_check, "drivers.arduino:from_settings"),
+    "camera": Hardware(("camera",), _any_path("/dev/video*", "camera"),
+                       "drivers.camera:from_settings"),
+    "ble": Hardware(("beacons",), _any_path("/sys/class/bluetooth/hci*", "Bluetooth adapter"),
+                    "drivers.ble_scanner:from_settings"),
+    "hx711": Hardware(("load_cell",), _any_path("/dev/gpiochip*", "GPIO chip"),
+                      "drivers.hx711:from_settings"),
+    "dock_ir": Hardware(("dock_ir",), _any_path("/dev/gpiochip*", "GPIO chip"),
+                        "drivers.dock_ir:from_settings"),
+    "lidar": Hardware(("lidar",), lambda _s: None, "drivers.lidar:from_settings"),
+    "audio": Hardware(("audio",), _any_path("/dev/snd/pcm*", "sound card"),
+                      "drivers.audio:from_settings"),
+}
+SLOTS = tuple(f.name for f in fields(Devices))
+
+
+def needed_slots(settings: Settings, profile_devices: Iterable[str]) -> list[str]:
+    """The profile's device slots plus ``hal.devices``, in slot order, each once."""
+    wanted = set(profile_devices) | set(settings.get("hal.devices"))
+    return [s for s in SLOTS if s in wanted] + sorted(wanted - set(SLOTS))
+
+
+def build_devices(settings: Settings, profile_devices: Iterable[str]) -> Devices:
+    """Check and construct (not open) each needed device; HardwareMissing lists what lacks."""
+    devices = Devices()
+    problems: list[str] = []
+    wanted: dict[str, list[str]] = {}
+    for slot in needed_slots(settings, profile_devices):
+        name = next((n for n, hw in HARDWARE.items() if slot in hw.slots), None)
+        if name is None:
+            problems.append(f"hal.devices: unknown device {slot!r} (known: {', '.join(SLOTS)})")
+        else:
+            wanted.setdefault(name, []).append(slot)
+    for name, slots in wanted.items():
+        device = _construct(HARDWARE[name], settings)
+        if isinstance(device, str):
+            problems.append(f"{', '.join(slots)} ({name}): {device}")
+            continue
+        for filled in HARDWARE[name].slots:
+            setattr(devices, filled, device)
+    if problems:
+        raise HardwareMissing(problems)
+    return devices
+
+
+def _construct(hardware: Hardware, settings: Settings) -> Any:
+    """The device, or a string saying why it cannot be had."""
+    why = hardware.check(settings)
+    if why is not None:
+        return why
+    module_name, _, function = hardware.factory.partition(":")
+    try:
+        factory = getattr(importlib.import_module(module_name), function)
+    except (ImportError, AttributeError):
+        return f"this installation has no driver for it ({hardware.factory} is missing)"
+    try:
+        return factory(settings)
+    except Exception as exc:  # a driver refusing its settings: say so on one line
+        return f"the driver refused its settings: {exc}"

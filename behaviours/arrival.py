@@ -1,0 +1,82 @@
+"""Arrival (seed 000 sections 4 and 8): ``IsInTarget`` from navigation-target beacon RSSI.
+
+The seed reports arrival when a navigation-target beacon's RSSI is at or above its threshold.
+A bare comparison toggles with every few dB of noise near the threshold, so the decision has
+hysteresis: a beacon counts as reached once its smoothed RSSI is at or above
+``threshold + enter_margin_db`` and stops counting once it falls below
+``threshold - exit_margin_db`` (or the beacon is lost, or stops being a target).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import structlog
+
+from behaviours.beacons import BeaconTracker
+
+log = structlog.get_logger(__name__)
+
+
+class Arrival:
+    """Decides ``IsInTarget`` from a ``BeaconTracker``.
+
+    Args:
+        tracker: the tracked beacons with the server's configuration applied.
+        enter_margin_db, exit_margin_db: the hysteresis band around each beacon's threshold.
+        default_threshold_dbm: for a target beacon whose configuration has no threshold.
+    """
+
+    def __init__(self, tracker: BeaconTracker, *, enter_margin_db: float = 0.0,
+                 exit_margin_db: float = 3.0, default_threshold_dbm: float = -70.0) -> None:
+        self.tracker = tracker
+        self.enter_margin_db = enter_margin_db
+        self.exit_margin_db = exit_margin_db
+        self.default_threshold_dbm = default_threshold_dbm
+        self._reached: set[str] = set()
+        self._in_target = False
+        self._listeners: list[Callable[[bool], None]] = []
+        self.changes = 0
+
+    @property
+    def is_in_target(self) -> bool:
+        return self._in_target
+
+    @property
+    def reached(self) -> list[str]:
+        """MACs of the target beacons currently counted as reached."""
+        return sorted(self._reached)
+
+    def on_change(self, callback: Callable[[bool], None]) -> None:
+        self._listeners.append(callback)
+
+    def update(self) -> bool:
+        """Re-evaluate from the tracker's current state; returns ``IsInTarget``."""
+        reached: set[str] = set()
+        for b in self.tracker.tracked():
+            config = b.config
+            if config is None or not config.is_navigation_target:
+                continue
+            threshold = config.rssi_threshold_dbm
+            if threshold is None:
+                threshold = self.default_threshold_dbm
+            rssi = b.smoothed_rssi_dbm
+            was_reached = b.mac in self._reached
+            if (was_reached and rssi >= threshold - self.exit_margin_db) or (
+                    not was_reached and rssi >= threshold + self.enter_margin_db):
+                reached.add(b.mac)
+        self._reached = reached
+        in_target = bool(reached)
+        if in_target != self._in_target:
+            self._in_target = in_target
+            self.changes += 1
+            log.info("arrival.entered" if in_target else "arrival.left",
+                     beacons=sorted(reached))
+            for callback in list(self._listeners):
+                callback(in_target)
+        return in_target
+
+    def status(self) -> dict[str, Any]:
+        return {"is_in_target": self._in_target, "reached": self.reached,
+                "changes": self.changes}

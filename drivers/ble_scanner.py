@@ -1,0 +1,267 @@
+"""iBeacon scanner on bleak: parses Apple iBeacon adverts and keeps the scan alive.
+
+bleak's ``BleakScanner`` calls our detection callback on the event loop for every advert. We
+parse the manufacturer data, filter by proximity UUID and hand ``BeaconSighting`` objects to
+the listeners. A watchdog restarts the scan with backoff when the adapter stops delivering
+adverts or BlueZ refuses (``org.bluez.Error.InProgress``, adapter powered off).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import uuid as uuidlib
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import structlog
+from bleak import BleakScanner
+from bleak.args.bluez import BlueZScannerArgs
+from bleak.backends.device import BLEDevice
+from bleak.backends.scanner import AdvertisementData, AdvertisementDataCallback
+from bleak.exc import BleakError
+
+from hal.devices import DeviceUnavailable
+from hal.readings import BeaconSighting
+
+log = structlog.get_logger(__name__)
+
+APPLE_COMPANY_ID = 0x004C
+IBEACON_TYPE = 0x02
+IBEACON_LENGTH = 0x15  # 21 bytes follow: UUID 16, major 2, minor 2, measured power 1
+IBEACON_PAYLOAD_BYTES = 2 + IBEACON_LENGTH
+
+
+class MalformedAdvert(ValueError):
+    """An advert claims to be an iBeacon but its bytes do not fit the layout."""
+
+
+@dataclass(frozen=True, slots=True)
+class IBeaconFrame:
+    uuid: str
+    major: int
+    minor: int
+    tx_power_dbm: int
+
+
+def parse_ibeacon(manufacturer_data: Mapping[int, bytes]) -> IBeaconFrame | None:
+    """The iBeacon in an advert's manufacturer data, or None when it carries no iBeacon.
+
+    Raises MalformedAdvert when Apple data starts like an iBeacon (0x02 0x15) but is short.
+    """
+    data = manufacturer_data.get(APPLE_COMPANY_ID)
+    if data is None:
+        return None
+    if len(data) < 2 or data[0] != IBEACON_TYPE:
+        return None  # another Apple format (0x10 Nearby Info, 0x12 Find My, ...)
+    if data[1] != IBEACON_LENGTH or len(data) < IBEACON_PAYLOAD_BYTES:
+        msg = f"iBeacon payload: expected 23 bytes with length byte 0x15, got {data.hex()}"
+        raise MalformedAdvert(msg)
+    return IBeaconFrame(
+        uuid=str(uuidlib.UUID(bytes=bytes(data[2:18]))),
+        major=int.from_bytes(data[18:20], "big"),
+        minor=int.from_bytes(data[20:22], "big"),
+        tx_power_dbm=int.from_bytes(data[22:23], "big", signed=True),
+    )
+
+
+def build_ibeacon(uuid: str, major: int, minor: int, tx_power_dbm: int) -> bytes:
+    """Apple manufacturer data (after the company id) for an iBeacon; inverse of parse."""
+    return (bytes((IBEACON_TYPE, IBEACON_LENGTH)) + uuidlib.UUID(uuid).bytes
+            + major.to_bytes(2, "big") + minor.to_bytes(2, "big")
+            + tx_power_dbm.to_bytes(1, "big", signed=True))
+
+
+def normalise_uuid(text: str) -> str:
+    """Canonical lowercase dashed form; ValueError names the bad text."""
+    try:
+        return str(uuidlib.UUID(text))
+    except ValueError:
+        msg = f"not a UUID: {text!r}"
+        raise ValueError(msg) from None
+
+
+class Scanner(Protocol):
+    """What we need of ``bleak.BleakScanner``."""
+
+    async def start(self) -> None: ...
+    async def stop(self) -> None: ...
+
+
+ScannerFactory = Callable[[AdvertisementDataCallback], Scanner]
+
+
+def bleak_scanner_factory(adapter: str = "") -> ScannerFactory:
+    """Builds real ``BleakScanner`` objects (BlueZ on Linux) for the given adapter."""
+
+    def make(callback: AdvertisementDataCallback) -> Scanner:
+        # BlueZ drops repeated identical adverts unless DuplicateData is set; RSSI smoothing
+        # wants every one of them.
+        bluez: BlueZScannerArgs = {"filters": {"DuplicateData": True}}
+        if adapter:
+            bluez["adapter"] = adapter
+        return BleakScanner(detection_callback=callback, bluez=bluez)
+
+    return make
+
+
+def describe_error(exc: BaseException) -> str:
+    """One line for logs and status: the D-Bus error name when there is one."""
+    dbus_error = getattr(exc, "dbus_error", None)
+    if dbus_error:
+        return f"{dbus_error}: {exc}"
+    return f"{type(exc).__name__}: {exc}"
+
+
+# What a failing start or stop can raise: bleak's errors, D-Bus socket errors, timeouts.
+SCAN_ERRORS = (BleakError, OSError, asyncio.TimeoutError, EOFError)
+
+
+class BleBeaconScanner:
+    """``hal.devices.BeaconScanner`` on bleak, with a watchdog that restarts a dead scan.
+
+    Args:
+        uuids: proximity UUIDs to report; empty reports every iBeacon.
+        scanner_factory: builds a scanner around our callback; the simulator passes one whose
+            ``BleakScanner`` has a simulated backend.
+        stall_timeout_s: no advert at all for this long counts as a stalled adapter.
+        restart_base_s, restart_max_s: restart backoff, doubling up to the cap.
+    """
+
+    def __init__(self, uuids: Iterable[str] = (), *,
+                 scanner_factory: ScannerFactory | None = None, name: str = "ble",
+                 stall_timeout_s: float = 10.0, restart_base_s: float = 0.5,
+                 restart_max_s: float = 30.0, start_timeout_s: float = 10.0) -> None:
+        self.name = name
+        self._uuids = frozenset(normalise_uuid(u) for u in uuids)
+        self._factory = scanner_factory or bleak_scanner_factory()
+        self.stall_timeout_s = stall_timeout_s
+        self._restart_base_s = restart_base_s
+        self._restart_max_s = restart_max_s
+        self._start_timeout_s = start_timeout_s
+        self._callbacks: list[Callable[[BeaconSighting], None]] = []
+        self._scanner: Scanner | None = None
+        self._watchdog: asyncio.Task[None] | None = None
+        self._last_advert_s = 0.0
+        self._backoff_s = restart_base_s
+        self._alive_since_restart = True
+        self.counts = dict.fromkeys(("adverts", "sightings", "not_ibeacon", "malformed",
+                                     "other_uuid", "callback_errors", "restarts",
+                                     "scan_errors"), 0)
+        self.last_error: str | None = None
+        self.last_sighting: BeaconSighting | None = None
+
+    # --- BeaconScanner ----------------------------------------------------------------------
+    def on_sighting(self, callback: Callable[[BeaconSighting], None]) -> None:
+        self._callbacks.append(callback)
+
+    async def start(self) -> None:
+        if self._watchdog is not None:
+            return
+        try:
+            await self._start_scanner()
+        except SCAN_ERRORS as exc:
+            msg = (f"{self.name}: cannot start the BLE scan ({describe_error(exc)}); check that "
+                   "bluetoothd runs and the adapter is powered (bluetoothctl show)")
+            raise DeviceUnavailable(msg) from exc
+        self._watchdog = asyncio.create_task(self._watch(), name=f"{self.name}.watchdog")
+
+    async def stop(self) -> None:
+        task, self._watchdog = self._watchdog, None
+        if task is not None:
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+        await self._stop_scanner()
+
+    def status(self) -> dict[str, Any]:
+        now = asyncio.get_running_loop().time()
+        return {
+            **self.counts,
+            "scanning": self._scanner is not None,
+            "uuids": sorted(self._uuids),
+            "last_advert_age_s": round(now - self._last_advert_s, 3),
+            "backoff_s": self._backoff_s,
+            "last_error": self.last_error,
+        }
+
+    # --- adverts ----------------------------------------------------------------------------
+    def _on_advert(self, device: BLEDevice, adv: AdvertisementData) -> None:
+        """bleak's detection callback: runs on the event loop, must never raise into bleak."""
+        self.counts["adverts"] += 1
+        now = asyncio.get_running_loop().time()
+        self._last_advert_s = now
+        if not self._alive_since_restart:
+            self._alive_since_restart = True
+            self._backoff_s = self._restart_base_s
+        try:
+            frame = parse_ibeacon(adv.manufacturer_data)
+        except (MalformedAdvert, TypeError, AttributeError, ValueError) as exc:
+            self.counts["malformed"] += 1
+            log.debug("ble.malformed", mac=getattr(device, "address", "?"), error=str(exc))
+            return
+        if frame is None:
+            self.counts["not_ibeacon"] += 1
+            return
+        if self._uuids and frame.uuid not in self._uuids:
+            self.counts["other_uuid"] += 1
+            return
+        sighting = BeaconSighting(mac=str(device.address).upper(), uuid=frame.uuid,
+                                  major=frame.major, minor=frame.minor, rssi_dbm=int(adv.rssi),
+                                  tx_power_dbm=frame.tx_power_dbm, t_s=now)
+        self.counts["sightings"] += 1
+        self.last_sighting = sighting
+        for callback in list(self._callbacks):
+            try:
+                callback(sighting)
+            except Exception:
+                self.counts["callback_errors"] += 1
+                log.exception("ble.callback_failed", mac=sighting.mac)
+
+    # --- scanner lifecycle ------------------------------------------------------------------
+    async def _start_scanner(self) -> None:
+        scanner = self._factory(self._on_advert)
+        await asyncio.wait_for(scanner.start(), self._start_timeout_s)
+        self._scanner = scanner
+        self._last_advert_s = asyncio.get_running_loop().time()
+        log.info("ble.scanning", uuids=len(self._uuids))
+
+    async def _stop_scanner(self) -> None:
+        scanner, self._scanner = self._scanner, None
+        if scanner is None:
+            return
+        try:
+            await asyncio.wait_for(scanner.stop(), self._start_timeout_s)
+        except SCAN_ERRORS as exc:
+            # BlueZ may answer StopDiscovery with InProgress after the session is gone.
+            log.info("ble.stop_failed", error=describe_error(exc))
+
+    async def _watch(self) -> None:
+        loop = asyncio.get_running_loop()
+        check_s = min(1.0, self.stall_timeout_s / 4)
+        while True:
+            await asyncio.sleep(check_s)
+            silent_s = loop.time() - self._last_advert_s
+            if self._scanner is not None and silent_s < self.stall_timeout_s:
+                continue
+            if self._scanner is not None:
+                log.warning("ble.stalled", silent_s=round(silent_s, 1))
+            await self._restart()
+
+    async def _restart(self) -> None:
+        """Stop, wait the backoff, start again; the backoff grows until adverts flow again."""
+        await self._stop_scanner()
+        delay_s = self._backoff_s
+        self._backoff_s = min(self._restart_max_s, self._backoff_s * 2)
+        await asyncio.sleep(delay_s)
+        self.counts["restarts"] += 1
+        try:
+            await self._start_scanner()
+        except SCAN_ERRORS as exc:
+            self.counts["scan_errors"] += 1
+            self.last_error = describe_error(exc)
+            log.warning("ble.restart_failed", error=self.last_error, next_try_s=self._backoff_s)
+            return
+        self._alive_since_restart = False
+        log.info("ble.restarted", restarts=self.counts["restarts"], after_s=delay_s)

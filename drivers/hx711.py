@@ -1,0 +1,281 @@
+"""HX711 load-cell ADC, bit-banged through ``hal.ports.Hx711Lines``.
+
+Protocol (Avia HX711 datasheet): DOUT goes low when a conversion is ready; each PD_SCK pulse
+shifts out one bit, MSB first, 24 bits of two's complement; 1, 2 or 3 extra pulses (25/26/27 in
+total) select channel A gain 128, channel B gain 32 or channel A gain 64 for the NEXT
+conversion. PD_SCK held high for more than 60 us powers the chip down, so a read during which
+any pulse stayed high that long is discarded. The clocking is synchronous (microsecond timing
+cannot yield to the event loop); the wait for data-ready is asynchronous.
+
+Filtering (seed 000 section 11): saturated codes rejected, a reading far from the median of
+the recent ones rejected, then a moving average; kg = (average - tare_offset) / factor.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import statistics
+from collections import deque
+from collections.abc import Callable
+from enum import Enum
+from typing import Any
+
+import structlog
+
+from hal.devices import DeviceUnavailable
+from hal.latest import LatestValue
+from hal.ports import Hx711Lines
+from hal.readings import WeightReading
+
+log = structlog.get_logger(__name__)
+
+MAX_SCK_HIGH_US = 60  # HX711: PD_SCK high for > 60 us enters power-down
+SATURATED_HIGH = 0x7FFFFF
+SATURATED_LOW = -0x800000
+POLL_S = 0.002
+
+
+class Gain(Enum):
+    """Channel and gain, with the total number of clock pulses per read that selects it."""
+
+    A128 = 25
+    B32 = 26
+    A64 = 27
+
+    @property
+    def pulses(self) -> int:
+        return self.value
+
+
+class ReadDiscarded(Exception):
+    """A read whose bits cannot be trusted; ``reason`` says why."""
+
+    def __init__(self, reason: str, detail: str = "") -> None:
+        super().__init__(f"{reason}: {detail}" if detail else reason)
+        self.reason = reason
+
+
+def to_signed24(raw: int) -> int:
+    """Two's complement of a 24-bit code."""
+    raw &= 0xFFFFFF
+    return raw - (1 << 24) if raw & 0x800000 else raw
+
+
+def clock_out(lines: Hx711Lines, gain: Gain) -> int:
+    """Shift one conversion out (DOUT must already be low); returns the signed code.
+
+    Raises ReadDiscarded("sck_high") when a pulse stayed high beyond 60 us, and
+    ReadDiscarded("saturated") for the codes the chip gives when the input is out of range.
+    """
+    raw = 0
+    longest_us = 0
+    for i in range(gain.pulses):
+        t0 = lines.now_us()
+        lines.set_sck(True)
+        lines.set_sck(False)
+        longest_us = max(longest_us, lines.now_us() - t0)
+        if i < 24:
+            # DOUT changes on the rising edge and holds until the next one.
+            raw = (raw << 1) | int(lines.read_dout())
+    if longest_us > MAX_SCK_HIGH_US:
+        raise ReadDiscarded("sck_high", f"a clock pulse lasted {longest_us} us")
+    code = to_signed24(raw)
+    if code in (SATURATED_HIGH, SATURATED_LOW):
+        raise ReadDiscarded("saturated", f"code {raw:06X}")
+    return code
+
+
+class OutlierFilter:
+    """Median-based rejection followed by a moving average of the accepted codes."""
+
+    def __init__(self, median_window: int = 5, average_window: int = 8,
+                 outlier_counts: float = 100_000) -> None:
+        self._recent: deque[int] = deque(maxlen=median_window)
+        self._accepted: deque[int] = deque(maxlen=average_window)
+        self.outlier_counts = outlier_counts
+
+    @property
+    def window(self) -> int:
+        return self._accepted.maxlen or 1
+
+    def resize(self, average_window: int) -> None:
+        self._accepted = deque(self._accepted, maxlen=average_window)
+
+    def add(self, code: int) -> bool:
+        """Feed a code; False when it was rejected as an outlier."""
+        # Every code enters the median window, so a real step change is accepted once it holds
+        # for half the window.
+        self._recent.append(code)
+        median = statistics.median(self._recent)
+        if len(self._recent) >= 3 and abs(code - median) > self.outlier_counts:
+            return False
+        self._accepted.append(code)
+        return True
+
+    def average(self) -> float | None:
+        return sum(self._accepted) / len(self._accepted) if self._accepted else None
+
+    def clear(self) -> None:
+        self._recent.clear()
+        self._accepted.clear()
+
+
+class Hx711:
+    """``hal.devices.LoadCell`` on an HX711.
+
+    Args:
+        open_lines: opens the two GPIO lines (raises DeviceUnavailable when it cannot).
+        gain: channel and gain; sps: the rate the RATE pin selects (10 or 80).
+        tare_offset: raw code of the empty bin; calibration_factor: raw counts per kg.
+    """
+
+    def __init__(self, open_lines: Callable[[], Hx711Lines], *, name: str = "hx711",
+                 gain: Gain = Gain.A128, sps: int = 10, tare_offset: int = 0,
+                 calibration_factor: float = 107374.0, average_window: int = 8,
+                 median_window: int = 5, outlier_kg: float = 1.0,
+                 timeout_s: float = 1.0) -> None:
+        if calibration_factor == 0:
+            msg = "hx711.calibration_factor must not be 0"
+            raise ValueError(msg)
+        self.name = name
+        self._open_lines = open_lines
+        self.gain = gain
+        self.period_s = 1.0 / sps
+        self.tare_offset = tare_offset
+        self.calibration_factor = calibration_factor
+        self.timeout_s = timeout_s
+        self._outlier_kg = outlier_kg
+        self.filter = OutlierFilter(median_window, average_window,
+                                    outlier_kg * abs(calibration_factor))
+        self._lines: Hx711Lines | None = None
+        self._task: asyncio.Task[None] | None = None
+        self._latest: LatestValue[WeightReading] = LatestValue()
+        self._discard_next = 1
+        self.counts = dict.fromkeys(("reads", "accepted", "sck_high", "saturated", "outliers",
+                                     "timeouts", "settling"), 0)
+
+    # --- LoadCell ---------------------------------------------------------------------------
+    async def start(self) -> None:
+        if self._task is not None:
+            return
+        self._lines = self._open_lines()
+        self._lines.set_sck(False)  # power up (PD_SCK low)
+        self._discard_next = 1
+        if not await self._wait_ready(max(self.timeout_s, 4 * self.period_s)):
+            await self.stop()
+            msg = (f"{self.name}: DOUT never went low (no conversion ready); check power, "
+                   "wiring and the data/clock GPIO numbers")
+            raise DeviceUnavailable(msg)
+        self._task = asyncio.create_task(self._run(), name=f"{self.name}.reader")
+
+    async def stop(self) -> None:
+        task, self._task = self._task, None
+        if task is not None:
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+        lines, self._lines = self._lines, None
+        if lines is not None:
+            lines.set_sck(True)  # leave it powered down
+            close = getattr(lines, "close", None)
+            if callable(close):
+                close()
+
+    def latest(self) -> WeightReading | None:
+        return self._latest.latest()
+
+    async def next_reading(self) -> WeightReading:
+        return await self._latest.next()
+
+    async def tare(self) -> None:
+        """Make the current load zero: a fresh moving-average window becomes ``tare_offset``."""
+        self.tare_offset = round(await self.average_raw())
+        log.info("hx711.tared", tare_offset=self.tare_offset)
+
+    async def calibrate(self, known_kg: float) -> float:
+        """With ``known_kg`` on the tared cell, set and return the counts per kg."""
+        if known_kg <= 0:
+            msg = f"known weight must be > 0 kg, got {known_kg}"
+            raise ValueError(msg)
+        factor = (await self.average_raw() - self.tare_offset) / known_kg
+        if abs(factor) < 1:
+            msg = "the reading did not change with the known weight; is it on the cell?"
+            raise ValueError(msg)
+        self.set_calibration_factor(factor)
+        log.info("hx711.calibrated", calibration_factor=round(factor, 3), known_kg=known_kg)
+        return factor
+
+    def set_calibration_factor(self, factor: float) -> None:
+        if factor == 0:
+            msg = "hx711.calibration_factor must not be 0"
+            raise ValueError(msg)
+        self.calibration_factor = factor
+        self.filter.outlier_counts = self._outlier_kg * abs(factor)
+
+    async def average_raw(self) -> float:
+        """Mean raw code over a fresh, full moving-average window."""
+        self.filter.clear()
+        for _ in range(self.filter.window):
+            reading = await self.next_reading()
+        average = self.filter.average()
+        return float(reading.raw) if average is None else average
+
+    def status(self) -> dict[str, Any]:
+        latest = self.latest()
+        return {**self.counts, "kg": None if latest is None else round(latest.kg, 3),
+                "raw": None if latest is None else latest.raw, "gain": self.gain.name,
+                "tare_offset": self.tare_offset,
+                "calibration_factor": round(self.calibration_factor, 3),
+                "running": self._task is not None}
+
+    # --- reading ----------------------------------------------------------------------------
+    async def _wait_ready(self, timeout_s: float) -> bool:
+        assert self._lines is not None
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + timeout_s
+        while self._lines.read_dout():  # DOUT high: conversion not ready
+            if loop.time() >= deadline:
+                return False
+            await asyncio.sleep(POLL_S)
+        return True
+
+    def read_once(self) -> int:
+        """Clock out one conversion (DOUT low); raises ReadDiscarded."""
+        assert self._lines is not None
+        self.counts["reads"] += 1
+        return clock_out(self._lines, self.gain)
+
+    async def _run(self) -> None:
+        loop = asyncio.get_running_loop()
+        while True:
+            if not await self._wait_ready(self.timeout_s):
+                self.counts["timeouts"] += 1
+                log.warning("hx711.timeout", waited_s=self.timeout_s)
+                continue
+            code: int | None = None
+            try:
+                code = self.read_once()
+            except ReadDiscarded as exc:
+                self.counts[exc.reason] += 1
+                log.info("hx711.discarded", reason=exc.reason, detail=str(exc))
+                if exc.reason == "sck_high":
+                    # The chip reset on power-down: it is back on A128 and settling.
+                    self._discard_next = 1
+            # Sleep through most of the next conversion instead of polling for it.
+            await asyncio.sleep(self.period_s * 0.8)
+            if code is None:
+                continue
+            if self._discard_next:
+                # The gain pulses of this read apply from the next conversion on.
+                self._discard_next -= 1
+                self.counts["settling"] += 1
+                continue
+            if not self.filter.add(code):
+                self.counts["outliers"] += 1
+                continue
+            self.counts["accepted"] += 1
+            average = self.filter.average()
+            assert average is not None
+            kg = (average - self.tare_offset) / self.calibration_factor
+            self._latest.publish(WeightReading(kg=kg, raw=round(average), t_s=loop.time()))

@@ -1,0 +1,290 @@
+"""Where the painted line is in a camera frame: position error in pixels, confidence, lost.
+
+The tracker reads a few scan rows across a region of interest instead of the whole frame. Each
+row gets a per-pixel score for the wanted colour, divided by the local floor brightness (a
+running maximum along the row), so light that falls off to the corners or varies over the
+floor does not move the line. Runs of high score are line candidates; each row keeps the one
+nearest the previous line position, and the line is the median over the rows that found one.
+"""
+
+from __future__ import annotations
+
+import colorsys
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+DEFAULT_COLOUR = "black"
+
+# A colour is a kind of score: "dark" (dark and grey on a light floor), "light" (bright and
+# grey), or "chroma": the wanted channels (B=0, G=1, R=2) stand out over the others.
+_NAMED: dict[str, tuple[str, tuple[int, ...]]] = {
+    "black": ("dark", ()),
+    "dark": ("dark", ()),
+    "white": ("light", ()),
+    "red": ("chroma", (2,)),
+    "green": ("chroma", (1,)),
+    "blue": ("chroma", (0,)),
+    "yellow": ("chroma", (1, 2)),
+    "cyan": ("chroma", (0, 1)),
+    "magenta": ("chroma", (0, 2)),
+}
+_HUES = {"red": 0.0, "yellow": 60.0, "green": 120.0, "cyan": 180.0, "blue": 240.0,
+         "magenta": 300.0}
+# Contrast needed, as a multiple of TrackerParams.min_contrast: a grey line on a grey floor
+# differs less than a coloured one, and dark shadows must not pass for a black line.
+_THRESHOLD_SCALE = {"dark": 1.5, "light": 0.4, "chroma": 1.0}
+Plane = npt.NDArray[Any]  # float32 rows (cv2 returns loosely typed arrays)
+
+_TOO_DARK = 20.0  # floor brightness (grey levels) below which nothing can be seen
+_MAX_WORK_PX = 320  # wider frames are read every 2nd (3rd...) column: same answer, less work
+
+
+@dataclass(frozen=True, slots=True)
+class LineReading:
+    """One frame's verdict. ``error_px`` > 0: the line is right of the image centre."""
+
+    error_px: float
+    confidence: float
+    lost: bool
+    x_px: float | None = None
+    width_px: float = 0.0
+    at_edge: bool = False
+    candidates: int = 0
+    colour: str = DEFAULT_COLOUR
+    reason: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class TrackerParams:
+    """Region of interest (fractions of the height, 0 = top = farthest ahead) and thresholds."""
+
+    roi_top: float = 0.25
+    roi_bottom: float = 0.6
+    rows: int = 8
+    min_contrast: float = 0.2
+    min_width_frac: float = 0.01
+    max_width_frac: float = 0.5
+    handover_frames: int = 26  # old colour still followed after a change, about 2 s at 13 FPS
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.roi_top < self.roi_bottom <= 1.0:
+            msg = f"line tracker ROI {self.roi_top}-{self.roi_bottom}: need 0 <= top < bottom <= 1"
+            raise ValueError(msg)
+        if self.rows < 1:
+            msg = f"line tracker rows must be >= 1, got {self.rows}"
+            raise ValueError(msg)
+
+
+@dataclass(frozen=True, slots=True)
+class _Colour:
+    name: str
+    kind: str
+    channels: tuple[int, ...]
+
+
+def parse_colour(name: str | None) -> str:
+    """Normalise a FollowColor value (a name or ``#RRGGBB``); ValueError says what is known."""
+    if name is None or not name.strip():
+        return DEFAULT_COLOUR
+    text = name.strip().lower()
+    if text in _NAMED:
+        return "black" if text == "dark" else text
+    if text.startswith("#") and len(text) == 7:
+        try:
+            r, g, b = (int(text[i:i + 2], 16) / 255 for i in (1, 3, 5))
+        except ValueError:
+            pass
+        else:
+            hue, sat, val = colorsys.rgb_to_hsv(r, g, b)
+            if sat < 0.3:
+                return "black" if val < 0.5 else "white"
+            deg = hue * 360
+            return min(_HUES, key=lambda n: min(abs(deg - _HUES[n]), 360 - abs(deg - _HUES[n])))
+    msg = f"line colour {name!r}: expected one of {', '.join(sorted(_NAMED))} or #RRGGBB"
+    raise ValueError(msg)
+
+
+def _colour(name: str) -> _Colour:
+    kind, channels = _NAMED[name]
+    return _Colour(name, kind, channels)
+
+
+class LineTracker:
+    """Finds the line of one colour in BGR frames; remembers where it was last seen.
+
+    Args:
+        params: region of interest and thresholds.
+        colour: the colour to follow (a FollowColor name or ``#RRGGBB``; None: dark line).
+    """
+
+    def __init__(self, params: TrackerParams | None = None, colour: str | None = None) -> None:
+        self.params = params or TrackerParams()
+        self._colour = _colour(parse_colour(colour))
+        self._fallback: _Colour | None = None
+        self._handover_left = 0
+        self._last_x: float | None = None
+        self._misses = 0
+        self._rows: tuple[int, npt.NDArray[np.intp]] | None = None
+        self._col_index = np.zeros(0, np.float32)
+
+    @property
+    def colour(self) -> str:
+        return self._colour.name
+
+    def set_colour(self, name: str | None) -> None:
+        """Follow another colour; the old one is still taken until the new one shows up."""
+        new = _colour(parse_colour(name))
+        if new.name == self._colour.name:
+            return
+        self._fallback = self._colour
+        self._handover_left = self.params.handover_frames
+        self._colour = new
+
+    def set_params(self, params: TrackerParams) -> None:
+        """Take new ROI and thresholds (live tuning)."""
+        self.params = params
+        self._rows = None
+
+    def reset(self) -> None:
+        """Forget the last position (a new run starts from the image centre)."""
+        self._last_x = None
+        self._misses = 0
+
+    def track(self, image: npt.NDArray[np.uint8]) -> LineReading:
+        """Find the line in one BGR frame."""
+        if image.ndim != 3 or image.shape[2] != 3 or image.shape[0] < 2 or image.shape[1] < 8:
+            msg = f"line tracker: expected a BGR image (h, w, 3), got shape {image.shape}"
+            raise ValueError(msg)
+        planes, step = self._strip(image)
+        reading = self._find(planes, step, self._colour, image.shape[1])
+        if reading.lost and self._fallback is not None and self._handover_left > 0:
+            reading = self._find(planes, step, self._fallback, image.shape[1])
+        if self._fallback is not None:
+            self._handover_left -= 1
+            if self._handover_left <= 0 or (not reading.lost and reading.colour == self.colour):
+                self._fallback = None
+        if reading.lost:
+            self._misses += 1
+        else:
+            self._last_x = reading.x_px
+            self._misses = 0
+        return reading
+
+    # --- internals ----------------------------------------------------------------------------
+    def _strip(self, image: npt.NDArray[np.uint8]) -> tuple[list[Plane], int]:
+        """The scan rows as float planes (B, G, R), at most _MAX_WORK_PX wide, and the step."""
+        h, w = image.shape[:2]
+        if self._rows is None or self._rows[0] != h:
+            p = self.params
+            top = min(h - 1, int(p.roi_top * h))
+            bottom = max(top + 1, min(h, int(p.roi_bottom * h)))
+            picks = np.linspace(top, bottom - 1, min(p.rows, bottom - top)).astype(np.intp)
+            self._rows = (h, picks)
+        step = max(1, -(-w // _MAX_WORK_PX))
+        rows = image[self._rows[1], ::step] if step > 1 else image[self._rows[1]]
+        planes: list[Plane] = list(cv2.split(rows.astype(np.float32)))
+        return planes, step
+
+    def _find(self, planes: list[Plane], step: int, colour: _Colour,
+              full_width: int) -> LineReading:
+        centre = (full_width - 1) / 2
+        value = cv2.max(cv2.max(planes[0], planes[1]), planes[2])
+        low = cv2.min(cv2.min(planes[0], planes[1]), planes[2])
+        floor = _local(value, cv2.dilate)
+        if float(cv2.mean(floor)[0]) < _TOO_DARK:
+            return self._lost(centre, colour, "too dark")
+        if colour.kind == "dark":
+            raw = floor - value - (value - low)
+        elif colour.kind == "light":
+            raw = value - _local(value, cv2.erode) - (value - low)
+        else:
+            wanted = _reduce(cv2.min, [planes[c] for c in colour.channels])
+            others = _reduce(cv2.max, [planes[c] for c in (0, 1, 2) if c not in colour.channels])
+            raw = wanted - others
+        score = cv2.blur(raw / np.maximum(floor, 1.0), (5, 1))
+        threshold = self.params.min_contrast * _THRESHOLD_SCALE[colour.kind]
+        return self._pick(score, threshold, colour, step, full_width)
+
+    def _pick(self, score: Plane, threshold: float, colour: _Colour,
+              step: int, full_width: int) -> LineReading:
+        p = self.params
+        centre = (full_width - 1) / 2
+        k, width = score.shape
+        mask = np.zeros((k, width + 2), np.int8)
+        mask[:, 1:-1] = score > threshold
+        edges = np.diff(mask, axis=1)
+        row, start = np.nonzero(edges == 1)
+        end = np.nonzero(edges == -1)[1]
+        run_w = end - start
+        keep = (run_w >= max(2, p.min_width_frac * width)) & (run_w <= p.max_width_frac * width)
+        row, start, end = row[keep], start[keep], end[keep]
+        if row.size == 0:
+            return self._lost(centre, colour, "no line")
+        near = self._last_x if self._last_x is not None and self._misses < 10 else centre
+        near_sub = (near - (step - 1) / 2) / step
+        order = np.lexsort((np.abs((start + end - 1) / 2 - near_sub), row))
+        first = np.ones(order.size, bool)
+        first[1:] = row[order][1:] != row[order][:-1]
+        chosen = order[first]
+        if chosen.size < max(1, (k + 2) // 3):
+            return self._lost(centre, colour, "too few rows")
+        xs, contrasts, widths = [], [], []
+        edge_rows = 0
+        for i in chosen.tolist():
+            r, a, b = int(row[i]), int(start[i]), int(end[i])
+            seg = score[r, a:b]
+            mass = float(seg.sum())
+            xs.append(float(seg @ self._cols(width)[a:b]) / max(mass, 1e-6))
+            contrasts.append(mass / (b - a))
+            widths.append(b - a)
+            edge_rows += a == 0 or b == width
+        line_x = _median_of(xs) * step + (step - 1) / 2
+        at_edge = edge_rows * 2 > len(xs)
+        candidates = int(np.bincount(row).max())
+        confidence = min(1.0, _median_of(contrasts) / (2 * threshold)) * len(xs) / k
+        if at_edge:
+            confidence *= 0.6
+        if candidates > 1:
+            confidence *= 0.8
+        return LineReading(line_x - centre, confidence, False, line_x,
+                           _median_of(widths) * step, at_edge, candidates, colour.name)
+
+    def _cols(self, width: int) -> Plane:
+        if self._col_index.shape[0] != width:
+            self._col_index = np.arange(width, dtype=np.float32)
+        return self._col_index
+
+    def _lost(self, centre: float, colour: _Colour, reason: str) -> LineReading:
+        last = 0.0 if self._last_x is None else self._last_x - centre
+        return LineReading(last, 0.0, True, None, 0.0, False, 0, colour.name, reason)
+
+
+def _median_of(values: list[float] | list[int]) -> float:
+    ordered = sorted(values)
+    n = len(ordered)
+    return float(ordered[n // 2] if n % 2 else (ordered[n // 2 - 1] + ordered[n // 2]) / 2)
+
+
+def _local(value: Plane, op: Callable[..., Any]) -> Plane:
+    """Floor brightness along each row: a running max (dilate) or min (erode) over a quarter
+    of the width, taken on 8-pixel block means so it costs little and ignores sensor noise."""
+    k, width = value.shape
+    blocks = max(4, width // 8)
+    coarse = cv2.resize(value, (blocks, k), interpolation=cv2.INTER_AREA)
+    window = max(3, blocks // 4) | 1
+    spread = op(coarse, np.ones((1, window), np.uint8))
+    out: Plane = cv2.resize(spread, (width, k), interpolation=cv2.INTER_LINEAR)
+    return out
+
+
+def _reduce(op: Callable[[Any, Any], Any], planes: list[Plane]
+            ) -> Plane:
+    out = planes[0]
+    for plane in planes[1:]:
+        out = op(out, plane)
+    return out

@@ -50,9 +50,9 @@ def parse_ibeacon(manufacturer_data: Mapping[int, bytes]) -> IBeaconFrame | None
 
     Raises MalformedAdvert when Apple data starts like an iBeacon (0x02 0x15) but is short.
     """
-    data = manufacturer_data.get(APPLE_COMPANY_ID)
-    if data is None:
+    if APPLE_COMPANY_ID not in manufacturer_data:
         return None
+    data = manufacturer_data[APPLE_COMPANY_ID]
     if len(data) < 2 or data[0] != IBEACON_TYPE:
         return None  # another Apple format (0x10 Nearby Info, 0x12 Find My, ...)
     if data[1] != IBEACON_LENGTH or len(data) < IBEACON_PAYLOAD_BYTES:

@@ -1,0 +1,170 @@
+"""iBeacon manufacturer-data parsing and the scanner's handling of recorded-style adverts."""
+
+from __future__ import annotations
+
+import asyncio
+from typing import Any
+
+import pytest
+from bleak.backends.device import BLEDevice
+from bleak.backends.scanner import AdvertisementData, AdvertisementDataCallback
+from hypothesis import given
+from hypothesis import strategies as st
+
+from drivers.ble_scanner import (
+    BleBeaconScanner,
+    IBeaconFrame,
+    MalformedAdvert,
+    build_ibeacon,
+    parse_ibeacon,
+)
+from hal.devices import BeaconScanner
+from hal.readings import BeaconSighting
+from robotd import vclock
+
+ESTIMOTE = "b9407f30-f5f8-466e-aff9-25556b57fe6d"
+AIRLOCATE = "e2c56db5-dffb-48d2-b060-d0f5a71096e0"
+
+# As bleak hands them over on a Raspberry Pi (company id -> bytes after it).
+ESTIMOTE_12345_54321 = {0x004C: bytes.fromhex("0215b9407f30f5f8466eaff925556b57fe6d3039d431c5")}
+AIRLOCATE_1_2 = {0x004C: bytes.fromhex("0215e2c56db5dffb48d2b060d0f5a71096e000010002c5")}
+TRUNCATED = {0x004C: bytes.fromhex("0215b9407f30f5f8466e")}
+WRONG_LENGTH_BYTE = {0x004C: bytes.fromhex("0214b9407f30f5f8466eaff925556b57fe6d3039d431")}
+APPLE_NEARBY_INFO = {0x004C: bytes.fromhex("1005031c2b8b4f")}  # an iPhone nearby
+APPLE_FIND_MY = {0x004C: bytes.fromhex("1219" + "00" * 25)}
+MICROSOFT_SWIFT_PAIR = {0x0006: bytes.fromhex("0300800000")}
+RUUVI_TAG = {0x0499: bytes.fromhex("0512fc5394c37cfffc040c00ac9676000000000000000000")}
+
+
+class TestParseIBeacon:
+    def test_reads_uuid_major_minor_and_signed_power(self) -> None:
+        """A real iBeacon layout gives its UUID, big-endian major/minor and signed power."""
+        assert parse_ibeacon(ESTIMOTE_12345_54321) == IBeaconFrame(ESTIMOTE, 12345, 54321, -59)
+
+    def test_other_companies_and_other_apple_formats_are_not_ibeacons(self) -> None:
+        """Non-Apple data and Apple data of another type (0x10, 0x12) give None."""
+        for data in (MICROSOFT_SWIFT_PAIR, RUUVI_TAG, APPLE_NEARBY_INFO, APPLE_FIND_MY, {}):
+            assert parse_ibeacon(data) is None
+
+    def test_truncated_ibeacon_is_malformed(self) -> None:
+        """0x02 0x15 with too few bytes raises MalformedAdvert showing the bytes."""
+        with pytest.raises(MalformedAdvert, match="0215b9407f30"):
+            parse_ibeacon(TRUNCATED)
+
+    def test_wrong_length_byte_is_malformed(self) -> None:
+        """An iBeacon type byte with a length other than 0x15 is malformed."""
+        with pytest.raises(MalformedAdvert):
+            parse_ibeacon(WRONG_LENGTH_BYTE)
+
+    @given(st.uuids(), st.integers(0, 65535), st.integers(0, 65535), st.integers(-128, 127))
+    def test_build_and_parse_round_trip(self, uuid: Any, major: int, minor: int,
+                                        power: int) -> None:
+        """Whatever a beacon advertises is read back unchanged."""
+        data = {0x004C: build_ibeacon(str(uuid), major, minor, power)}
+        assert parse_ibeacon(data) == IBeaconFrame(str(uuid), major, minor, power)
+
+    @given(st.dictionaries(st.integers(0, 0xFFFF), st.binary(max_size=40), max_size=3))
+    def test_arbitrary_bytes_never_raise_anything_but_malformed(
+            self, data: dict[int, bytes]) -> None:
+        """Random manufacturer data parses, returns None or raises MalformedAdvert."""
+        try:
+            parse_ibeacon(data)
+        except MalformedAdvert:
+            pass
+
+
+class RecordingScanner:
+    """Stands in for ``BleakScanner``: keeps the callback so a test can play adverts into it."""
+
+    def __init__(self, callback: AdvertisementDataCallback) -> None:
+        self.callback = callback
+        self.started = 0
+        self.stopped = 0
+        self.stop_error: Exception | None = None
+
+    async def start(self) -> None:
+        self.started += 1
+
+    async def stop(self) -> None:
+        self.stopped += 1
+        if self.stop_error is not None:
+            raise self.stop_error
+
+    def play(self, mac: str, data: dict[int, Any], rssi: int = -70) -> None:
+        adv = AdvertisementData(None, data, {}, [], None, rssi, ())
+        self.callback(BLEDevice(mac, None, None), adv)
+
+
+def _scanner(uuids: tuple[str, ...] = ()) -> tuple[BleBeaconScanner, list[RecordingScanner]]:
+    made: list[RecordingScanner] = []
+
+    def factory(callback: AdvertisementDataCallback) -> RecordingScanner:
+        made.append(RecordingScanner(callback))
+        return made[-1]
+
+    return BleBeaconScanner(uuids, scanner_factory=factory), made
+
+
+class TestScannerAdverts:
+    def test_implements_the_hal_protocol(self) -> None:
+        """The driver is a ``hal.devices.BeaconScanner``."""
+        assert isinstance(_scanner()[0], BeaconScanner)
+
+    def test_recorded_adverts_are_sorted_into_sightings_and_counted_skips(self) -> None:
+        """Only configured-UUID iBeacons become sightings; the rest are counted, none raise."""
+        async def main() -> None:
+            driver, made = _scanner((ESTIMOTE.upper(),))
+            seen: list[BeaconSighting] = []
+            driver.on_sighting(seen.append)
+            await driver.start()
+            await asyncio.sleep(1.5)
+            bleak = made[0]
+            bleak.play("d4:ca:6e:00:00:01", ESTIMOTE_12345_54321, rssi=-67)
+            for data in (AIRLOCATE_1_2, TRUNCATED, WRONG_LENGTH_BYTE, APPLE_NEARBY_INFO,
+                         APPLE_FIND_MY, MICROSOFT_SWIFT_PAIR, RUUVI_TAG, {0x004C: None}):
+                bleak.play("11:22:33:44:55:66", data)
+            await driver.stop()
+            assert seen == [BeaconSighting("D4:CA:6E:00:00:01", ESTIMOTE, 12345, 54321, -67,
+                                           -59, 1.5)]
+            c = driver.counts
+            assert (c["adverts"], c["sightings"], c["other_uuid"], c["malformed"],
+                    c["not_ibeacon"]) == (9, 1, 1, 3, 4)
+
+        vclock.run(main())
+
+    def test_without_uuids_every_ibeacon_is_reported(self) -> None:
+        """An empty UUID list reports iBeacons of any UUID."""
+        async def main() -> list[str]:
+            driver, made = _scanner()
+            seen: list[BeaconSighting] = []
+            driver.on_sighting(seen.append)
+            await driver.start()
+            made[0].play("AA:00:00:00:00:01", ESTIMOTE_12345_54321)
+            made[0].play("AA:00:00:00:00:02", AIRLOCATE_1_2)
+            await driver.stop()
+            return [s.uuid for s in seen]
+
+        assert vclock.run(main()) == [ESTIMOTE, AIRLOCATE]
+
+    def test_a_failing_listener_does_not_reach_bleak(self) -> None:
+        """An exception in one listener is counted; later listeners still run."""
+        async def main() -> tuple[int, int]:
+            driver, made = _scanner()
+            later: list[BeaconSighting] = []
+
+            def broken(_: BeaconSighting) -> None:
+                raise RuntimeError("boom")
+
+            driver.on_sighting(broken)
+            driver.on_sighting(later.append)
+            await driver.start()
+            made[0].play("AA:00:00:00:00:01", ESTIMOTE_12345_54321)
+            await driver.stop()
+            return driver.counts["callback_errors"], len(later)
+
+        assert vclock.run(main()) == (1, 1)
+
+    def test_a_bad_configured_uuid_is_refused_up_front(self) -> None:
+        """A UUID in the configuration that is not a UUID raises ValueError naming it."""
+        with pytest.raises(ValueError, match="not-a-uuid"):
+            BleBeaconScanner(["not-a-uuid"])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import contextlib
 from typing import Any
 
 import pytest
@@ -67,10 +68,8 @@ class TestParseIBeacon:
     def test_arbitrary_bytes_never_raise_anything_but_malformed(
             self, data: dict[int, bytes]) -> None:
         """Random manufacturer data parses, returns None or raises MalformedAdvert."""
-        try:
+        with contextlib.suppress(MalformedAdvert):
             parse_ibeacon(data)
-        except MalformedAdvert:
-            pass
 
 
 class RecordingScanner:

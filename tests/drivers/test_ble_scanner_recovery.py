@@ -66,7 +66,9 @@ class TestScannerRecovery:
                 air.fail_next_starts(3)
                 air.stall()
                 t_stall = loop.time()
-                while driver.counts["restarts"] < 4:
+                for _ in range(300):
+                    if driver.counts["restarts"] == 4:
+                        break
                     await asyncio.sleep(0.1)
                 recovered_after_s = loop.time() - t_stall
                 await asyncio.sleep(2)
@@ -107,7 +109,7 @@ class TestScannerRecovery:
             air = _air()
             air.fail_next_starts(1)
             driver = BleBeaconScanner([UUID], scanner_factory=air.scanner_factory())
-            with pytest.raises(DeviceUnavailable, match="InProgress.*bluetoothd"):
+            with pytest.raises(DeviceUnavailable, match=r"InProgress.*bluetoothd"):
                 await driver.start()
 
         vclock.run(main())

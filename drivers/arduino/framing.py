@@ -1,0 +1,153 @@
+"""Lines of the Arduino serial link: host commands out, MCU replies and telemetry in.
+
+Framing ``crc``: ``BODY*CC\\n`` with CC the CRC-8 of BODY in two uppercase hex digits; a host
+command's BODY is ``#SEQ PAYLOAD``. Framing ``plain``: the seed's bare lines. A line is at most
+64 bytes including its ``\\n`` (DESIGN.md, "Serial link to the Arduino").
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from enum import StrEnum
+
+from drivers.arduino.crc8 import crc8
+
+MAX_LINE_BYTES = 64
+SEQ_MODULO = 256
+NAK_REASONS = ("CRC", "PARSE", "RANGE")
+
+
+class Framing(StrEnum):
+    CRC = "crc"
+    PLAIN = "plain"
+
+
+@dataclass(frozen=True, slots=True)
+class Ack:
+    """``#SEQ ACK`` (``seq`` None: the plain framing's bare ``ACK``)."""
+
+    seq: int | None
+
+
+@dataclass(frozen=True, slots=True)
+class Nak:
+    """``#SEQ NAK:<CRC|PARSE|RANGE>`` (``seq`` None in plain framing)."""
+
+    seq: int | None
+    reason: str
+
+
+@dataclass(frozen=True, slots=True)
+class Hello:
+    """``#SEQ HELLO:<firmware>,<protocol version>``."""
+
+    seq: int | None
+    firmware: str
+    protocol: int
+
+
+@dataclass(frozen=True, slots=True)
+class Telemetry:
+    """An unsolicited ``NAME:field,field`` line (no SEQ), fields not yet interpreted."""
+
+    name: str
+    fields: tuple[str, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Garbled:
+    """A line damaged on the wire: CRC mismatch, missing CRC, bytes that are not ASCII."""
+
+    reason: str
+    raw: bytes
+
+
+@dataclass(frozen=True, slots=True)
+class Unparsed:
+    """An intact line (CRC good) that is no reply or telemetry this driver knows the shape of."""
+
+    reason: str
+    raw: bytes
+
+
+Line = Ack | Nak | Hello | Telemetry | Garbled | Unparsed
+
+_SEQ_BODY = re.compile(r"#(\d{1,3}) (.*)", re.DOTALL)
+_TELEMETRY = re.compile(r"([A-Z][A-Z0-9_]*):(.*)", re.DOTALL)
+
+
+def encode_command(payload: str, seq: int | None, framing: Framing) -> bytes:
+    """The bytes of one host command; ValueError when it would break the line rules."""
+    if not payload or not payload.isascii() or any(c in payload for c in "\n\r*#"):
+        msg = f"bad command payload {payload!r}: printable ASCII without '*', '#' or newlines"
+        raise ValueError(msg)
+    if framing is Framing.PLAIN:
+        line = payload.encode("ascii") + b"\n"
+    else:
+        if seq is None or not 0 <= seq < SEQ_MODULO:
+            msg = f"SEQ must be 0-255 in crc framing, got {seq}"
+            raise ValueError(msg)
+        body = f"#{seq} {payload}".encode("ascii")
+        line = body + f"*{crc8(body):02X}\n".encode("ascii")
+    if len(line) > MAX_LINE_BYTES:
+        msg = f"command {payload!r} is {len(line)} bytes framed, the link allows {MAX_LINE_BYTES}"
+        raise ValueError(msg)
+    return line
+
+
+def frame_body(body: bytes) -> bytes:
+    """``BODY*CC\\n`` for any body (what the MCU side sends in crc framing)."""
+    return body + f"*{crc8(body):02X}\n".encode("ascii")
+
+
+def parse_line(raw: bytes, framing: Framing) -> Line:
+    """Interpret one received line (without its ``\\n``); never raises."""
+    raw = raw.rstrip(b"\r")
+    try:
+        text = raw.decode("ascii")
+    except UnicodeDecodeError:
+        return Garbled("not ASCII", raw)
+    if not text.isprintable():
+        return Garbled("control characters", raw)
+    if framing is Framing.CRC:
+        body, star, check = text.rpartition("*")
+        if not star or len(check) != 2:
+            return Garbled("no CRC", raw)
+        try:
+            expected = int(check, 16)
+        except ValueError:
+            return Garbled("CRC is not hex", raw)
+        if crc8(body.encode("ascii")) != expected:
+            return Garbled("CRC mismatch", raw)
+        text = body
+    return _parse_body(text, raw)
+
+
+def _parse_body(text: str, raw: bytes) -> Line:
+    seq: int | None = None
+    match = _SEQ_BODY.fullmatch(text)
+    if match is not None:
+        seq = int(match.group(1))
+        if seq >= SEQ_MODULO:
+            return Unparsed(f"SEQ {seq} out of range", raw)
+        text = match.group(2)
+    if text == "ACK":
+        return Ack(seq)
+    if text.startswith("NAK:"):
+        reason = text[4:]
+        if reason in NAK_REASONS:
+            return Nak(seq, reason)
+        return Unparsed(f"unknown NAK reason {reason!r}", raw)
+    if text.startswith("HELLO:"):
+        firmware, comma, version = text[6:].rpartition(",")
+        if not comma or not version.isdigit():
+            return Unparsed("HELLO needs <firmware>,<protocol version>", raw)
+        return Hello(seq, firmware, int(version))
+    if seq is not None:
+        return Unparsed(f"unknown reply {text!r}", raw)
+    telemetry = _TELEMETRY.fullmatch(text)
+    if telemetry is None:
+        return Unparsed(f"not a reply or telemetry: {text!r}", raw)
+    fields = tuple(telemetry.group(2).split(",")) if telemetry.group(2) else ()
+    return Telemetry(telemetry.group(1), fields)

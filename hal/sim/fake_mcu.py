@@ -1,0 +1,388 @@
+"""The motor board's side of the serial protocol, on a simulated plant, over any byte stream.
+
+``FakeMcu`` behaves like the firmware (``firmware/robotd_mcu``): it reads lines of at most 64
+bytes, answers ``#SEQ ACK`` / ``#SEQ NAK:<CRC|PARSE|RANGE>`` / ``#SEQ HELLO:<fw>,<protocol>``,
+drops a frame whose SEQ it cannot read, acknowledges a resend of the SEQ it executed last
+without executing it again, drives a ``MotorPlant``, sends ``ENCODER``/``IR``/``BAT``
+telemetry at fixed rates, and stops the motors 500 ms after the last ``MOTOR``/``HB``.
+Lines starting with ``#`` are crc framing, others plain; telemetry follows the framing of the
+last good command. Fault switches: ``unplug()``, ``replug()``, ``corrupt(pct)``,
+``delay(s)``, ``reset()``. It keeps its own CRC code, apart from the driver's, on purpose.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import collections
+import contextlib
+import random
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import structlog
+
+from hal.ports import StreamPair
+from hal.sim.byte_pipe import corrupt_bytes
+from hal.sim.plant import MotorPlant
+
+log = structlog.get_logger(__name__)
+
+LINE_MAX = 64  # bytes per line including '\n'
+_TX_BACKLOG_BYTES = 4096
+_WORDS = ("LED_IDLE", "LED_WAITING", "LED_MOVING", "SUCCESS_SCAN", "FAILURE_SCAN", "STOP",
+          "HB", "HELLO")
+_LIMITS = {"MOTOR:": ((0, 255), (0, 255), (0, 1), (0, 1)), "SERVO:": ((0, 180),)}
+
+
+def crc8_bitwise(data: bytes) -> int:
+    """CRC-8 poly 0x07 computed bit by bit, as the firmware does."""
+    crc = 0
+    for byte in data:
+        crc ^= byte
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x07) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+    return crc
+
+
+@dataclass(frozen=True, slots=True)
+class Executed:
+    """One command the MCU carried out (``seq`` None in plain framing)."""
+
+    t_s: float
+    seq: int | None
+    payload: str
+
+
+class ParseError(Exception):
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
+
+
+def parse_payload(payload: str) -> tuple[str, tuple[int, ...]]:
+    """(command word, integer arguments); ParseError("PARSE" | "RANGE") when bad."""
+    if payload in _WORDS:
+        return payload, ()
+    for prefix, limits in _LIMITS.items():
+        if payload.startswith(prefix):
+            fields = payload[len(prefix):].split(",")
+            if len(fields) != len(limits) or not all(_is_int(f) for f in fields):
+                raise ParseError("PARSE")
+            values = tuple(int(f) for f in fields)
+            if any(not lo <= v <= hi for v, (lo, hi) in zip(values, limits, strict=True)):
+                raise ParseError("RANGE")
+            return prefix[:-1], values
+    raise ParseError("PARSE")
+
+
+def _is_int(text: str) -> bool:
+    digits = text[1:] if text.startswith("-") else text
+    return digits.isdigit() and digits.isascii()
+
+
+def read_seq(line: bytes) -> int | None:
+    """``#SEQ `` at the start: 1-3 digits, 0-255, then one space; None when unreadable."""
+    if len(line) < 2 or line[0:1] != b"#":
+        return None
+    i = 1
+    while i < len(line) and i <= 3 and 0x30 <= line[i] <= 0x39:
+        i += 1
+    if i == 1 or i >= len(line) or line[i:i + 1] != b" ":
+        return None
+    seq = int(line[1:i])
+    return seq if seq <= 255 else None
+
+
+class FakeMcu:
+    """A simulated motor board. Records what it executed; has a bench's fault switches.
+
+    Args:
+        plant: what the motors, servo, encoders, range sensor and battery are.
+        seed: seed for the corruption generator.
+        deadman_s: motors stop this long after the last MOTOR/HB (None: never, as old sketches).
+        announce_boot: send ``BOOT:<fw>,<protocol>`` on reset (the driver keeps encoders
+            continuous with it).
+    """
+
+    def __init__(self, plant: MotorPlant, *, firmware: str = "fake-mcu-1.0", protocol: int = 1,
+                 seed: int = 0, deadman_s: float | None = 0.5, encoder_period_s: float = 0.05,
+                 ir_period_s: float = 0.2, battery_period_s: float = 0.2,
+                 announce_boot: bool = True, history: int = 100_000) -> None:
+        self.plant = plant
+        self.firmware = firmware
+        self.protocol = protocol
+        self.deadman_s = deadman_s
+        self.periods_s = {"ENCODER": encoder_period_s, "IR": ir_period_s,
+                          "BAT": battery_period_s}
+        self.announce_boot = announce_boot
+        self.executed: collections.deque[Executed] = collections.deque(maxlen=history)
+        self.duplicates = 0
+        self.naks: list[tuple[int | None, str]] = []
+        self.dropped_frames = 0
+        self.leds: list[str] = []
+        self.deadman_stops: list[float] = []
+        self.boots = 0
+        self.last_drive_s: float | None = None
+        self.plugged = True
+        self.corrupt_fraction = 0.0
+        self.reply_delay_s = 0.0
+        self.plug_listeners: list[Callable[[bool], None]] = []
+        self._rng = random.Random(seed)
+        self._boot_state()
+        self._streams: StreamPair | None = None
+        self._hangup: Callable[[], None] | None = None
+        self._tasks: list[asyncio.Task[None]] = []
+        self._deadman: asyncio.TimerHandle | None = None
+        self._out_pending: collections.deque[tuple[float, bytes]] = collections.deque()
+        self._out_timer: asyncio.TimerHandle | None = None
+
+    def _boot_state(self) -> None:
+        self.crc_framing = True
+        self.motors_on = False
+        self._last: tuple[int, int] | None = None  # (seq, crc) executed last
+        left, right = self.plant.encoder_ticks()
+        self._tick_offset = (left, right)
+
+    @property
+    def connected(self) -> bool:
+        return self._streams is not None
+
+    # -- wiring ------------------------------------------------------------------------------
+    def connect(self, streams: StreamPair, hangup: Callable[[], None] | None = None) -> None:
+        """Serve a newly opened port; ``hangup`` breaks it on ``unplug()``."""
+        self.disconnect()
+        self._streams = streams
+        self._hangup = hangup or streams[1].transport.abort
+        loop = asyncio.get_running_loop()
+        self._tasks = [loop.create_task(self._serve(streams[0])),
+                       loop.create_task(self._telemetry())]
+
+    def disconnect(self) -> None:
+        for task in self._tasks:
+            task.cancel()
+        self._tasks = []
+        self._streams = None
+        self._out_pending.clear()
+        if self._out_timer is not None:
+            self._out_timer.cancel()
+            self._out_timer = None
+
+    async def close(self) -> None:
+        tasks = list(self._tasks)
+        self.disconnect()
+        if self._deadman is not None:
+            self._deadman.cancel()
+        await asyncio.gather(*tasks, return_exceptions=True)
+
+    # -- fault switches ----------------------------------------------------------------------
+    def unplug(self) -> None:
+        """The USB cable is pulled: the port vanishes; the board runs on (deadman included)."""
+        self.plugged = False
+        hangup = self._hangup
+        self.disconnect()
+        if hangup is not None:
+            hangup()
+        self._hangup = None
+        log.info("fake_mcu.unplugged")
+        for listener in list(self.plug_listeners):
+            listener(False)
+
+    def replug(self) -> None:
+        self.plugged = True
+        log.info("fake_mcu.replugged")
+        for listener in list(self.plug_listeners):
+            listener(True)
+
+    def corrupt(self, pct: float) -> None:
+        """Flip one bit in ``pct`` % of the bytes, in both directions."""
+        self.corrupt_fraction = max(0.0, min(100.0, pct)) / 100.0
+
+    def delay(self, seconds: float) -> None:
+        """Hold every outgoing line this long."""
+        self.reply_delay_s = max(0.0, seconds)
+
+    def reset(self) -> None:
+        """The board restarts: motors off, SEQ memory and encoder counts cleared."""
+        self.boots += 1
+        self.plant.apply_pwm(0, 0, True, True)
+        if self._deadman is not None:
+            self._deadman.cancel()
+            self._deadman = None
+        self._boot_state()
+        log.info("fake_mcu.reset", boots=self.boots)
+        if self.announce_boot:
+            self._send_line(f"BOOT:{self.firmware},{self.protocol}".encode(), crc=True)
+
+    # -- receiving ---------------------------------------------------------------------------
+    async def _serve(self, reader: asyncio.StreamReader) -> None:
+        line = bytearray()
+        overlong = False
+        while True:
+            try:
+                chunk = await reader.read(256)
+            except OSError:
+                return
+            if not chunk:
+                return
+            chunk = corrupt_bytes(chunk, self.corrupt_fraction, self._rng)
+            for byte in chunk:
+                if byte == 0x0A:
+                    self._handle_line(bytes(line), overlong)
+                    line.clear()
+                    overlong = False
+                elif byte == 0x0D:
+                    continue
+                elif len(line) < LINE_MAX - 1:
+                    line.append(byte)
+                else:
+                    overlong = True
+
+    def _handle_line(self, line: bytes, overlong: bool) -> None:
+        if line.startswith(b"#"):
+            self._handle_crc_line(line, overlong)
+        elif line and not overlong:
+            self._handle_plain_line(line)
+        elif line:
+            self.dropped_frames += 1
+
+    def _handle_crc_line(self, line: bytes, overlong: bool) -> None:
+        seq = read_seq(line)
+        if seq is None:
+            self.dropped_frames += 1
+            return
+        if overlong:
+            self._reply(seq, "NAK:PARSE")
+            return
+        body, check = line[:-3], line[-2:]
+        if len(line) < 3 or line[-3:-2] != b"*" or not _hex_ok(check) or int(
+                check, 16) != crc8_bitwise(body):
+            self._reply(seq, "NAK:CRC")
+            return
+        self.crc_framing = True
+        crc = int(check, 16)
+        payload = body[body.index(b" ") + 1:].decode("ascii", "replace")
+        try:
+            word, args = parse_payload(payload)
+        except ParseError as exc:
+            self._reply(seq, f"NAK:{exc.reason}")
+            return
+        if self._last == (seq, crc):
+            self.duplicates += 1
+            if word in ("MOTOR", "HB"):
+                self._feed_deadman()
+            self._reply(seq, self._hello() if word == "HELLO" else "ACK")
+            return
+        reply = self._execute(seq, word, args, payload)
+        self._last = (seq, crc)
+        self._reply(seq, reply)
+
+    def _handle_plain_line(self, line: bytes) -> None:
+        payload = line.decode("ascii", "replace")
+        try:
+            word, args = parse_payload(payload)
+        except ParseError as exc:
+            self._reply(None, f"NAK:{exc.reason}")
+            return
+        self.crc_framing = False
+        self._reply(None, self._execute(None, word, args, payload))
+
+    def _execute(self, seq: int | None, word: str, args: tuple[int, ...], payload: str) -> str:
+        loop = asyncio.get_running_loop()
+        self.executed.append(Executed(loop.time(), seq, payload))
+        if word == "MOTOR":
+            left, right, left_dir, right_dir = args
+            self.plant.apply_pwm(left, right, left_dir == 1, right_dir == 1)
+            self.motors_on = left > 0 or right > 0
+            self._feed_deadman()
+        elif word == "HB":
+            self._feed_deadman()
+        elif word == "STOP":
+            self._motors_off()
+        elif word == "SERVO":
+            self.plant.servo(args[0])
+        elif word == "HELLO":
+            return self._hello()
+        else:
+            self.leds.append(word)
+        return "ACK"
+
+    def _hello(self) -> str:
+        return f"HELLO:{self.firmware},{self.protocol}"
+
+    # -- motors ------------------------------------------------------------------------------
+    def _motors_off(self) -> None:
+        self.plant.apply_pwm(0, 0, True, True)
+        self.motors_on = False
+
+    def _feed_deadman(self) -> None:
+        loop = asyncio.get_running_loop()
+        self.last_drive_s = loop.time()
+        if self.deadman_s is None:
+            return
+        if self._deadman is not None:
+            self._deadman.cancel()
+        self._deadman = loop.call_at(self.last_drive_s + self.deadman_s, self._deadman_fired)
+
+    def _deadman_fired(self) -> None:
+        self._deadman = None
+        if self.motors_on:
+            self._motors_off()
+            now = asyncio.get_running_loop().time()
+            self.deadman_stops.append(now)
+            log.info("fake_mcu.deadman_stop", t_s=now, last_drive_s=self.last_drive_s)
+
+    # -- sending -----------------------------------------------------------------------------
+    def _reply(self, seq: int | None, text: str) -> None:
+        if text.startswith("NAK"):
+            self.naks.append((seq, text[4:]))
+        body = f"#{seq} {text}" if seq is not None else text
+        self._send_line(body.encode("ascii"), crc=seq is not None)
+
+    def _send_line(self, body: bytes, *, crc: bool) -> None:
+        if self._streams is None:
+            return
+        line = body + (f"*{crc8_bitwise(body):02X}".encode() if crc else b"") + b"\n"
+        line = corrupt_bytes(line, self.corrupt_fraction, self._rng)
+        loop = asyncio.get_running_loop()
+        self._out_pending.append((loop.time() + self.reply_delay_s, line))
+        if self._out_timer is None:
+            self._flush()
+
+    def _flush(self) -> None:
+        self._out_timer = None
+        if self._streams is None:
+            return
+        loop = asyncio.get_running_loop()
+        writer = self._streams[1]
+        while self._out_pending and self._out_pending[0][0] <= loop.time():
+            line = self._out_pending.popleft()[1]
+            if writer.transport.get_write_buffer_size() > _TX_BACKLOG_BYTES:
+                continue  # nobody reads the port: a UART's bytes are simply gone
+            with contextlib.suppress(OSError, RuntimeError):
+                writer.write(line)
+        if self._out_pending:
+            self._out_timer = loop.call_at(self._out_pending[0][0], self._flush)
+
+    async def _telemetry(self) -> None:
+        loop = asyncio.get_running_loop()
+        due = {name: loop.time() + period for name, period in self.periods_s.items()}
+        while True:
+            name = min(due, key=due.__getitem__)
+            await asyncio.sleep(max(0.0, due[name] - loop.time()))
+            due[name] += self.periods_s[name]
+            self._send_line(self._telemetry_body(name), crc=self.crc_framing)
+
+    def _telemetry_body(self, name: str) -> bytes:
+        if name == "ENCODER":
+            left, right = self.plant.encoder_ticks()
+            text = f"ENCODER:{left - self._tick_offset[0]},{right - self._tick_offset[1]}"
+        elif name == "IR":
+            text = f"IR:{round(self.plant.front_range_cm())}"
+        else:
+            voltage_v, percent, on_dock = self.plant.battery()
+            text = f"BAT:{round(voltage_v * 1000)},{round(percent)},{int(on_dock)}"
+        return text.encode("ascii")
+
+
+def _hex_ok(check: bytes) -> bool:
+    return len(check) == 2 and all(c in b"0123456789ABCDEFabcdef" for c in check)

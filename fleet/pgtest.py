@@ -101,14 +101,15 @@ class PgCluster:
             self._run("pg_ctl", "-D", str(self.root / "data"), "-m", "immediate", "-w", "stop")
         shutil.rmtree(self.root, ignore_errors=True)
 
-    async def create_database(self, name: str) -> str:
-        """Create an empty database; returns its URL."""
-        import asyncpg  # noqa: PLC0415
+    async def create_database(self, name: str, template: str | None = None) -> str:
+        """Create a database (a copy of ``template`` if given); returns its URL."""
+        import asyncpg
 
         conn = await asyncpg.connect(host="127.0.0.1", port=self.port, user="postgres",
                                      database="postgres")
         try:
-            await conn.execute(f'CREATE DATABASE "{name}"')
+            copy = f' TEMPLATE "{template}"' if template else ""
+            await conn.execute(f'CREATE DATABASE "{name}"{copy}')
         finally:
             await conn.close()
         return self.url(name)

@@ -75,11 +75,11 @@ async def exchange(db: Database, clock: Clock, report: Report) -> Reply:
         if serial:
             if robot.is_offline:
                 await restore(session, now, robot)
+            if report.is_in_target:
+                await handle_arrival(session, now, robot, report.sightings)
             request = await current_request(session, robot)
             if request is not None:
                 weight.evaluate(session, now, cfg, request, report.weight_kg)
-            if report.is_in_target:
-                await handle_arrival(session, now, robot, report.sightings)
         request = await current_request(session, robot)
         nav = await navigation(session, cfg, robot, request)
         return Reply(nav, robot.emergency_stop, robot.maintenance_mode)

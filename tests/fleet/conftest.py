@@ -2,30 +2,51 @@
 
 from __future__ import annotations
 
-import itertools
+import asyncio
 from collections.abc import AsyncIterator, Awaitable, Callable, Iterator
 from pathlib import Path
 from typing import Any
 
+import asyncpg
 import pytest
-
-from fleet.pgtest import PgCluster, PgUnavailable
 from fleet_harness import Fleet
 
-_names = itertools.count()
+from fleet.db import Database
+from fleet.models import Base
+from fleet.pgtest import PgCluster, PgUnavailable
+
+PG_DATABASE = "fleet_test"
 
 
 @pytest.fixture(scope="session")
 def pg_cluster() -> Iterator[PgCluster | str]:
-    """A throwaway PostgreSQL cluster for the session, or the reason there is none."""
+    """A throwaway PostgreSQL cluster with a migrated database, or the reason there is none."""
     try:
         cluster = PgCluster.start()
     except PgUnavailable as exc:
         print(f"\nPostgreSQL tests skipped: {exc}")
         yield str(exc)
         return
+    asyncio.run(_migrated(cluster))
     yield cluster
     cluster.stop()
+
+
+async def _migrated(cluster: PgCluster) -> None:
+    db = Database(await cluster.create_database(PG_DATABASE))
+    await db.migrate()
+    await db.dispose()
+
+
+async def _emptied(cluster: PgCluster) -> str:
+    """The session's PostgreSQL database, emptied (faster than a new database per test)."""
+    conn = await asyncpg.connect(host="127.0.0.1", port=cluster.port, user="postgres",
+                                 database=PG_DATABASE)
+    try:
+        await conn.execute(f"TRUNCATE {', '.join(Base.metadata.tables)} RESTART IDENTITY CASCADE")
+    finally:
+        await conn.close()
+    return cluster.url(PG_DATABASE)
 
 
 MakeFleet = Callable[..., Awaitable[Fleet]]
@@ -39,7 +60,7 @@ async def db_url(
         return f"sqlite:///{tmp_path / 'fleet.db'}"
     if isinstance(pg_cluster, str):
         pytest.skip(f"no PostgreSQL server: {pg_cluster}")
-    return await pg_cluster.create_database(f"fleet_{next(_names)}")
+    return await _emptied(pg_cluster)
 
 
 @pytest.fixture

@@ -103,7 +103,7 @@ class PgCluster:
 
     async def create_database(self, name: str, template: str | None = None) -> str:
         """Create a database (a copy of ``template`` if given); returns its URL."""
-        import asyncpg
+        import asyncpg  # type: ignore[import-untyped]
 
         conn = await asyncpg.connect(host="127.0.0.1", port=self.port, user="postgres",
                                      database="postgres")

@@ -9,12 +9,13 @@ hysteresis: a beacon counts as reached once its smoothed RSSI is at or above
 
 from __future__ import annotations
 
+import asyncio
 from collections.abc import Callable
 from typing import Any
 
 import structlog
 
-from behaviours.beacons import BeaconTracker
+from behaviours.beacons import BeaconTracker, SettingsView
 
 log = structlog.get_logger(__name__)
 
@@ -38,6 +39,23 @@ class Arrival:
         self._in_target = False
         self._listeners: list[Callable[[bool], None]] = []
         self.changes = 0
+
+    @classmethod
+    def from_settings(cls, tracker: BeaconTracker, settings: SettingsView) -> Arrival:
+        """Built from the ``ble`` section; tuned margins apply at the next update."""
+        keys = ("enter_margin_db", "exit_margin_db")
+        arrival = cls(tracker, **{k: settings.get(f"ble.{k}") for k in keys},
+                      default_threshold_dbm=settings.get("ble.default_rssi_threshold_dbm"))
+
+        def tuned(dotted: str, value: Any) -> None:
+            key = dotted.rpartition(".")[2]
+            if key in keys:
+                setattr(arrival, key, float(value))
+            elif key == "default_rssi_threshold_dbm":
+                arrival.default_threshold_dbm = float(value)
+
+        settings.watch("ble", tuned)
+        return arrival
 
     @property
     def is_in_target(self) -> bool:
@@ -76,6 +94,12 @@ class Arrival:
             for callback in list(self._listeners):
                 callback(in_target)
         return in_target
+
+    async def run(self, period_s: float = 0.1) -> None:
+        """Re-evaluate every ``period_s`` until cancelled."""
+        while True:
+            await asyncio.sleep(period_s)
+            self.update()
 
     def status(self) -> dict[str, Any]:
         return {"is_in_target": self._in_target, "reached": self.reached,

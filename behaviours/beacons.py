@@ -13,7 +13,7 @@ import asyncio
 import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import structlog
 
@@ -21,6 +21,13 @@ from hal.devices import BeaconScanner
 from hal.readings import BeaconSighting
 
 log = structlog.get_logger(__name__)
+
+
+class SettingsView(Protocol):
+    """What behaviours need of ``robotd.config.Settings``: read and watch dotted keys."""
+
+    def get(self, dotted: str) -> Any: ...
+    def watch(self, prefix: str, listener: Callable[[str, Any], None]) -> Callable[[], None]: ...
 
 
 def distance_m(tx_power_dbm: float, rssi_dbm: float, path_loss_exponent: float) -> float:
@@ -107,6 +114,24 @@ class BeaconTracker:
         self.removed = 0
         if scanner is not None:
             scanner.on_sighting(self.add_sighting)
+
+    @classmethod
+    def from_settings(cls, scanner: BeaconScanner | None, settings: SettingsView) -> (
+            BeaconTracker):
+        """Built from the ``ble`` section; tuned values apply at once."""
+        tracker = cls(scanner, path_loss_exponent=settings.get("ble.path_loss_exponent"),
+                      smoothing_s=settings.get("ble.smoothing_s"),
+                      removal_timeout_s=settings.get("ble.removal_timeout_s"))
+
+        def tuned(dotted: str, value: Any) -> None:
+            key = dotted.rpartition(".")[2]
+            if key == "path_loss_exponent":
+                tracker.set_path_loss_exponent(float(value))
+            elif key in ("smoothing_s", "removal_timeout_s"):
+                setattr(tracker, key, float(value))
+
+        settings.watch("ble", tuned)
+        return tracker
 
     def set_path_loss_exponent(self, n: float) -> None:
         if not n > 0:

@@ -13,7 +13,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
-from typing import Any
+from typing import Any, Protocol
 
 import structlog
 
@@ -21,6 +21,11 @@ from hal.devices import LoadCell
 from hal.readings import WeightReading
 
 log = structlog.get_logger(__name__)
+
+
+class SettingsView(Protocol):
+    def get(self, dotted: str) -> Any: ...
+    def watch(self, prefix: str, listener: Callable[[str, Any], None]) -> Callable[[], None]: ...
 
 
 class LoadVerdict(Enum):
@@ -65,11 +70,27 @@ class LoadCheck:
         self._overweight = False
         self._alert_listeners: list[Callable[[float], None]] = []
 
+    @classmethod
+    def from_settings(cls, load_cell: LoadCell | None, settings: SettingsView) -> LoadCheck:
+        """Built from the ``weight`` section; tuned thresholds apply at once."""
+        keys = ("min_kg", "max_kg", "stable_s", "stable_kg")
+        check = cls(load_cell, **{k: settings.get(f"weight.{k}") for k in keys})
+
+        def tuned(dotted: str, value: Any) -> None:
+            key = dotted.rpartition(".")[2]
+            if key in keys:
+                setattr(check, key, float(value))
+
+        settings.watch("weight", tuned)
+        return check
+
     def on_overweight(self, callback: Callable[[float], None]) -> None:
         """Call ``callback(kg)`` when a steady load reaches ``max_kg`` (once per episode)."""
         self._alert_listeners.append(callback)
 
     def add(self, reading: WeightReading) -> None:
+        if self._window and reading is self._window[-1]:
+            return  # ``run`` and ``wait_for`` both saw it
         self._window.append(reading)
         horizon = reading.t_s - self.stable_s
         while len(self._window) > self.min_readings and self._window[0].t_s < horizon:

@@ -167,13 +167,17 @@ class BleBeaconScanner:
             raise DeviceUnavailable(msg) from exc
         self._watchdog = asyncio.create_task(self._watch(), name=f"{self.name}.watchdog")
 
-    async def stop(self) -> None:
+    async def close(self) -> None:
+        """Stop scanning and the watchdog; safe to call twice."""
         task, self._watchdog = self._watchdog, None
         if task is not None:
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await task
         await self._stop_scanner()
+
+    async def stop(self) -> None:
+        await self.close()
 
     def status(self) -> dict[str, Any]:
         now = asyncio.get_running_loop().time()
@@ -265,3 +269,17 @@ class BleBeaconScanner:
             return
         self._alive_since_restart = False
         log.info("ble.restarted", restarts=self.counts["restarts"], after_s=delay_s)
+
+
+class SettingsView(Protocol):
+    def get(self, dotted: str) -> Any: ...
+
+
+def from_settings(settings: SettingsView,
+                  scanner_factory: ScannerFactory | None = None) -> BleBeaconScanner:
+    """The scanner from the ``ble`` section (``robotd.hardware`` calls this)."""
+    return BleBeaconScanner(
+        settings.get("ble.uuids"),
+        scanner_factory=scanner_factory or bleak_scanner_factory(settings.get("ble.adapter")),
+        stall_timeout_s=settings.get("ble.stall_timeout_s"),
+        restart_max_s=settings.get("ble.restart_max_s"))

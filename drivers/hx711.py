@@ -19,7 +19,7 @@ import statistics
 from collections import deque
 from collections.abc import Callable
 from enum import Enum
-from typing import Any
+from typing import Any, Protocol
 
 import structlog
 
@@ -34,6 +34,7 @@ MAX_SCK_HIGH_US = 60  # HX711: PD_SCK high for > 60 us enters power-down
 SATURATED_HIGH = 0x7FFFFF
 SATURATED_LOW = -0x800000
 POLL_S = 0.002
+MIN_CALIBRATION_COUNTS = 1000  # a calibration mass must move the code well above the noise
 
 
 class Gain(Enum):
@@ -163,13 +164,14 @@ class Hx711:
         self._lines.set_sck(False)  # power up (PD_SCK low)
         self._discard_next = 1
         if not await self._wait_ready(max(self.timeout_s, 4 * self.period_s)):
-            await self.stop()
+            await self.close()
             msg = (f"{self.name}: DOUT never went low (no conversion ready); check power, "
                    "wiring and the data/clock GPIO numbers")
             raise DeviceUnavailable(msg)
         self._task = asyncio.create_task(self._run(), name=f"{self.name}.reader")
 
-    async def stop(self) -> None:
+    async def close(self) -> None:
+        """Stop reading and power the chip down; safe to call twice."""
         task, self._task = self._task, None
         if task is not None:
             task.cancel()
@@ -181,6 +183,9 @@ class Hx711:
             close = getattr(lines, "close", None)
             if callable(close):
                 close()
+
+    async def stop(self) -> None:
+        await self.close()
 
     def latest(self) -> WeightReading | None:
         return self._latest.latest()
@@ -198,10 +203,12 @@ class Hx711:
         if known_kg <= 0:
             msg = f"known weight must be > 0 kg, got {known_kg}"
             raise ValueError(msg)
-        factor = (await self.average_raw() - self.tare_offset) / known_kg
-        if abs(factor) < 1:
-            msg = "the reading did not change with the known weight; is it on the cell?"
+        change = await self.average_raw() - self.tare_offset
+        if abs(change) < MIN_CALIBRATION_COUNTS:
+            msg = (f"the reading changed by only {change:.0f} counts with the known weight; "
+                   "is it on the cell?")
             raise ValueError(msg)
+        factor = change / known_kg
         self.set_calibration_factor(factor)
         log.info("hx711.calibrated", calibration_factor=round(factor, 3), known_kg=known_kg)
         return factor
@@ -279,3 +286,41 @@ class Hx711:
             assert average is not None
             kg = (average - self.tare_offset) / self.calibration_factor
             self._latest.publish(WeightReading(kg=kg, raw=round(average), t_s=loop.time()))
+
+    def apply_setting(self, dotted: str, value: Any) -> None:
+        """A tuned ``hx711.*`` value takes effect at once (tare, factor, windows)."""
+        key = dotted.rpartition(".")[2]
+        if key == "tare_offset":
+            self.tare_offset = int(value)
+        elif key == "calibration_factor":
+            self.set_calibration_factor(float(value))
+        elif key == "average_window":
+            self.filter.resize(int(value))
+        elif key == "outlier_kg":
+            self._outlier_kg = float(value)
+            self.filter.outlier_counts = self._outlier_kg * abs(self.calibration_factor)
+
+
+class SettingsView(Protocol):
+    def get(self, dotted: str) -> Any: ...
+    def watch(self, prefix: str, listener: Callable[[str, Any], None]) -> Callable[[], None]: ...
+
+
+def from_settings(settings: SettingsView,
+                  open_lines: Callable[[], Hx711Lines] | None = None) -> Hx711:
+    """The load cell from the ``hx711`` section, on lgpio unless ``open_lines`` is given."""
+    if open_lines is None:
+        from drivers.gpio_lgpio import lgpio_lines_opener
+
+        open_lines = lgpio_lines_opener(settings.get("hx711.gpiochip"),
+                                        settings.get("hx711.data_gpio"),
+                                        settings.get("hx711.clock_gpio"))
+    hx = Hx711(open_lines, gain=Gain[settings.get("hx711.gain")], sps=settings.get("hx711.sps"),
+               tare_offset=settings.get("hx711.tare_offset"),
+               calibration_factor=settings.get("hx711.calibration_factor"),
+               average_window=settings.get("hx711.average_window"),
+               median_window=settings.get("hx711.median_window"),
+               outlier_kg=settings.get("hx711.outlier_kg"),
+               timeout_s=settings.get("hx711.timeout_s"))
+    settings.watch("hx711", hx.apply_setting)
+    return hx

@@ -72,6 +72,8 @@ class SimHx711Lines:
     _last_read_index: int = -1
     _glitch: tuple[int, int] | None = None
     _saturate: int | None = None
+    _spike_counts: int = 0
+    _connected: bool = True
 
     def __post_init__(self) -> None:
         if self.sps not in (10, 80):
@@ -98,13 +100,26 @@ class SimHx711Lines:
         """The input is out of range: conversions give 0x7FFFFF (or 0x800000)."""
         self._saturate = CODE_MAX if high else CODE_MIN
 
+    def spike_next_conversion(self, counts: int) -> None:
+        """The next conversion is off by ``counts`` (interference on the bridge wires)."""
+        self._spike_counts = counts
+
+    def disconnect(self) -> None:
+        """DOUT wire off: the input's pull-up holds it high, so no conversion looks ready."""
+        self._connected = False
+
+    def connect(self) -> None:
+        self._connected = True
+
     def clear_faults(self) -> None:
         self._glitch = None
         self._saturate = None
+        self._spike_counts = 0
 
     @property
     def powered_down(self) -> bool:
-        return self._sck and self._now_us - self._rise_us > POWER_DOWN_US
+        now_us = max(self._now_us, self._loop_us())
+        return self._sck and now_us - self._rise_us > POWER_DOWN_US
 
     @property
     def gain(self) -> tuple[str, int]:
@@ -116,7 +131,7 @@ class SimHx711Lines:
 
     def read_dout(self) -> bool:
         now = self._tick()
-        if self.powered_down:
+        if self.powered_down or not self._connected:
             return True
         if 1 <= self._pulses <= 24:
             return bool((self._shift >> (24 - self._pulses)) & 1)
@@ -161,6 +176,8 @@ class SimHx711Lines:
             self._shift = self._code() & 0xFFFFFF
             self.reads_started += 1
         self._pulses += 1
+        if self._pulses in GAIN_BY_PULSES:
+            self._pulses_per_read = self._pulses  # the chip counts them as they come
         if self._pulses == 24:
             self.reads_completed += 1
         if self._glitch is not None and self._pulses == self._glitch[0]:
@@ -169,8 +186,6 @@ class SimHx711Lines:
 
     def _finish_read(self) -> None:
         self.pulse_counts.append(self._pulses)
-        if self._pulses in GAIN_BY_PULSES:
-            self._pulses_per_read = self._pulses
         self._pulses = 0
 
     def _reset(self, now_us: int) -> None:
@@ -188,5 +203,7 @@ class SimHx711Lines:
             return self._saturate
         channel, gain = self.gain
         signal = self.counts_per_kg * gain / 128 * self.weight_kg() if channel == "A" else 0.0
-        code = self.offset_counts * gain / 128 + signal + self.rng.gauss(0, self.noise_counts)
+        code = (self.offset_counts * gain / 128 + signal + self._spike_counts
+                + self.rng.gauss(0, self.noise_counts))
+        self._spike_counts = 0
         return int(max(CODE_MIN, min(CODE_MAX, math.floor(code))))

@@ -77,7 +77,7 @@ async def run(args: argparse.Namespace) -> int:
     try:
         await asyncio.sleep(args.duration_s)
     finally:
-        await scanner.stop()
+        await scanner.close()
         if air_task is not None:
             air_task.cancel()
     report = _report(tracker, rssi, scanner.status(), args.duration_s)

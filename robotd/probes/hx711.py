@@ -98,7 +98,7 @@ async def run(args: argparse.Namespace) -> int:
                 return 1
         report.update(await _measure(hx, args.readings))
     finally:
-        await hx.stop()
+        await hx.close()
     if args.json:
         print(json.dumps(report))
     else:

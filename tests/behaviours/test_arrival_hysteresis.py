@@ -139,7 +139,7 @@ class TestArrivalClosedLoop:
                 for _ in range(100):  # parked 1 m from the beacon for 10 s
                     await asyncio.sleep(0.1)
                     arrival.update()
-                await scanner.stop()
+                await scanner.close()
             return changes, arrival.changes
 
         changes, count = vclock.run(main())
@@ -147,3 +147,21 @@ class TestArrivalClosedLoop:
         distance_at_arrival, value = changes[0]
         assert value is True
         assert 1.0 <= distance_at_arrival <= 3.5
+
+
+class TestArrivalFromSettings:
+    def test_margins_and_exponent_come_from_the_ble_section_and_tune_live(self) -> None:
+        """Tracker and Arrival read the ble section; tune.set of a margin applies at once."""
+        from robotd.config.loader import defaults
+        from robotd.config.settings import Settings
+
+        settings = Settings(defaults())
+        tracker = BeaconTracker.from_settings(None, settings)
+        arrival = Arrival.from_settings(tracker, settings)
+        assert (tracker.path_loss_exponent, tracker.removal_timeout_s) == (2.0, 10.0)
+        assert (arrival.enter_margin_db, arrival.exit_margin_db) == (0.0, 3.0)
+        settings.set("ble.exit_margin_db", 5)
+        settings.set("ble.path_loss_exponent", 2.5)
+        settings.set("ble.default_rssi_threshold_dbm", -72)
+        assert arrival.exit_margin_db == 5.0 and tracker.path_loss_exponent == 2.5
+        assert arrival.default_threshold_dbm == -72.0

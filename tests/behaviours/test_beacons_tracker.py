@@ -123,7 +123,7 @@ class TestClosedLoop:
                     b = tracker.get(MAC)
                     assert b is not None
                     estimates.append(b.distance_m)
-                await scanner.stop()
+                await scanner.close()
             return estimates
 
         estimates = vclock.run(main())
@@ -148,7 +148,7 @@ class TestClosedLoop:
                 await asyncio.sleep(1.5)
                 gone = tracker.get(MAC) is None
                 pruner.cancel()
-                await scanner.stop()
+                await scanner.close()
             return kept, gone
 
         assert vclock.run(main()) == (True, True)

@@ -122,7 +122,7 @@ class TestScannerAdverts:
             for data in (AIRLOCATE_1_2, TRUNCATED, WRONG_LENGTH_BYTE, APPLE_NEARBY_INFO,
                          APPLE_FIND_MY, MICROSOFT_SWIFT_PAIR, RUUVI_TAG, {0x004C: None}):
                 bleak.play("11:22:33:44:55:66", data)
-            await driver.stop()
+            await driver.close()
             assert seen == [BeaconSighting("D4:CA:6E:00:00:01", ESTIMOTE, 12345, 54321, -67,
                                            -59, 1.5)]
             c = driver.counts
@@ -140,7 +140,7 @@ class TestScannerAdverts:
             await driver.start()
             made[0].play("AA:00:00:00:00:01", ESTIMOTE_12345_54321)
             made[0].play("AA:00:00:00:00:02", AIRLOCATE_1_2)
-            await driver.stop()
+            await driver.close()
             return [s.uuid for s in seen]
 
         assert vclock.run(main()) == [ESTIMOTE, AIRLOCATE]
@@ -158,7 +158,7 @@ class TestScannerAdverts:
             driver.on_sighting(later.append)
             await driver.start()
             made[0].play("AA:00:00:00:00:01", ESTIMOTE_12345_54321)
-            await driver.stop()
+            await driver.close()
             return driver.counts["callback_errors"], len(later)
 
         assert vclock.run(main()) == (1, 1)

@@ -46,7 +46,7 @@ class TestScannerRecovery:
                 await asyncio.sleep(5)
                 assert driver.counts["restarts"] == 1
                 assert len(seen) > stalled_at
-                await driver.stop()
+                await driver.close()
             assert air.counts["starts"] == 2
 
         vclock.run(main())
@@ -72,7 +72,7 @@ class TestScannerRecovery:
                     await asyncio.sleep(0.1)
                 recovered_after_s = loop.time() - t_stall
                 await asyncio.sleep(2)
-                await driver.stop()
+                await driver.close()
             assert driver.counts["scan_errors"] == 3
             assert "org.bluez.Error.InProgress" in (driver.last_error or "")
             # 2 s stall + four backoff waits (0.5, 1, 2, 4 s) plus the watchdog's checks
@@ -99,7 +99,7 @@ class TestScannerRecovery:
                 await asyncio.sleep(10)
                 assert driver.counts["scan_errors"] == failures
                 assert driver.status()["last_advert_age_s"] < 1
-                await driver.stop()
+                await driver.close()
 
         vclock.run(main())
 
@@ -114,8 +114,8 @@ class TestScannerRecovery:
 
         vclock.run(main())
 
-    def test_stop_tolerates_in_progress_from_bluez(self) -> None:
-        """BlueZ answering StopDiscovery with InProgress does not make stop() fail."""
+    def test_close_tolerates_in_progress_from_bluez(self) -> None:
+        """BlueZ answering StopDiscovery with InProgress does not make close() fail."""
         async def main() -> None:
             air = _air()
             driver = BleBeaconScanner([UUID], scanner_factory=air.scanner_factory())
@@ -127,7 +127,26 @@ class TestScannerRecovery:
                 raise BleakDBusError("org.bluez.Error.InProgress", ["Operation in progress"])
 
             air.detach = refuse  # type: ignore[method-assign]
-            await driver.stop()
+            await driver.close()
             assert driver.status()["scanning"] is False
 
         vclock.run(main())
+
+
+class TestScannerFromSettings:
+    def test_built_from_the_ble_section(self) -> None:
+        """from_settings takes the UUID list and watchdog timings of the ble section."""
+        from drivers.ble_scanner import from_settings
+        from robotd.config.loader import defaults
+        from robotd.config.settings import Settings
+
+        settings = Settings(defaults())
+        settings.set("ble.uuids", [UUID.upper()])
+        settings.set("ble.stall_timeout_s", 7.0)
+        driver = from_settings(settings, scanner_factory=_air().scanner_factory())
+        assert driver.stall_timeout_s == 7.0
+        assert vclock.run(_uuids(driver)) == [UUID]
+
+
+async def _uuids(driver: BleBeaconScanner) -> list[str]:
+    return list(driver.status()["uuids"])

@@ -1,0 +1,253 @@
+"""The HX711 driver against the bit-level simulated chip, under virtual time."""
+
+from __future__ import annotations
+
+import asyncio
+import importlib.util
+import random
+from typing import Any
+
+import pytest
+
+from drivers.gpio_lgpio import LgpioHx711Lines
+from drivers.hx711 import Gain, Hx711
+from hal.devices import DeviceUnavailable, LoadCell
+from hal.sim.body import DiffDriveBody
+from hal.sim.geometry import Pose
+from hal.sim.hx711_model import SimHx711Lines
+from hal.sim.world import World
+from robotd import vclock
+
+
+def _rig(gain: Gain = Gain.A128, sps: int = 10, **sim: Any) -> tuple[
+        DiffDriveBody, SimHx711Lines, Hx711]:
+    body = DiffDriveBody(World.from_table({"width_m": 4, "height_m": 4}), Pose(1, 1, 0))
+    lines = SimHx711Lines.on_body(body, sps=sps, rng=random.Random(3), **sim)
+    # The configured factor is the default for a 20 kg cell; the sim's real scale differs.
+    return body, lines, Hx711(lambda: lines, gain=gain, sps=sps)
+
+
+async def _settle(hx: Hx711, readings: int = 20) -> float:
+    for _ in range(readings):
+        reading = await hx.next_reading()
+    return reading.kg
+
+
+class TestHx711Driver:
+    def test_implements_the_hal_protocol(self) -> None:
+        """The driver is a ``hal.devices.LoadCell``."""
+        assert isinstance(_rig()[2], LoadCell)
+
+    @pytest.mark.parametrize(("gain", "sps"), [(Gain.A128, 10), (Gain.A128, 80),
+                                               (Gain.A64, 10)])
+    def test_reads_the_payload_after_tare_and_calibration(self, gain: Gain, sps: int) -> None:
+        """Tare empty, calibrate with 2 kg, then a 4.2 kg payload reads 4.2 +- 0.05 kg."""
+        async def main() -> tuple[float, float]:
+            body, lines, hx = _rig(gain, sps)
+            await hx.start()
+            await _settle(hx, 5)
+            await hx.tare()
+            body.payload_kg = 2.0
+            await _settle(hx)
+            factor = await hx.calibrate(2.0)
+            body.payload_kg = 4.2
+            kg = await _settle(hx)
+            await hx.close()
+            assert lines.pulse_counts[-1] == gain.pulses
+            return kg, factor
+
+        kg, factor = vclock.run(main())
+        assert abs(kg - 4.2) <= 0.05
+        expected = 103_500.0 * (64 if gain is Gain.A64 else 128) / 128
+        assert abs(factor / expected - 1) < 0.01
+
+    def test_output_rate_follows_the_chip(self) -> None:
+        """At 80 SPS the driver publishes about 80 readings a second; at 10 SPS about 10."""
+        async def main(sps: int) -> int:
+            _, _, hx = _rig(sps=sps)
+            await hx.start()
+            await _settle(hx, 3)
+            before = hx.counts["accepted"]
+            await asyncio.sleep(5)
+            await hx.close()
+            return hx.counts["accepted"] - before
+
+        assert 390 <= vclock.run(main(80)) <= 410
+        assert 48 <= vclock.run(main(10)) <= 52
+
+    def test_glitched_read_is_discarded_and_readings_stay_right(self) -> None:
+        """A clock pulse held 80 us powers the chip down: that read (and the settling one
+        after the reset) are dropped and no wrong weight is ever published."""
+        async def main() -> None:
+            body, lines, hx = _rig()
+            hx.tare_offset, hx.calibration_factor = -48_213, 103_500.0
+            body.payload_kg = 3.0
+            await hx.start()
+            await _settle(hx, 10)
+            lines.glitch_next_read(at_pulse=12)
+            published = [(await hx.next_reading()).kg for _ in range(15)]
+            await hx.close()
+            assert hx.counts["sck_high"] == 1
+            assert lines.power_downs == 1
+            assert all(abs(kg - 3.0) < 0.02 for kg in published)
+
+        vclock.run(main())
+
+    def test_saturated_input_publishes_nothing_until_it_recovers(self) -> None:
+        """Saturated codes are counted and skipped; readings resume when the input is back."""
+        async def main() -> None:
+            _, lines, hx = _rig()
+            await hx.start()
+            await _settle(hx, 3)
+            lines.saturate(high=True)
+            published_before = hx.counts["accepted"]
+            await asyncio.sleep(2)
+            assert hx.counts["saturated"] >= 18
+            assert hx.counts["accepted"] == published_before
+            lines.clear_faults()
+            await _settle(hx, 3)
+            await hx.close()
+
+        vclock.run(main())
+
+    def test_a_single_spike_is_rejected_as_an_outlier(self) -> None:
+        """One conversion 5 kg off the recent median never reaches the average."""
+        async def main() -> None:
+            body, lines, hx = _rig()
+            hx.tare_offset, hx.calibration_factor = -48_213, 103_500.0
+            body.payload_kg = 1.0
+            await hx.start()
+            await _settle(hx, 10)
+            lines.spike_next_conversion(5 * 103_500)
+            published = [(await hx.next_reading()).kg for _ in range(10)]
+            await hx.close()
+            assert hx.counts["outliers"] == 1
+            assert all(abs(kg - 1.0) < 0.02 for kg in published)
+
+        vclock.run(main())
+
+    def test_a_real_step_in_load_is_followed(self) -> None:
+        """A load that stays is accepted after half the median window, not rejected forever."""
+        async def main() -> float:
+            body, _, hx = _rig()
+            hx.tare_offset, hx.calibration_factor = -48_213, 103_500.0
+            await hx.start()
+            await _settle(hx, 10)
+            body.payload_kg = 6.0
+            kg = await _settle(hx, 12)
+            await hx.close()
+            return kg
+
+        assert abs(vclock.run(main()) - 6.0) < 0.02
+
+    def test_no_data_ready_is_device_unavailable(self) -> None:
+        """With DOUT disconnected (pulled high) start() fails with a clear message."""
+        async def main() -> None:
+            _, lines, hx = _rig()
+            lines.disconnect()
+            with pytest.raises(DeviceUnavailable, match="DOUT never went low"):
+                await hx.start()
+
+        vclock.run(main())
+
+    def test_close_powers_the_chip_down(self) -> None:
+        """close() leaves PD_SCK high, which powers the HX711 down."""
+        async def main() -> bool:
+            _, lines, hx = _rig()
+            await hx.start()
+            await _settle(hx, 2)
+            await hx.close()
+            await asyncio.sleep(0.01)
+            return lines.powered_down
+
+        assert vclock.run(main()) is True
+
+    def test_calibrating_without_the_weight_is_refused(self) -> None:
+        """Calibrating with nothing placed says so instead of storing a zero factor."""
+        async def main() -> None:
+            _, _, hx = _rig()
+            await hx.start()
+            await hx.tare()
+            with pytest.raises(ValueError, match="changed by only"):
+                await hx.calibrate(2.0)
+            await hx.close()
+
+        vclock.run(main())
+
+
+class FakeLgpio:
+    """Records what the driver asks of lgpio."""
+
+    def __init__(self, fail_open: bool = False) -> None:
+        self.fail_open = fail_open
+        self.calls: list[tuple[Any, ...]] = []
+        self.level = 1
+
+    def gpiochip_open(self, chip: int) -> int:
+        if self.fail_open:
+            raise OSError("can not open gpiochip")
+        self.calls.append(("open", chip))
+        return 7
+
+    def gpio_claim_output(self, h: int, gpio: int, level: int) -> None:
+        self.calls.append(("out", gpio, level))
+
+    def gpio_claim_input(self, h: int, gpio: int) -> None:
+        self.calls.append(("in", gpio))
+
+    def gpio_write(self, h: int, gpio: int, level: int) -> None:
+        self.calls.append(("write", gpio, level))
+
+    def gpio_read(self, h: int, gpio: int) -> int:
+        return self.level
+
+    def gpio_free(self, h: int, gpio: int) -> None:
+        self.calls.append(("free", gpio))
+
+    def gpiochip_close(self, h: int) -> None:
+        self.calls.append(("close", h))
+
+
+class TestLgpioLines:
+    def test_claims_clock_low_and_data_in_then_frees_them(self) -> None:
+        """PD_SCK is claimed as an output driven low (powered up), DOUT as an input."""
+        lg = FakeLgpio()
+        lines = LgpioHx711Lines(0, data_gpio=5, clock_gpio=6, lgpio_module=lg)
+        lines.set_sck(True)
+        assert lines.read_dout() is True
+        lines.close()
+        lines.close()
+        assert lg.calls == [("open", 0), ("out", 6, 0), ("in", 5), ("write", 6, 1),
+                            ("free", 6), ("free", 5), ("close", 7)]
+
+    def test_missing_chip_is_device_unavailable(self) -> None:
+        """A chip that cannot be opened names /dev/gpiochipN."""
+        with pytest.raises(DeviceUnavailable, match="/dev/gpiochip4"):
+            LgpioHx711Lines(4, 5, 6, lgpio_module=FakeLgpio(fail_open=True))
+
+    @pytest.mark.skipif(importlib.util.find_spec("lgpio") is not None,
+                        reason="lgpio is installed here")
+    def test_missing_lgpio_says_how_to_install_it(self) -> None:
+        """Without lgpio the error names the pi extra."""
+        with pytest.raises(DeviceUnavailable, match=r"robotd\[pi\]"):
+            LgpioHx711Lines(0, 5, 6)
+
+
+class TestHx711FromSettings:
+    def test_built_from_the_hx711_section_and_tuned_live(self) -> None:
+        """from_settings takes gain, rate, tare and factor; tuning them applies at once."""
+        from drivers.hx711 import from_settings
+        from robotd.config.loader import defaults
+        from robotd.config.settings import Settings
+
+        settings = Settings(defaults())
+        settings.set("hx711.gain", "A64")
+        settings.set("hx711.sps", 80)
+        lines = SimHx711Lines(weight_kg=lambda: 0.0, sps=80)
+        hx = from_settings(settings, open_lines=lambda: lines)
+        assert (hx.gain, hx.period_s) == (Gain.A64, 1 / 80)
+        settings.set("hx711.tare_offset", -1234)
+        settings.set("hx711.calibration_factor", 51_750.0)
+        settings.set("hx711.average_window", 4)
+        assert (hx.tare_offset, hx.calibration_factor, hx.filter.window) == (-1234, 51_750.0, 4)
+        assert hx.filter.outlier_counts == 51_750.0

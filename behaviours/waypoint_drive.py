@@ -66,7 +66,14 @@ class OdometryTracker:
         if latest is not None:
             self.odometry.update(latest)
         while True:
-            self.odometry.update(await self.encoders.next_reading())
+            try:
+                reading = await self.encoders.next_reading()
+            except LinkDown:
+                # No readings while the board is away; its counters run on, so the first
+                # reading after the link returns carries the motion made meanwhile.
+                await asyncio.sleep(_PERIOD_S)
+                continue
+            self.odometry.update(reading)
 
 
 class WaypointDrive:

@@ -49,11 +49,18 @@ class Devices:
     audio: Audio | None = None
 
     def distinct(self) -> list[Any]:
-        """Each device object once (a driver filling several slots counts once), in slot order."""
+        """Each device to start and close, once, in slot order.
+
+        A driver filling several slots counts once; a slot filled by a facet of a driver (the
+        Arduino link's encoder feed) has no ``start``/``close`` of its own and is left out.
+        """
         seen: list[Any] = []
         for f in fields(self):
             device = getattr(self, f.name)
-            if device is not None and not any(device is s for s in seen):
+            if device is None or any(device is s for s in seen):
+                continue
+            if callable(getattr(device, "start", None)) and callable(getattr(device, "close",
+                                                                             None)):
                 seen.append(device)
         return seen
 

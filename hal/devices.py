@@ -2,7 +2,7 @@
 
 A device reports its newest reading with ``latest()`` (None before the first one) and lets a
 caller wait for the next with ``await next_reading()``. ``status()`` returns a small dict of
-figures for ``robotctl sensors``. Devices are started and stopped by the daemon's supervisor.
+figures for ``robotctl sensors``. The daemon's supervisor calls ``start()`` and ``close()``.
 """
 
 from __future__ import annotations
@@ -34,8 +34,8 @@ class Device(Protocol):
     async def start(self) -> None:
         """Open the device; return once it delivers (or raise DeviceUnavailable)."""
 
-    async def stop(self) -> None:
-        """Close the device; safe to call twice."""
+    async def close(self) -> None:
+        """Close the device; safe to call twice. (``Motors.stop`` is the wheels' STOP.)"""
 
     def status(self) -> dict[str, Any]:
         """Figures for ``robotctl sensors``."""

@@ -9,7 +9,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from hal.sim.physics import TrackPoint
+from hal.sim.tracks import TrackPoint
 from hal.sim.world import World
 
 _EVENT_MARKERS = {
@@ -17,6 +17,7 @@ _EVENT_MARKERS = {
     "script": ("v", "black"),
     "estop": ("X", "crimson"),
     "link": ("s", "darkorange"),
+    "deadman": ("P", "firebrick"),
     "arrival": ("*", "gold"),
 }
 
@@ -108,6 +109,7 @@ def draw_trajectory(
             ax.plot(points[-1].x_m, points[-1].y_m, marker="o", color="black", ms=5, zorder=5)
 
     seen: set[str] = set()
+    notes_at: dict[tuple[float, float], int] = {}
     for event in events:
         kind = str(event.get("kind"))
         if kind not in _EVENT_MARKERS or "x_m" not in event or "y_m" not in event:
@@ -118,8 +120,11 @@ def draw_trajectory(
         seen.add(kind)
         note = event.get("action") or event.get("state") or ""
         if note:
+            spot = (round(float(event["x_m"]), 1), round(float(event["y_m"]), 1))
+            stacked = notes_at.get(spot, 0)
+            notes_at[spot] = stacked + 1
             ax.annotate(str(note), (event["x_m"], event["y_m"]), fontsize=7,
-                        xytext=(5, -10), textcoords="offset points", color=col)
+                        xytext=(6, -10 - 9 * stacked), textcoords="offset points", color=col)
 
     ax.set_xlim(-0.1, world.width_m + 0.1)
     ax.set_ylim(-0.1, world.height_m + 0.1)

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import math
 import random
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -43,34 +44,70 @@ class Collision:
     y_m: float
 
 
-@dataclass
 class DiffDriveBody:
-    """One robot's body on the floor plan."""
+    """One robot's body on the floor plan.
 
-    world: World
-    pose: Pose
-    params: BodyParams = field(default_factory=BodyParams)
-    rng: random.Random = field(default_factory=random.Random)
-    charge_pct: float = 100.0
-    payload_kg: float = 0.0
-    servo_deg: int = 0
-    pwm: tuple[int, int, bool, bool] = (0, 0, True, True)
-    wheel_mps: list[float] = field(default_factory=lambda: [0.0, 0.0])
-    collisions: list[Collision] = field(default_factory=list)
-    distance_m: float = 0.0
-    time_s: float = 0.0
-    _ticks: list[float] = field(default_factory=lambda: [0.0, 0.0])
-    _in_contact: bool = False
+    With a ``clock`` (the event loop's ``time``), the body integrates itself up to the clock's
+    time in ``dt_s`` steps whenever it is touched (a PWM change, an encoder read, a pose read),
+    so no timer has to wake the loop a hundred times a second. Without one, ``step`` is called
+    by hand (tests).
+    """
+
+    def __init__(self, world: World, pose: Pose, params: BodyParams | None = None, *,
+                 rng: random.Random | None = None, charge_pct: float = 100.0,
+                 payload_kg: float = 0.0, clock: Callable[[], float] | None = None,
+                 dt_s: float = 0.01) -> None:
+        self.world = world
+        self._pose = pose
+        self.params = params or BodyParams()
+        self.rng = rng or random.Random()
+        self.charge_pct = charge_pct
+        self.payload_kg = payload_kg
+        self.servo_deg = 0
+        self.pwm: tuple[int, int, bool, bool] = (0, 0, True, True)
+        self.wheel_mps = [0.0, 0.0]
+        self.collisions: list[Collision] = []
+        self.distance_m = 0.0
+        self.time_s = 0.0
+        self.dt_s = dt_s
+        self._clock = clock
+        self._synced_s = clock() if clock is not None else 0.0
+        self._ticks = [0.0, 0.0]
+        self._in_contact = False
+        self._free_m = -1.0  # distance it can move before walls must be checked again
+
+    @property
+    def pose(self) -> Pose:
+        self.sync()
+        return self._pose
+
+    @pose.setter
+    def pose(self, value: Pose) -> None:
+        self.sync()
+        self._pose = value
+        self._free_m = -1.0
+
+    def sync(self) -> None:
+        """Integrate up to the clock's time (no-op without a clock)."""
+        if self._clock is None:
+            return
+        now = self._clock()
+        while now - self._synced_s >= self.dt_s:
+            self._synced_s += self.dt_s
+            self.step(self.dt_s)
 
     # --- MotorPlant -------------------------------------------------------------------------
     def apply_pwm(self, left_pwm: int, right_pwm: int, left_forward: bool,
                   right_forward: bool) -> None:
+        self.sync()
         self.pwm = (left_pwm, right_pwm, left_forward, right_forward)
 
     def encoder_ticks(self) -> tuple[int, int]:
+        self.sync()
         return math.floor(self._ticks[0]), math.floor(self._ticks[1])
 
     def front_range_cm(self) -> float:
+        self.sync()
         p = self.params
         x, y = self.pose.to_world(p.radius_m, 0.0)
         hit_m = float(raycast(self.world.walls, x, y,
@@ -84,6 +121,7 @@ class DiffDriveBody:
 
     def battery(self) -> tuple[float, float, bool]:
         # A 3S Li-ion pack: 9.6 V empty to 12.6 V full, close enough to linear for a sim.
+        self.sync()
         voltage = 9.6 + 3.0 * self.charge_pct / 100
         return voltage, self.charge_pct, self.on_dock
 
@@ -96,8 +134,9 @@ class DiffDriveBody:
         dock = self.world.dock
         if dock is None:
             return False
-        return (self.pose.distance_to(dock.x_m, dock.y_m) < 0.03
-                and abs(wrap_angle(self.pose.heading_rad - dock.heading_rad)) < math.radians(10))
+        return (self._pose.distance_to(dock.x_m, dock.y_m) < 0.03
+                and abs(wrap_angle(self._pose.heading_rad - dock.heading_rad))
+                < math.radians(10))
 
     def _target_mps(self, pwm: int, forward: bool) -> float:
         p = self.params
@@ -130,24 +169,28 @@ class DiffDriveBody:
     def _move(self, left_m: float, right_m: float) -> None:
         if left_m == 0 and right_m == 0:
             return
+        pose = self._pose
         d = (left_m + right_m) / 2
         dtheta = (right_m - left_m) / self.params.wheel_base_m
-        mid = self.pose.heading_rad + dtheta / 2
-        x = self.pose.x_m + d * math.cos(mid)
-        y = self.pose.y_m + d * math.sin(mid)
-        heading = wrap_angle(self.pose.heading_rad + dtheta)
-        blocked = (self.world.clearance_m(x, y) < self.params.radius_m
-                   and self.world.clearance_m(x, y) < self.world.clearance_m(self.pose.x_m,
-                                                                               self.pose.y_m))
-        if blocked:
-            if not self._in_contact:
-                self.collisions.append(Collision(self.time_s, x, y))
-            self._in_contact = True
-            self.pose = Pose(self.pose.x_m, self.pose.y_m, heading)
-            return
+        mid = pose.heading_rad + dtheta / 2
+        x = pose.x_m + d * math.cos(mid)
+        y = pose.y_m + d * math.sin(mid)
+        heading = wrap_angle(pose.heading_rad + dtheta)
+        self._free_m -= abs(d)
+        if self._free_m <= 0:
+            clearance = self.world.clearance_m(x, y)
+            self._free_m = clearance - self.params.radius_m
+            if clearance < self.params.radius_m and clearance < self.world.clearance_m(
+                    pose.x_m, pose.y_m):
+                if not self._in_contact:
+                    self.collisions.append(Collision(self.time_s, x, y))
+                self._in_contact = True
+                self._free_m = -1.0
+                self._pose = Pose(pose.x_m, pose.y_m, heading)
+                return
         self._in_contact = False
         self.distance_m += abs(d)
-        self.pose = Pose(x, y, heading)
+        self._pose = Pose(x, y, heading)
 
     def _drain(self, dt_s: float) -> None:
         p = self.params

@@ -1,0 +1,95 @@
+"""A scenario's success conditions, checked against what happened in a run."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from hal.sim.body import DiffDriveBody
+from hal.sim.scenario import Scenario
+
+
+@dataclass
+class RobotRecord:
+    """What the runner saw of one robot: the states it passed through, estops, its body."""
+
+    name: str
+    body: DiffDriveBody
+    states_seen: list[str] = field(default_factory=list)
+    estops: int = 0
+    state: str = "boot"
+    cross_track_sum_m: float = 0.0
+    cross_track_samples: int = 0
+
+    def saw(self, state: str) -> bool:
+        """True if the robot was in ``state`` or a state inside it."""
+        return any(s == state or s.startswith(state + ".") for s in self.states_seen)
+
+    @property
+    def mean_cross_track_m(self) -> float | None:
+        if self.cross_track_samples == 0:
+            return None
+        return self.cross_track_sum_m / self.cross_track_samples
+
+
+def finished(scenario: Scenario, robots: dict[str, RobotRecord]) -> bool:
+    """True once every robot has seen its required states and sits in the final state."""
+    success = scenario.success
+    if success.final_state is None:
+        return False
+    return all(
+        all(r.saw(s) for s in success.states_reached) and r.state == success.final_state
+        for r in robots.values()
+    )
+
+
+def failures(scenario: Scenario, robots: dict[str, RobotRecord], elapsed_s: float,
+             extra: list[str] | None = None) -> list[str]:
+    """Every success condition that does not hold, as a sentence; empty when all hold."""
+    success = scenario.success
+    reasons: list[str] = list(extra or [])
+    many = len(robots) > 1
+    for name, r in robots.items():
+        who = f"{name}: " if many else ""
+        for state in success.states_reached:
+            if not r.saw(state):
+                reasons.append(f"{who}never reached state {state}")
+        if success.final_state is not None and r.state != success.final_state:
+            reasons.append(f"{who}ended in state {r.state}, expected {success.final_state}")
+        if success.no_estop and r.estops:
+            reasons.append(f"{who}went to estop {r.estops} time(s)")
+        if success.no_collisions and r.body.collisions:
+            c = r.body.collisions[0]
+            reasons.append(f"{who}hit a wall {len(r.body.collisions)} time(s), first at "
+                           f"t={c.t_s:.1f} s ({c.x_m:.2f}, {c.y_m:.2f})")
+        if success.max_cross_track_m is not None and r.mean_cross_track_m is not None \
+                and r.mean_cross_track_m > success.max_cross_track_m:
+            reasons.append(f"{who}mean cross-track error {r.mean_cross_track_m * 100:.1f} cm "
+                           f"> {success.max_cross_track_m * 100:.1f} cm")
+    for pose in success.final_poses:
+        body = robots[pose.robot].body
+        off = body.pose.distance_to(pose.x_m, pose.y_m)
+        if off > pose.tolerance_m:
+            who = f"{pose.robot}: " if many else ""
+            reasons.append(f"{who}ended {off * 100:.1f} cm from ({pose.x_m:.2f}, {pose.y_m:.2f})"
+                           f", tolerance {pose.tolerance_m * 100:.1f} cm")
+    if elapsed_s >= success.time_limit_s and not finished(scenario, robots) \
+            and success.final_state is not None:
+        reasons.append(f"time limit of {success.time_limit_s:g} s reached")
+    return reasons
+
+
+def summary_figures(robots: dict[str, RobotRecord]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for name, r in robots.items():
+        pose = r.body.pose
+        fig: dict[str, Any] = {
+            "distance_m": round(r.body.distance_m, 3),
+            "final_x_m": round(pose.x_m, 4), "final_y_m": round(pose.y_m, 4),
+            "battery_pct": round(r.body.charge_pct, 2),
+            "collisions": len(r.body.collisions),
+        }
+        if r.mean_cross_track_m is not None:
+            fig["mean_cross_track_cm"] = round(r.mean_cross_track_m * 100, 2)
+        out[name] = fig
+    return out

@@ -1,0 +1,77 @@
+"""What ``robotd sim`` prints: state transitions, one progress line, and the summary."""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import Any, TextIO
+
+
+class SimConsole:
+    """Prints transitions as lines and keeps one progress line updated in place on a TTY."""
+
+    def __init__(self, *, quiet: bool = False, stream: TextIO | None = None,
+                 refresh_s: float = 0.25) -> None:
+        self.quiet = quiet
+        self.stream = stream or sys.stdout
+        self.tty = self.stream.isatty()
+        self.refresh_s = refresh_s
+        self._wall_start = time.monotonic()
+        self._last_refresh = 0.0
+        self._progress_shown = False
+
+    def wall_s(self) -> float:
+        return time.monotonic() - self._wall_start
+
+    def line(self, text: str) -> None:
+        if self.quiet:
+            return
+        self._clear_progress()
+        print(text, file=self.stream, flush=True)
+
+    def transition(self, t_s: float, robot: str, src: str, dst: str, trigger: str,
+                   many: bool) -> None:
+        who = f"{robot}: " if many else ""
+        self.line(f"[{t_s:8.2f} s] {who}{src} -> {dst}  ({trigger})")
+
+    def event(self, t_s: float, text: str) -> None:
+        self.line(f"[{t_s:8.2f} s] {text}")
+
+    def progress(self, t_s: float, states: dict[str, str]) -> None:
+        """Refresh the progress line (at most every ``refresh_s`` of wall time)."""
+        if self.quiet or not self.tty:
+            return
+        now = time.monotonic()
+        if now - self._last_refresh < self.refresh_s:
+            return
+        self._last_refresh = now
+        wall = max(1e-9, self.wall_s())
+        state_text = ", ".join(f"{k}={v}" for k, v in states.items()) if len(states) > 1 \
+            else next(iter(states.values()), "")
+        text = f"  t={t_s:7.1f} s  x{t_s / wall:6.0f}  {state_text}"
+        self.stream.write("\r\x1b[K" + text)
+        self.stream.flush()
+        self._progress_shown = True
+
+    def _clear_progress(self) -> None:
+        if self._progress_shown:
+            self.stream.write("\r\x1b[K")
+            self._progress_shown = False
+
+    def summary(self, *, scenario: str, ok: bool, reasons: list[str], sim_s: float,
+                figures: dict[str, Any], report_dir: str | None) -> None:
+        """Always printed, even with --quiet: the result and why."""
+        self._clear_progress()
+        wall = max(1e-9, self.wall_s())
+        out = self.stream
+        print(f"\nscenario {scenario}: {'SUCCESS' if ok else 'FAILED'}", file=out)
+        for reason in reasons:
+            print(f"  - {reason}", file=out)
+        print(f"  virtual time {sim_s:.1f} s, wall time {wall:.2f} s, "
+              f"speed x{sim_s / wall:.0f}", file=out)
+        for robot, fig in figures.items():
+            parts = ", ".join(f"{k} {v}" for k, v in fig.items())
+            print(f"  {robot}: {parts}", file=out)
+        if report_dir:
+            print(f"  report: {report_dir}/events.jsonl, {report_dir}/trajectory.png", file=out)
+        out.flush()

@@ -1,0 +1,76 @@
+"""The simulated hardware of one robot: fakes at the lowest layer, the real drivers on top.
+
+The motor board is a ``FakeMcu`` (or the real firmware in simavr) behind an in-memory serial
+port; the real ``ArduinoLink`` driver opens it. Sensor models for the camera, BLE and the HX711
+are added when the robot's profile uses those devices.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import structlog
+
+from drivers.arduino.link import ArduinoLink
+from hal.backend import Devices
+from hal.sim.body import DiffDriveBody
+from hal.sim.fake_mcu import FakeMcu
+from hal.sim.sim_serial import SimSerialPorts
+from hal.sim.world import World
+from robotd.config.settings import Settings
+
+log = structlog.get_logger(__name__)
+
+
+class SimRig:
+    """One robot's simulated hardware, and the bench switches the scenario script uses."""
+
+    def __init__(self, world: World, body: DiffDriveBody, settings: Settings, *, seed: int,
+                 index: int, mcu: str = "fake") -> None:
+        self.world = world
+        self.body = body
+        self.settings = settings
+        self.mcu_kind = mcu
+        if mcu != "fake":
+            msg = f"--mcu {mcu}: only 'fake' runs in virtual time (simavr needs --realtime)"
+            raise ValueError(msg)
+        self.mcu = FakeMcu(body, seed=seed * 1000 + index)
+        self.ports = SimSerialPorts(seed=seed * 1000 + index)
+        self.ports.attach(settings.get("serial.port"), self.mcu)
+        self.link = ArduinoLink.from_settings(self.ports, settings)
+        self.devices = Devices(
+            motors=self.link, encoders=self.link.encoders, front_range=self.link.front_range,
+            battery=self.link.battery, servo=self.link, leds=self.link,
+        )
+        self._models: list[Any] = []
+        self._deadman_seen = 0
+
+    async def run(self) -> None:
+        """Anything the simulated hardware does on its own (none for the fake MCU yet)."""
+
+    async def close(self) -> None:
+        await self.mcu.close()
+
+    def new_deadman_stops(self) -> list[tuple[float, float | None]]:
+        """Deadman stops since the last call: (time, when the last MOTOR/HB had arrived)."""
+        stops = self.mcu.deadman_stops[self._deadman_seen:]
+        self._deadman_seen = len(self.mcu.deadman_stops)
+        return [(t, self.mcu.last_drive_s) for t in stops]
+
+    # -- bench switches for the scenario script -----------------------------------------------
+    def unplug_mcu(self) -> None:
+        self.mcu.unplug()
+
+    def replug_mcu(self) -> None:
+        self.mcu.replug()
+
+    def corrupt_mcu(self, pct: float) -> None:
+        self.mcu.corrupt(pct)
+
+    def reset_mcu(self) -> None:
+        self.mcu.reset()
+
+
+def build_sim_rig(world: World, body: DiffDriveBody, settings: Settings, *, seed: int,
+                  index: int, mcu: str = "fake") -> SimRig:
+    return SimRig(world, body, settings, seed=seed, index=index, mcu=mcu)

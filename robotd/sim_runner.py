@@ -1,0 +1,290 @@
+"""``robotd sim``: the real daemon, state machine, behaviours and drivers on a simulated world.
+
+The runner builds the world and one body per robot from a scenario, the simulated devices
+(fakes at the lowest layer, the real drivers on top), and a ``Daemon`` per robot; it plays the
+scenario's script, watches the success conditions, and writes the report.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import functools
+import random
+import signal
+import tempfile
+from dataclasses import dataclass
+from datetime import UTC, datetime, timedelta
+from pathlib import Path
+from typing import Any
+
+import structlog
+
+from behaviours.profile import load_profile
+from hal.sim.body import DiffDriveBody
+from hal.sim.geometry import Pose
+from hal.sim.scenario import RobotSpec, Scenario, ScenarioError, load_scenario
+from hal.sim.tracks import PathRecorder, TrackPoint
+from robotd import vclock
+from robotd.config import ConfigError, load_config
+from robotd.config.errors import ConfigProblem
+from robotd.config.loader import defaults
+from robotd.config.settings import Settings
+from robotd.logs import configure_logging
+from robotd.sim_checks import RobotRecord, failures, finished, summary_figures
+from robotd.sim_console import SimConsole
+from robotd.sim_devices import SimRig, build_sim_rig
+from robotd.sim_report import draw_trajectory, write_events
+from robotd.sim_script import ScriptPlayer
+
+log = structlog.get_logger(__name__)
+
+SIM_EPOCH = datetime(2026, 1, 1, tzinfo=UTC)
+"""Wall-clock time at virtual t=0, so reports do not depend on when they were made."""
+
+_WATCH_PERIOD_S = 0.1
+_STOP_TIMEOUT_S = 10.0
+
+
+@dataclass
+class SimRobot:
+    spec: RobotSpec
+    settings: Settings
+    body: DiffDriveBody
+    rig: SimRig
+    daemon: Any
+    record: RobotRecord
+    socket_path: str
+
+
+def run_sim(args: argparse.Namespace) -> int:
+    """Entry point from the CLI: returns the exit code (0 success, 1 failure, 2 bad input)."""
+    console = SimConsole(quiet=bool(getattr(args, "quiet", False)))
+    try:
+        scenario = load_scenario(args.scenario)
+    except ScenarioError as exc:
+        print(f"robotd sim: {exc}")
+        return 2
+    speed: float | None = None
+    if getattr(args, "realtime", False):
+        speed = 1.0
+    elif getattr(args, "speed", None) is not None:
+        speed = float(args.speed)
+    result = vclock.run(_run(args, scenario, console), speed=speed)
+    if isinstance(result, int):
+        return result
+    return _report(args, scenario, result, console)
+
+
+def _robot_settings(scenario: Scenario, spec: RobotSpec, config_path: str | None) -> Settings:
+    values = defaults()
+    values["robot"]["profile"] = scenario.profile
+    problems: list[ConfigProblem] = []
+    _apply(values, scenario.config, f"{scenario.source} [config]", problems)
+    _apply(values, spec.config, f"{scenario.source} [robot.config]", problems)
+    if config_path:
+        user = load_config(config_path)  # raises ConfigError with every problem
+        for section, keys in user.items():
+            values[section].update(keys)
+    if problems:
+        raise ConfigError(problems)
+    values["hal"]["backend"] = "sim"
+    values["robot"]["name"] = spec.name
+    return Settings(values, source=scenario.source)
+
+
+def _apply(values: dict[str, dict[str, Any]], table: dict[str, Any], where: str,
+           problems: list[ConfigProblem]) -> None:
+    checker = Settings(values)
+    for section, keys in table.items():
+        if not isinstance(keys, dict):
+            problems.append(ConfigProblem(where, None, section, "expected a table"))
+            continue
+        for key, value in keys.items():
+            dotted = f"{section}.{key}"
+            try:
+                values[section][key] = checker.check(dotted, value)
+            except (KeyError, ValueError) as exc:
+                message = str(exc.args[0] if exc.args else exc).removeprefix(f"{dotted}: ")
+                problems.append(ConfigProblem(where, None, dotted, message))
+
+
+async def _run(args: argparse.Namespace, scenario: Scenario,
+               console: SimConsole) -> SimResult | int:
+    from robotd.daemon import Daemon
+
+    loop = asyncio.get_running_loop()
+    seed = int(args.seed) if getattr(args, "seed", None) is not None else \
+        int(scenario.raw.get("scenario", {}).get("seed", 1))
+    workdir = Path(tempfile.mkdtemp(prefix="robotd-sim-"))
+    events: list[dict[str, Any]] = []
+    many = len(scenario.robots) > 1
+    robots: dict[str, SimRobot] = {}
+
+    def wall_clock() -> datetime:
+        return SIM_EPOCH + timedelta(seconds=loop.time())
+
+    configure_logging("warning", mode="console" if console.tty else "json",
+                      timestamper=lambda: wall_clock().isoformat())
+
+    def on_event(robot: str, event: dict[str, Any]) -> None:
+        record = robots[robot].record if robot in robots else None
+        entry = dict(event)
+        entry.setdefault("t", loop.time())
+        if many:
+            entry["robot"] = robot
+        if record is not None and entry.get("kind") == "transition":
+            dst = str(entry.get("dst", ""))
+            record.state = dst
+            record.states_seen.append(dst)
+            if dst == "estop" or dst.startswith("estop."):
+                record.estops += 1
+            pose = record.body.pose
+            entry["x_m"], entry["y_m"] = pose.x_m, pose.y_m
+            console.transition(loop.time(), robot, str(entry.get("src")), dst,
+                               str(entry.get("trigger")), many)
+        events.append(entry)
+
+    try:
+        for index, spec in enumerate(scenario.robots):
+            settings = _robot_settings(scenario, spec, getattr(args, "config", None))
+            body = DiffDriveBody(scenario.world, Pose(spec.x_m, spec.y_m, spec.heading_rad),
+                                 spec.body, rng=random.Random(f"{seed}:{spec.name}:body"),
+                                 payload_kg=spec.payload_kg, clock=loop.time)
+            rig = build_sim_rig(scenario.world, body, settings, seed=seed, index=index,
+                                mcu=getattr(args, "mcu", "fake") or "fake")
+            socket_path = _socket_path(getattr(args, "socket", None), workdir, spec.name, index)
+            profile = load_profile(settings.get("robot.profile"))
+            daemon = Daemon(settings, rig.devices, profile, state_dir=workdir / spec.name,
+                            socket_path=socket_path, wall_clock=wall_clock, notify=False,
+                            handle_signals=False)
+            daemon.add_event_listener(functools.partial(on_event, spec.name))
+            robots[spec.name] = SimRobot(spec, settings, body, rig, daemon,
+                                    RobotRecord(spec.name, body), socket_path)
+    except (ConfigError, ValueError) as exc:
+        print(f"robotd sim: {exc}")
+        return 2
+
+    for r in robots.values():
+        console.line(f"{r.spec.name}: profile {r.settings.get('robot.profile')}, "
+                     f"control socket {r.socket_path}")
+    recorder = PathRecorder({n: r.body for n, r in robots.items()},
+                            state_of=lambda n: robots[n].record.state)
+    def on_script_event(event: dict[str, Any]) -> None:
+        robot = str(event.pop("robot", "") or next(iter(robots)))
+        on_event(robot, event)
+
+    try:
+        player = ScriptPlayer(scenario, {n: r.rig for n, r in robots.items()}, on_script_event,
+                              console)
+    except ScenarioError as exc:
+        print(f"robotd sim: {scenario.source}: {exc}")
+        return 2
+    interrupted = asyncio.Event()
+    with contextlib.suppress(NotImplementedError, RuntimeError):
+        loop.add_signal_handler(signal.SIGINT, interrupted.set)
+        loop.add_signal_handler(signal.SIGTERM, interrupted.set)
+
+    tasks = [asyncio.create_task(recorder.run(), name="paths")]
+    tasks += [asyncio.create_task(r.rig.run(), name=f"rig.{n}") for n, r in robots.items()]
+    daemon_tasks = {n: asyncio.create_task(r.daemon.run(), name=f"daemon.{n}")
+                    for n, r in robots.items()}
+    tasks.append(asyncio.create_task(player.run(), name="script"))
+
+    start = loop.time()
+    limit = scenario.success.time_limit_s
+    extra: list[str] = []
+    seen_collisions = {n: 0 for n in robots}
+    while True:
+        await asyncio.sleep(_WATCH_PERIOD_S)
+        now = loop.time() - start
+        for n, r in robots.items():
+            if scenario.world.lines and r.record.state.startswith("mission"):
+                r.record.cross_track_sum_m += scenario.world.cross_track_m(r.body.pose.x_m,
+                                                                           r.body.pose.y_m)
+                r.record.cross_track_samples += 1
+            for c in r.body.collisions[seen_collisions[n]:]:
+                on_event(n, {"t": c.t_s, "kind": "collision", "x_m": c.x_m, "y_m": c.y_m})
+                console.event(loop.time(), f"{n}: collision at ({c.x_m:.2f}, {c.y_m:.2f})")
+            seen_collisions[n] = len(r.body.collisions)
+            for t_stop, last_cmd in r.rig.new_deadman_stops():
+                pose = r.body.pose
+                on_event(n, {"t": t_stop, "kind": "deadman", "last_command_t": last_cmd,
+                             "x_m": pose.x_m, "y_m": pose.y_m})
+                console.event(t_stop, f"{n}: motor board deadman stopped the motors")
+        console.progress(now, {n: r.record.state for n, r in robots.items()})
+        dead = [n for n, t in daemon_tasks.items() if t.done()]
+        if dead:
+            extra.append(f"daemon of {', '.join(dead)} stopped early: "
+                         f"{_task_outcome(daemon_tasks[dead[0]])}")
+            break
+        if finished(scenario, robots_records := {n: r.record for n, r in robots.items()}) \
+                and player.done:
+            break
+        if now >= limit:
+            break
+        if interrupted.is_set():
+            extra.append("interrupted")
+            break
+    elapsed = loop.time() - start
+    del robots_records
+
+    for r in robots.values():
+        r.daemon.request_stop()
+    with contextlib.suppress(TimeoutError):
+        await asyncio.wait_for(asyncio.gather(*daemon_tasks.values(), return_exceptions=True),
+                               _STOP_TIMEOUT_S)
+    for task in tasks:
+        task.cancel()
+    await asyncio.gather(*tasks, return_exceptions=True)
+    for r in robots.values():
+        await r.rig.close()
+
+    records = {n: r.record for n, r in robots.items()}
+    reasons = failures(scenario, records, elapsed, extra)
+    ok = not reasons
+    figures = summary_figures(records)
+    events.append({"t": loop.time(), "kind": "result", "ok": ok, "reasons": reasons,
+                   "figures": figures})
+    return SimResult(ok, reasons, elapsed, figures, events, recorder.tracks, seed)
+
+
+@dataclass
+class SimResult:
+    ok: bool
+    reasons: list[str]
+    sim_s: float
+    figures: dict[str, Any]
+    events: list[dict[str, Any]]
+    tracks: dict[str, list[TrackPoint]]
+    seed: int
+
+
+def _report(args: argparse.Namespace, scenario: Scenario, result: SimResult,
+            console: SimConsole) -> int:
+    report_dir = getattr(args, "report", None)
+    if report_dir:
+        out = Path(report_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        write_events(out / "events.jsonl", result.events)
+        draw_trajectory(out / "trajectory.png", scenario.world, result.tracks, result.events,
+                        f"{scenario.name} (seed {result.seed}): "
+                        f"{'success' if result.ok else 'FAILED'}")
+    console.summary(scenario=scenario.name, ok=result.ok, reasons=result.reasons,
+                    sim_s=result.sim_s, figures=result.figures,
+                    report_dir=str(report_dir) if report_dir else None)
+    return 0 if result.ok else 1
+
+
+def _socket_path(given: str | None, workdir: Path, name: str, index: int) -> str:
+    if given:
+        return given if index == 0 else f"{given}.{name}"
+    return str(workdir / name / "control.sock")
+
+
+def _task_outcome(task: asyncio.Task[Any]) -> str:
+    if task.cancelled():
+        return "cancelled"
+    exc = task.exception()
+    return f"{type(exc).__name__}: {exc}" if exc else f"exit code {task.result()}"

@@ -16,6 +16,7 @@ StateTask = Callable[[RobotContext], Awaitable[None]]
 
 PROFILES: dict[str, str] = {
     "idle": "behaviours.profile:IdleProfile",
+    "square": "behaviours.square_profile:SquareProfile",
 }
 """Profile name (``robot.profile``) -> ``module:Class``; the class is built with no arguments."""
 

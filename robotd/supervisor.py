@@ -54,7 +54,7 @@ class DeviceService:
         try:
             await asyncio.get_running_loop().create_future()
         finally:
-            await self.device.stop()
+            await self.device.close()
 
 
 @dataclass

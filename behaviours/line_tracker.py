@@ -37,10 +37,12 @@ _HUES = {"red": 0.0, "yellow": 60.0, "green": 120.0, "cyan": 180.0, "blue": 240.
          "magenta": 300.0}
 # Contrast needed, as a multiple of TrackerParams.min_contrast: a grey line on a grey floor
 # differs less than a coloured one, and dark shadows must not pass for a black line.
-_THRESHOLD_SCALE = {"dark": 1.5, "light": 0.4, "chroma": 1.0}
+_THRESHOLD_SCALE = {"dark": 1.5, "light": 0.5, "chroma": 1.0}
 Plane = npt.NDArray[Any]  # float32 rows (cv2 returns loosely typed arrays)
 
 _TOO_DARK = 20.0  # floor brightness (grey levels) below which nothing can be seen
+_GREY_TINT = 24.0  # channel spread (grey levels) a grey surface shows from noise and light
+_BACKGROUND_FRAC = 0.17  # background window, fraction of the width: wider than any line
 _MAX_WORK_PX = 320  # wider frames are read every 2nd (3rd...) column: same answer, less work
 
 
@@ -195,13 +197,16 @@ class LineTracker:
         centre = (full_width - 1) / 2
         value = cv2.max(cv2.max(planes[0], planes[1]), planes[2])
         low = cv2.min(cv2.min(planes[0], planes[1]), planes[2])
-        floor = _local(value, cv2.dilate)
+        floor = _background(value, cv2.dilate, cv2.erode)
         if float(cv2.mean(floor)[0]) < _TOO_DARK:
             return self._lost(centre, colour, "too dark")
-        if colour.kind == "dark":
-            raw = floor - value - (value - low)
-        elif colour.kind == "light":
-            raw = value - _local(value, cv2.erode) - (value - low)
+        if colour.kind in ("dark", "light"):
+            # Grey lines only: saturation beyond what noise gives counts against the pixel.
+            tint = np.maximum(value - low - _GREY_TINT, 0.0)
+            if colour.kind == "dark":
+                raw = floor - value - tint
+            else:
+                raw = value - _background(value, cv2.erode, cv2.dilate) - tint
         else:
             wanted = _reduce(cv2.min, [planes[c] for c in colour.channels])
             others = _reduce(cv2.max, [planes[c] for c in (0, 1, 2) if c not in colour.channels])
@@ -270,15 +275,19 @@ def _median_of(values: list[float] | list[int]) -> float:
     return float(ordered[n // 2] if n % 2 else (ordered[n // 2 - 1] + ordered[n // 2]) / 2)
 
 
-def _local(value: Plane, op: Callable[..., Any]) -> Plane:
-    """Floor brightness along each row: a running max (dilate) or min (erode) over a quarter
-    of the width, taken on 8-pixel block means so it costs little and ignores sensor noise."""
+def _background(value: Plane, first: Callable[..., Any], then: Callable[..., Any]) -> Plane:
+    """The floor's brightness along each row without the line.
+
+    A morphological closing (dilate then erode: removes dark lines) or opening (removes bright
+    ones) wider than a line, on 8-pixel block means: it follows uneven light, costs little and
+    ignores sensor noise.
+    """
     k, width = value.shape
     blocks = max(4, width // 8)
     coarse = cv2.resize(value, (blocks, k), interpolation=cv2.INTER_AREA)
-    window = max(3, blocks // 4) | 1
-    spread = op(coarse, np.ones((1, window), np.uint8))
-    out: Plane = cv2.resize(spread, (width, k), interpolation=cv2.INTER_LINEAR)
+    kernel = np.ones((1, max(3, round(blocks * _BACKGROUND_FRAC)) | 1), np.uint8)
+    smooth = then(first(coarse, kernel), kernel)
+    out: Plane = cv2.resize(smooth, (width, k), interpolation=cv2.INTER_LINEAR)
     return out
 
 

@@ -129,12 +129,17 @@ class SimCamera:
             self._capture()
             self._task = asyncio.get_running_loop().create_task(self._run(), name=self.name)
 
-    async def stop(self) -> None:
+    async def close(self) -> None:
+        """Stop capturing and release the camera; safe to call twice."""
         task, self._task = self._task, None
         if task is not None:
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await task
+
+    async def stop(self) -> None:
+        """The same as ``close()`` (older name)."""
+        await self.close()
 
     def status(self) -> dict[str, Any]:
         return {"source": "sim", "width_px": self.width_px, "height_px": self.height_px,

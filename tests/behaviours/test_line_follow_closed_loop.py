@@ -44,6 +44,9 @@ class BodyMotors:
     async def stop(self) -> None:
         self.body.apply_pwm(0, 0, True, True)
 
+    async def close(self) -> None:
+        await self.stop()
+
     def on_link_change(self, callback: Callable[[bool], None]) -> None:
         return None
 
@@ -139,7 +142,7 @@ class TestClosedLoop:
                 await run
         for task in tasks:
             task.cancel()
-        await camera.stop()
+        await camera.close()
         return {"error": error, "mean_cross_track_m": sum(errors) / len(errors),
                 "max_cross_track_m": max(errors), "distance_m": body.distance_m,
                 "changes": changes, "status": follower.status(),

@@ -1,0 +1,55 @@
+"""USB (UVC) cameras through OpenCV's V4L2 backend."""
+
+from __future__ import annotations
+
+import cv2
+
+from drivers.camera.capture import CaptureCamera, Image
+from hal.devices import DeviceUnavailable
+
+
+class UvcCamera(CaptureCamera):
+    """A V4L2 camera, e.g. ``/dev/video0`` (or its index, ``0``).
+
+    Args:
+        device: device path or index.
+        width_px, height_px, fps: what to ask the camera for; the first frame's size wins.
+    """
+
+    source = "uvc"
+
+    def __init__(self, device: str = "/dev/video0", width_px: int = 320, height_px: int = 240,
+                 fps: float = 30.0, *, name: str = "camera") -> None:
+        super().__init__(name, width_px, height_px, fps)
+        self.device = device
+        self._cap: cv2.VideoCapture | None = None
+
+    def describe(self) -> str:
+        return f"camera {self.device}"
+
+    def _open(self) -> None:
+        target: int | str = int(self.device) if self.device.isdigit() else self.device
+        cap = cv2.VideoCapture(target, cv2.CAP_V4L2)
+        if not cap.isOpened():
+            cap.release()
+            msg = (f"camera {self.device}: cannot open (plugged in? see `v4l2-ctl "
+                   "--list-devices`; is the user in the 'video' group?)")
+            raise DeviceUnavailable(msg)
+        cap.set(cv2.CAP_PROP_FRAME_WIDTH, self.width_px)
+        cap.set(cv2.CAP_PROP_FRAME_HEIGHT, self.height_px)
+        cap.set(cv2.CAP_PROP_FPS, self.fps)
+        # V4L2 queues several buffers by default; with one, read() returns the newest frame
+        # instead of one up to 4 frame periods old.
+        cap.set(cv2.CAP_PROP_BUFFERSIZE, 1)
+        self._cap = cap
+
+    def _grab(self) -> Image | None:
+        if self._cap is None:
+            return None
+        ok, image = self._cap.read()
+        return image if ok and image is not None else None
+
+    def _close(self) -> None:
+        cap, self._cap = self._cap, None
+        if cap is not None:
+            cap.release()

@@ -1,0 +1,199 @@
+"""The line tracker on recorded-style frames: what it must see and what it must refuse."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from behaviours.line_tracker import LineTracker, TrackerParams, parse_colour
+from hal.sim.body import DiffDriveBody
+from hal.sim.camera_model import CameraMount, SimCamera
+from hal.sim.geometry import Pose, segments_array
+from hal.sim.world import PaintedLine, World
+
+CENTRE_PX = 159.5
+
+
+def camera_over(*lines: PaintedLine, mount: CameraMount | None = None) -> SimCamera:
+    world = World(6.0, 6.0, segments_array([]), lines=list(lines))
+    return SimCamera(world, DiffDriveBody(world, Pose(1.0, 3.0, 0.0)), mount, seed=11)
+
+
+def east(y_m: float, colour: str = "black", name: str = "l") -> PaintedLine:
+    return PaintedLine(name, ((0.0, y_m), (6.0, y_m)), colour, 0.025)
+
+
+def frame_at(camera: SimCamera, offset_m: float, heading_deg: float = 0.0) -> np.ndarray:  # type: ignore[type-arg]
+    """The robot `offset_m` left of y = 3 (the line then appears right of centre)."""
+    return camera.render(Pose(1.0, 3.0 + offset_m, math.radians(heading_deg)), (0.3, 0.3))
+
+
+def px(camera: SimCamera, metres: float) -> float:
+    return metres / camera.mount.m_per_px
+
+
+class TestFindsTheLine:
+    @settings(max_examples=25, deadline=None)
+    @given(offset_m=st.floats(-0.1, 0.1), heading_deg=st.floats(-15, 15))
+    def test_error_matches_where_the_line_is(self, offset_m: float, heading_deg: float) -> None:
+        """Anywhere in view, the error is the line's true offset at the ROI within 3 px."""
+        camera = camera_over(east(3.0))
+        pose = Pose(1.0, 3.0 + offset_m, math.radians(heading_deg))
+        reading = LineTracker().track(camera.render(pose))
+        roi_row = (0.25 + 0.6) / 2 * camera.height_px
+        # Where the line crosses the middle ROI row: intersect y = 3 with that image row.
+        fwd = camera.mount.forward_m + (camera.height_px / 2 - roi_row) * camera.mount.m_per_px
+        ahead_x, ahead_y = pose.to_world(fwd, 0.0)
+        left_m = (ahead_y - 3.0) / math.cos(pose.heading_rad)
+        truth = px(camera, left_m)
+        if abs(truth) > 150:
+            return
+        assert not reading.lost
+        assert reading.error_px == pytest.approx(truth, abs=3.0)
+        del ahead_x
+
+    def test_a_line_at_the_image_edge_is_reported_at_the_edge(self) -> None:
+        """Half out of view on the right: found, at_edge, a large error, lower confidence."""
+        camera = camera_over(east(3.0))
+        reading = LineTracker().track(frame_at(camera, 0.12))
+        assert not reading.lost
+        assert reading.at_edge
+        assert reading.error_px > 140
+        assert reading.confidence < 0.7
+
+    def test_uneven_light_does_not_move_the_line(self) -> None:
+        """A strong light gradient and vignette: same error as under even light."""
+        even = camera_over(east(3.0), mount=CameraMount(vignette=0.0, light_gradient=0.0,
+                                                        ambient_variation=0.0))
+        uneven = camera_over(east(3.0), mount=CameraMount(vignette=0.5, light_gradient=0.6,
+                                                          ambient_variation=0.3))
+        a = LineTracker().track(frame_at(even, 0.05))
+        b = LineTracker().track(frame_at(uneven, 0.05))
+        assert not b.lost
+        assert b.error_px == pytest.approx(a.error_px, abs=2.0)
+
+    @pytest.mark.parametrize("colour", ["red", "green", "blue", "yellow", "white", "black"])
+    def test_every_paint_colour_is_found_when_asked_for(self, colour: str) -> None:
+        """Each world paint is found by its FollowColor name, where it is."""
+        camera = camera_over(east(3.0, colour))
+        reading = LineTracker(colour=colour).track(frame_at(camera, -0.04))
+        assert not reading.lost, reading.reason
+        assert reading.error_px == pytest.approx(px(camera, -0.04), abs=3.0)
+
+    def test_a_640_by_480_frame_gives_the_same_answer_in_its_pixels(self) -> None:
+        """Wider frames are read at a column step; the error is still in full-size pixels."""
+        camera = camera_over(east(3.0), mount=CameraMount(width_px=640, height_px=480))
+        reading = LineTracker().track(frame_at(camera, 0.03))
+        assert reading.error_px == pytest.approx(px(camera, 0.03), abs=3.0)
+
+
+class TestRefuses:
+    def test_bare_floor_is_lost(self) -> None:
+        """No line in view: lost, zero confidence, a reason."""
+        reading = LineTracker().track(frame_at(camera_over(), 0.0))
+        assert reading.lost
+        assert reading.confidence == 0.0
+        assert reading.reason == "no line"
+
+    def test_a_line_of_the_wrong_colour_is_lost(self) -> None:
+        """Following black over a red line (and red over black): lost."""
+        red = camera_over(east(3.0, "red"))
+        black = camera_over(east(3.0, "black"))
+        assert LineTracker(colour="black").track(frame_at(red, 0.0)).lost
+        assert LineTracker(colour="red").track(frame_at(black, 0.0)).lost
+        assert LineTracker(colour="green").track(frame_at(red, 0.0)).lost
+        assert LineTracker(colour="blue").track(frame_at(black, 0.0)).lost
+
+    def test_a_covered_lens_is_lost_as_too_dark(self) -> None:
+        """A black frame is not one huge black line."""
+        camera = camera_over(east(3.0))
+        camera.cover()
+        reading = LineTracker().track(frame_at(camera, 0.0))
+        assert reading.lost
+        assert reading.reason == "too dark"
+
+    def test_a_frame_that_is_not_bgr_is_a_clear_error(self) -> None:
+        """A grey image or an empty array: ValueError naming the shape."""
+        with pytest.raises(ValueError, match="shape"):
+            LineTracker().track(np.zeros((240, 320), np.uint8))
+        with pytest.raises(ValueError, match="shape"):
+            LineTracker().track(np.zeros((0, 0, 3), np.uint8))
+
+
+class TestTwoLines:
+    def test_two_lines_keep_the_one_nearest_the_previous_position(self) -> None:
+        """A branch appears 6 cm left: the tracker stays on the line it was following."""
+        camera = camera_over(east(3.0, name="main"), east(3.06, name="branch"))
+        tracker = LineTracker()
+        single = camera_over(east(3.0))
+        first = tracker.track(frame_at(single, 0.04))
+        second = tracker.track(frame_at(camera, 0.04))
+        assert second.candidates == 2
+        assert second.error_px == pytest.approx(first.error_px, abs=3.0)
+
+    def test_two_lines_with_no_history_take_the_one_nearest_the_centre(self) -> None:
+        """Fresh start between two lines: the nearer to the image centre wins."""
+        camera = camera_over(east(3.0, name="near"), east(3.08, name="far"))
+        reading = LineTracker().track(frame_at(camera, 0.02))
+        assert reading.error_px == pytest.approx(px(camera, 0.02), abs=3.0)
+        assert reading.confidence < 1.0
+
+
+class TestColours:
+    def test_names_and_hex_codes_map_to_paints(self) -> None:
+        """FollowColor may be a name in any case or #RRGGBB; None means the dark default."""
+        assert parse_colour(None) == "black"
+        assert parse_colour("Red") == "red"
+        assert parse_colour("dark") == "black"
+        assert parse_colour("#FF0000") == "red"
+        assert parse_colour("#10C020") == "green"
+        assert parse_colour("#202020") == "black"
+        assert parse_colour("#F0F0F0") == "white"
+
+    def test_an_unknown_colour_name_is_an_error_that_lists_the_known(self) -> None:
+        """'purple' or '#XYZ': ValueError naming it and the choices."""
+        with pytest.raises(ValueError, match=r"'purple'.*black"):
+            parse_colour("purple")
+        with pytest.raises(ValueError, match="#XYZ"):
+            LineTracker(colour="#XYZ")
+
+    def test_after_a_colour_change_the_old_line_is_followed_until_the_new_shows(self) -> None:
+        """Handover: told 'red' while only black is in view, it keeps black for a while."""
+        black = camera_over(east(3.0))
+        red = camera_over(east(3.0, "red"))
+        tracker = LineTracker(TrackerParams(handover_frames=3))
+        tracker.track(frame_at(black, 0.0))
+        tracker.set_colour("red")
+        assert tracker.colour == "red"
+        assert not tracker.track(frame_at(black, 0.0)).lost
+        assert tracker.track(frame_at(red, 0.0)).colour == "red"
+        assert tracker.track(frame_at(black, 0.0)).lost
+
+    def test_the_handover_ends_after_its_frames(self) -> None:
+        """With no red in sight, black counts only for handover_frames frames."""
+        black = camera_over(east(3.0))
+        tracker = LineTracker(TrackerParams(handover_frames=2))
+        tracker.set_colour("red")
+        image = frame_at(black, 0.0)
+        assert [tracker.track(image).lost for _ in range(4)] == [False, False, True, True]
+
+
+class TestParams:
+    def test_a_region_of_interest_upside_down_is_refused(self) -> None:
+        """roi_top must be above roi_bottom."""
+        with pytest.raises(ValueError, match="ROI"):
+            TrackerParams(roi_top=0.7, roi_bottom=0.3)
+
+    def test_new_params_take_effect_at_once(self) -> None:
+        """set_params with a band near the top of the image measures the line there."""
+        camera = camera_over(east(3.0))
+        image = camera.render(Pose(1.0, 3.0, math.radians(10)))
+        tracker = LineTracker()
+        low = tracker.track(image).error_px
+        tracker.set_params(TrackerParams(roi_top=0.0, roi_bottom=0.2))
+        high = tracker.track(image).error_px
+        assert high > low + 10

@@ -79,7 +79,7 @@ class TestArrival:
         assert arrival.update() is False
         assert changes == [True, False, True, False]
 
-    @settings(max_examples=200, deadline=None)
+    @settings(max_examples=100, deadline=None)
     @given(
         start=st.floats(-95, -80),
         steps=st.lists(st.floats(0, 2.0), min_size=10, max_size=120),

@@ -1,0 +1,139 @@
+"""Cost of the BLE and HX711 paths, and what they do to a 13 FPS control loop's timing.
+
+Prints:
+- per advert: bleak's callback path + iBeacon parse + tracker update (p50/p99 us), next to the
+  parse alone measured in the same run;
+- per HX711 read: the synchronous 25-pulse bit-bang against the simulated chip (p50/p99 us);
+  this is how long one read holds the event loop (on a Pi, lgpio calls cost more);
+- the period jitter (p50/p99 ms) of a 77 ms loop on a real-time event loop, idle and with BLE
+  at 200 adverts/s (20 beacons at 10 Hz) and the HX711 at 80 SPS running.
+
+    .venv/bin/python bench/bench_ble_hx711.py [--seconds 10]
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import logging
+import random
+import statistics
+import time
+from collections.abc import Callable
+
+import structlog
+
+from behaviours.beacons import BeaconTracker
+from drivers.ble_scanner import BleBeaconScanner, build_ibeacon, parse_ibeacon
+from drivers.hx711 import Gain, Hx711, clock_out
+from hal.sim.ble_model import SimBleAir
+from hal.sim.body import DiffDriveBody
+from hal.sim.geometry import Pose
+from hal.sim.hx711_model import SimHx711Lines
+from hal.sim.world import World
+
+UUID = "fda50693-a4e2-4fb1-afcf-c6eb07647825"
+
+
+def _pct(values: list[float], q: float) -> float:
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
+
+
+def _time_us(fn: Callable[[], object], n: int) -> list[float]:
+    out = []
+    for _ in range(n):
+        t0 = time.perf_counter_ns()
+        fn()
+        out.append((time.perf_counter_ns() - t0) / 1000)
+    return out
+
+
+def _world(beacons: int) -> World:
+    return World.from_table({"width_m": 30, "height_m": 10, "beacons": [
+        {"mac": f"C3:00:00:00:00:{i:02X}", "uuid": UUID, "major": 1, "minor": i,
+         "x_m": 1.0 + i, "y_m": 5.0, "interval_s": 0.1} for i in range(beacons)]})
+
+
+async def advert_costs(n: int) -> tuple[list[float], list[float]]:
+    body = DiffDriveBody(_world(1), Pose(3.0, 5.0, 0.0))
+    air = SimBleAir(body, rng=random.Random(1))
+    scanner = BleBeaconScanner([UUID], scanner_factory=air.scanner_factory())
+    BeaconTracker(scanner)
+    await scanner.start()
+    beacon = body.world.beacons[0]
+    full = _time_us(lambda: air.advertise(beacon), n)
+    data = {0x004C: build_ibeacon(UUID, 1, 2, -59)}
+    parse = _time_us(lambda: parse_ibeacon(data), n)
+    await scanner.close()
+    return full, parse
+
+
+def hx711_read_costs(n: int) -> list[float]:
+    t = [0.0]
+    lines = SimHx711Lines(weight_kg=lambda: 4.2, sps=80, clock=lambda: t[0])
+    out = []
+    for _ in range(n):
+        t[0] += 0.0125
+        while lines.read_dout():
+            t[0] += 0.0005
+        t0 = time.perf_counter_ns()
+        clock_out(lines, Gain.A128)
+        out.append((time.perf_counter_ns() - t0) / 1000)
+    return out
+
+
+async def loop_jitter(seconds: float, loaded: bool) -> list[float]:
+    period_s = 1 / 13
+    air_task = None
+    hx = None
+    scanner = None
+    if loaded:
+        body = DiffDriveBody(_world(20), Pose(10.0, 5.0, 0.0))
+        air = SimBleAir(body, rng=random.Random(2))
+        scanner = BleBeaconScanner([UUID], scanner_factory=air.scanner_factory())
+        BeaconTracker(scanner)
+        await scanner.start()
+        air_task = asyncio.create_task(air.run())
+        lines = SimHx711Lines(weight_kg=lambda: 4.2, sps=80)
+        hx = Hx711(lambda: lines, sps=80)
+        await hx.start()
+    loop = asyncio.get_running_loop()
+    errors_ms = []
+    next_t = loop.time() + period_s
+    end = loop.time() + seconds
+    while loop.time() < end:
+        await asyncio.sleep(max(0.0, next_t - loop.time()))
+        errors_ms.append((loop.time() - next_t) * 1000)
+        next_t += period_s
+    if loaded:
+        assert air_task is not None and hx is not None and scanner is not None
+        air_task.cancel()
+        await hx.close()
+        await scanner.close()
+    return errors_ms
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--seconds", type=float, default=10.0)
+    args = parser.parse_args()
+    structlog.configure(wrapper_class=structlog.make_filtering_bound_logger(logging.WARNING))
+
+    full, parse = asyncio.run(advert_costs(20000))
+    print(f"advert -> bleak callback -> parse -> tracker: p50 {_pct(full, .5):.1f} us, "
+          f"p99 {_pct(full, .99):.1f} us (parse alone p50 {_pct(parse, .5):.1f} us, "
+          f"ratio {_pct(full, .5) / _pct(parse, .5):.1f}x)")
+    reads = hx711_read_costs(5000)
+    print(f"HX711 read (25 pulses, sim lines): p50 {_pct(reads, .5):.1f} us, "
+          f"p99 {_pct(reads, .99):.1f} us")
+    for loaded in (False, True):
+        errors = asyncio.run(loop_jitter(args.seconds, loaded))
+        what = "BLE 200/s + HX711 80 SPS" if loaded else "idle"
+        print(f"13 FPS loop lateness, {what}: p50 {statistics.median(errors):.3f} ms, "
+              f"p99 {_pct(errors, .99):.3f} ms, max {max(errors):.3f} ms "
+              f"({len(errors)} periods)")
+
+
+if __name__ == "__main__":
+    main()

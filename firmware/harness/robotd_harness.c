@@ -1,0 +1,367 @@
+/*
+ * robotd_harness: runs the motor-board firmware in an emulated ATmega328P (libsimavr) at
+ * 16 MHz, paced to the wall clock, with UART0 on a pseudo-terminal and the board's pins on a
+ * line-based control channel (stdin/stdout).
+ *
+ *   robotd_harness FIRMWARE.elf [--free-run]
+ *
+ * stdout (control channel): "UART <pty path>" then "READY", then replies and events:
+ *   EV t_us=.. pwm_l=.. pwm_r=.. in_l=.. in_r=.. servo_us=.. leds=..   whenever a pin changes
+ * stdin commands (one a line), each answered with one line:
+ *   STATE             -> "STATE t_us=.. <pin fields as in EV>"
+ *   ENC <dl> <dr>     -> queue quadrature steps per wheel (signed ticks) -> "OK ENC"
+ *   ADC <ch> <mV>     -> set analog input ch (0-7) in millivolts         -> "OK ADC"
+ *   DOCK <0|1>        -> drive the dock contact pin (A2)                 -> "OK DOCK"
+ *   LOOP              -> "LOOP n=.. min_us=.. p50_us=.. p99_us=.. max_us=.. mean_us=.."
+ *   LOOPRESET         -> "OK LOOPRESET"
+ *   TIME              -> "TIME t_us=.. cycles=.. lag_us=.."
+ *   QUIT              -> exits (so does EOF on stdin)
+ *
+ * The UART bridge is our own, not simavr's uart_pty part: uart_pty feeds the AVR from a second
+ * thread (avr_raise_irq is not thread-safe); here everything runs on the one emulator thread.
+ * Pin readings come from the registers that drive the pins (OCR/COM bits for PWM, PORT for
+ * GPIO, OCR1A/ICR1 for the servo pulse), sampled every 50 us of emulated time.
+ */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <pty.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/ioctl.h>
+#include <termios.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "avr_adc.h"
+#include "avr_ioport.h"
+#include "avr_uart.h"
+#include "sim_avr.h"
+#include "sim_elf.h"
+
+#define F_CPU_HZ 16000000UL
+#define TICK_CYCLES 800            /* 50 us: pin sampling and encoder edge spacing */
+#define PACE_EVERY_TICKS 4         /* serve the pty and stdin, check the wall clock: 200 us */
+#define PTY_BACKLOG_MAX 1024       /* bytes unread by any client before we discard them */
+#define LOOP_HIST_US 20000
+
+/* ATmega328P data-space register addresses. */
+enum {
+	R_PINB = 0x23, R_PORTB = 0x25, R_PINC = 0x26, R_PORTC = 0x28, R_PIND = 0x29, R_PORTD = 0x2B,
+	R_GPIOR0 = 0x3E, R_TCCR0A = 0x44, R_OCR0A = 0x47, R_OCR0B = 0x48,
+	R_TCCR1A = 0x80, R_TCCR1B = 0x81, R_ICR1L = 0x86, R_ICR1H = 0x87,
+	R_OCR1AL = 0x88, R_OCR1AH = 0x89, R_UCSR0B = 0xC1,
+};
+
+typedef struct {
+	int pwm_l, pwm_r;      /* duty 0-255 on ENA (D5) / ENB (D6) */
+	int in_l, in_r;        /* IN1 IN2 as two bits: 10 forward, 01 reverse, 00 coast */
+	int servo_us;          /* pulse width on D9, 0 when no pulse */
+	int servo_period_us;
+	int leds;              /* bit0 eye L, bit1 eye R, bit2 green, bit3 red */
+} pins_t;
+
+static avr_t *avr;
+static FILE *ctl;
+static int pty_master = -1, pty_slave = -1;
+static int uart_xon = 1;
+static uint8_t rx_buf[256];
+static size_t rx_len, rx_done;
+static uint8_t tx_buf[4096];
+static size_t tx_len;
+static char cmd_buf[256];
+static size_t cmd_len;
+static int quit;
+static int free_run;
+static struct timespec wall_start;
+static pins_t last_pins;
+static int64_t enc_pending[2];
+static int enc_phase[2];
+static avr_irq_t *enc_a[2], *enc_b[2], *dock_pin;
+static uint64_t loop_last_cycle, loop_n, loop_sum_cycles, loop_min, loop_max;
+static uint32_t loop_hist[LOOP_HIST_US + 1];
+static uint64_t tick_count;
+static int64_t lag_us;
+
+static uint64_t now_us(void) { return avr->cycle / (F_CPU_HZ / 1000000UL); }
+
+static int bit(uint8_t reg, int n) { return (avr->data[reg] >> n) & 1; }
+
+static int timer0_duty(int com_bit, uint8_t ocr, uint8_t port, int port_bit) {
+	if (bit(R_TCCR0A, com_bit)) return avr->data[ocr];
+	return bit(port, port_bit) ? 255 : 0;
+}
+
+static pins_t read_pins(void) {
+	pins_t p;
+	p.pwm_l = timer0_duty(5, R_OCR0B, R_PORTD, 5);  /* D5 = OC0B, COM0B1 */
+	p.pwm_r = timer0_duty(7, R_OCR0A, R_PORTD, 6);  /* D6 = OC0A, COM0A1 */
+	p.in_l = bit(R_PORTB, 0) * 10 + bit(R_PORTB, 2);  /* D8, D10 */
+	p.in_r = bit(R_PORTB, 3) * 10 + bit(R_PORTB, 4);  /* D11, D12 */
+	static const int prescale[8] = {0, 1, 8, 64, 256, 1024, 0, 0};
+	int ps = prescale[avr->data[R_TCCR1B] & 7];
+	unsigned ocr = avr->data[R_OCR1AL] | (avr->data[R_OCR1AH] << 8);
+	unsigned icr = avr->data[R_ICR1L] | (avr->data[R_ICR1H] << 8);
+	p.servo_us = (bit(R_TCCR1A, 7) && ps) ? (int)(ocr * ps / 16) : 0;
+	p.servo_period_us = ps ? (int)((icr + 1) * ps / 16) : 0;
+	p.leds = bit(R_PORTC, 3) | bit(R_PORTC, 4) << 1 | bit(R_PORTB, 5) << 2 | bit(R_PORTC, 5) << 3;
+	return p;
+}
+
+static void print_pins(const char *tag, const pins_t *p) {
+	fprintf(ctl, "%s t_us=%llu pwm_l=%d pwm_r=%d in_l=%02d in_r=%02d servo_us=%d "
+	        "servo_period_us=%d leds=%d\n", tag, (unsigned long long)now_us(), p->pwm_l,
+	        p->pwm_r, p->in_l, p->in_r, p->servo_us, p->servo_period_us, p->leds);
+}
+
+/* ---- UART <-> pty ------------------------------------------------------------------------ */
+static void uart_out_hook(avr_irq_t *irq, uint32_t value, void *param) {
+	(void)irq; (void)param;
+	if (tx_len < sizeof(tx_buf)) tx_buf[tx_len++] = (uint8_t)value;
+}
+static void uart_xon_hook(avr_irq_t *irq, uint32_t value, void *param) {
+	(void)irq; (void)value; (void)param; uart_xon = 1;
+}
+static void uart_xoff_hook(avr_irq_t *irq, uint32_t value, void *param) {
+	(void)irq; (void)value; (void)param; uart_xon = 0;
+}
+
+static void pty_service(void) {
+	if (tx_len) {
+		int queued = 0;
+		/* Nobody reading the pty: drop what piled up rather than block the UART. */
+		if (ioctl(pty_slave, FIONREAD, &queued) == 0 && queued > PTY_BACKLOG_MAX)
+			tcflush(pty_slave, TCIFLUSH);
+		ssize_t w = write(pty_master, tx_buf, tx_len);
+		if (w > 0) {
+			memmove(tx_buf, tx_buf + w, tx_len - (size_t)w);
+			tx_len -= (size_t)w;
+		} else if (w < 0 && errno == EAGAIN) {
+			tx_len = 0;
+		}
+	}
+	if (rx_done == rx_len) {
+		ssize_t r = read(pty_master, rx_buf, sizeof(rx_buf));
+		rx_len = r > 0 ? (size_t)r : 0;
+		rx_done = 0;
+	}
+	/* Hold bytes until setup() has enabled the receiver (RXEN0), as a host waits for a boot. */
+	if (!bit(R_UCSR0B, 4)) return;
+	avr_irq_t *in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
+	while (uart_xon && rx_done < rx_len) avr_raise_irq(in, rx_buf[rx_done++]);
+}
+
+static void open_pty(void) {
+	char name[128];
+	if (openpty(&pty_master, &pty_slave, name, NULL, NULL) < 0) {
+		fprintf(stderr, "robotd_harness: openpty: %s\n", strerror(errno));
+		exit(1);
+	}
+	struct termios tio;
+	tcgetattr(pty_slave, &tio);
+	cfmakeraw(&tio);
+	cfsetispeed(&tio, B115200);
+	cfsetospeed(&tio, B115200);
+	tcsetattr(pty_slave, TCSANOW, &tio);
+	fcntl(pty_master, F_SETFL, fcntl(pty_master, F_GETFL) | O_NONBLOCK);
+	/* pty_slave stays open so the master never sees EIO between clients. */
+	fprintf(ctl, "UART %s\n", name);
+}
+
+static void connect_uart(void) {
+	uint32_t flags = 0;
+	avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS('0'), &flags);
+	flags &= ~(AVR_UART_FLAG_STDIO | AVR_UART_FLAG_POLL_SLEEP);
+	avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
+	avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT),
+	                        uart_out_hook, NULL);
+	avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON),
+	                        uart_xon_hook, NULL);
+	avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF),
+	                        uart_xoff_hook, NULL);
+}
+
+/* ---- encoders: one quadrature transition per wheel per tick -------------------------------- */
+static void encoders_step(void) {
+	/* A leads B going forward: AB = 00, 10, 11, 01. */
+	static const int A[4] = {0, 1, 1, 0}, B[4] = {0, 0, 1, 1};
+	for (int side = 0; side < 2; side++) {
+		if (!enc_pending[side]) continue;
+		int dir = enc_pending[side] > 0 ? 1 : -1;
+		enc_pending[side] -= dir;
+		int next = (enc_phase[side] + dir + 4) & 3;
+		if (A[next] != A[enc_phase[side]]) avr_raise_irq(enc_a[side], A[next]);
+		else avr_raise_irq(enc_b[side], B[next]);
+		enc_phase[side] = next;
+	}
+}
+
+/* ---- main-loop timing from the firmware's GPIOR0 marker ------------------------------------ */
+static void gpior0_write(avr_t *a, avr_io_addr_t addr, uint8_t v, void *param) {
+	(void)param;
+	a->data[addr] = v;
+	if (loop_last_cycle) {
+		uint64_t d = a->cycle - loop_last_cycle;
+		loop_n++;
+		loop_sum_cycles += d;
+		if (!loop_min || d < loop_min) loop_min = d;
+		if (d > loop_max) loop_max = d;
+		uint64_t us = d / 16;
+		loop_hist[us > LOOP_HIST_US ? LOOP_HIST_US : us]++;
+	}
+	loop_last_cycle = a->cycle;
+}
+
+static double loop_percentile_us(double q) {
+	uint64_t want = (uint64_t)(q * (double)loop_n), seen = 0;
+	for (int us = 0; us <= LOOP_HIST_US; us++) {
+		seen += loop_hist[us];
+		if (seen > want) return us;
+	}
+	return LOOP_HIST_US;
+}
+
+/* ---- control channel ---------------------------------------------------------------------- */
+static void handle_command(char *line) {
+	long a = 0, b = 0;
+	if (strcmp(line, "STATE") == 0) {
+		pins_t p = read_pins();
+		print_pins("STATE", &p);
+	} else if (sscanf(line, "ENC %ld %ld", &a, &b) == 2) {
+		enc_pending[0] += a;
+		enc_pending[1] += b;
+		fprintf(ctl, "OK ENC\n");
+	} else if (sscanf(line, "ADC %ld %ld", &a, &b) == 2 && a >= 0 && a < 8) {
+		avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + (int)a),
+		              (uint32_t)(b < 0 ? 0 : b));
+		fprintf(ctl, "OK ADC\n");
+	} else if (sscanf(line, "DOCK %ld", &a) == 1) {
+		avr_raise_irq(dock_pin, a ? 1 : 0);
+		fprintf(ctl, "OK DOCK\n");
+	} else if (strcmp(line, "LOOP") == 0) {
+		fprintf(ctl, "LOOP n=%llu min_us=%.2f p50_us=%.0f p99_us=%.0f max_us=%.2f mean_us=%.2f\n",
+		        (unsigned long long)loop_n, loop_min / 16.0, loop_percentile_us(0.5),
+		        loop_percentile_us(0.99), loop_max / 16.0,
+		        loop_n ? (double)loop_sum_cycles / (double)loop_n / 16.0 : 0.0);
+	} else if (strcmp(line, "LOOPRESET") == 0) {
+		loop_n = loop_sum_cycles = loop_min = loop_max = 0;
+		memset(loop_hist, 0, sizeof(loop_hist));
+		fprintf(ctl, "OK LOOPRESET\n");
+	} else if (strcmp(line, "TIME") == 0) {
+		fprintf(ctl, "TIME t_us=%llu cycles=%llu lag_us=%lld\n", (unsigned long long)now_us(),
+		        (unsigned long long)avr->cycle, (long long)lag_us);
+	} else if (strcmp(line, "QUIT") == 0) {
+		quit = 1;
+	} else {
+		fprintf(ctl, "ERR unknown command: %s\n", line);
+	}
+}
+
+static void control_service(void) {
+	struct pollfd pfd = {.fd = 0, .events = POLLIN};
+	while (poll(&pfd, 1, 0) > 0) {
+		char ch;
+		ssize_t r = read(0, &ch, 1);
+		if (r <= 0) { quit = 1; return; }
+		if (ch == '\n') {
+			cmd_buf[cmd_len] = '\0';
+			if (cmd_len) handle_command(cmd_buf);
+			cmd_len = 0;
+		} else if (cmd_len < sizeof(cmd_buf) - 1) {
+			cmd_buf[cmd_len++] = ch;
+		}
+	}
+	fflush(ctl);
+}
+
+/* Sleeps while the emulated clock is ahead of the wall clock. */
+static void pace(void) {
+	struct timespec now;
+	clock_gettime(CLOCK_MONOTONIC, &now);
+	int64_t wall_us = (now.tv_sec - wall_start.tv_sec) * 1000000LL +
+	                  (now.tv_nsec - wall_start.tv_nsec) / 1000;
+	int64_t ahead_us = (int64_t)now_us() - wall_us;
+	lag_us = -ahead_us;
+	if (ahead_us > 100) {
+		struct timespec ts = {.tv_sec = 0, .tv_nsec = ahead_us * 1000};
+		nanosleep(&ts, NULL);
+	}
+}
+
+static avr_cycle_count_t tick(avr_t *a, avr_cycle_count_t when, void *param) {
+	(void)a; (void)param;
+	encoders_step();
+	pins_t p = read_pins();
+	if (memcmp(&p, &last_pins, sizeof(p)) != 0) {
+		last_pins = p;
+		print_pins("EV", &p);
+	}
+	if (++tick_count % PACE_EVERY_TICKS == 0) {
+		pty_service();
+		control_service();
+		if (!free_run) pace();
+	}
+	return when + TICK_CYCLES;
+}
+
+int main(int argc, char **argv) {
+	if (argc < 2) {
+		fprintf(stderr, "usage: %s FIRMWARE.elf [--free-run]\n", argv[0]);
+		return 2;
+	}
+	free_run = argc > 2 && strcmp(argv[2], "--free-run") == 0;
+	/* Keep the real stdout for the control channel; anything libsimavr prints goes to stderr. */
+	ctl = fdopen(dup(1), "w");
+	dup2(2, 1);
+	setvbuf(ctl, NULL, _IOLBF, 0);
+
+	elf_firmware_t fw;
+	memset(&fw, 0, sizeof(fw));
+	if (elf_read_firmware(argv[1], &fw) != 0) {
+		fprintf(stderr, "robotd_harness: cannot read %s\n", argv[1]);
+		return 1;
+	}
+	avr = avr_make_mcu_by_name("atmega328p");
+	if (!avr) {
+		fprintf(stderr, "robotd_harness: simavr has no atmega328p\n");
+		return 1;
+	}
+	avr_init(avr);
+	fw.frequency = F_CPU_HZ;
+	avr_load_firmware(avr, &fw);
+	avr->frequency = F_CPU_HZ;
+	avr->vcc = avr->avcc = avr->aref = 5000;
+
+	connect_uart();
+	for (int side = 0; side < 2; side++) {
+		/* Left A/B on D2/D4, right A/B on D3/D7. They idle at AB = 11, the level the
+		 * firmware's pull-ups give, so enabling them makes no edge. */
+		enc_a[side] = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('D'), side ? 3 : 2);
+		enc_b[side] = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('D'), side ? 7 : 4);
+		enc_phase[side] = 2;
+		avr_raise_irq(enc_a[side], 1);
+		avr_raise_irq(enc_b[side], 1);
+	}
+	dock_pin = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('C'), 2);
+	avr_raise_irq(dock_pin, 0);
+	/* Power-on defaults: nothing in front (150 cm), a full 12.6 V battery (4.2 V at A1). */
+	avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0), 391);
+	avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC1), 4200);
+	avr_register_io_write(avr, R_GPIOR0, gpior0_write, NULL);
+	open_pty();
+	avr_cycle_timer_register(avr, TICK_CYCLES, tick, NULL);
+
+	clock_gettime(CLOCK_MONOTONIC, &wall_start);
+	fprintf(ctl, "READY\n");
+	while (!quit) {
+		int state = avr_run(avr);
+		if (state == cpu_Done || state == cpu_Crashed) {
+			fprintf(ctl, "HALTED state=%d\n", state);
+			break;
+		}
+	}
+	fflush(ctl);
+	return 0;
+}

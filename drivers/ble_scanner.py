@@ -180,12 +180,16 @@ class BleBeaconScanner:
         await self.close()
 
     def status(self) -> dict[str, Any]:
-        now = asyncio.get_running_loop().time()
+        try:
+            age_s: float | None = round(asyncio.get_running_loop().time()
+                                        - self._last_advert_s, 3)
+        except RuntimeError:
+            age_s = None
         return {
             **self.counts,
             "scanning": self._scanner is not None,
             "uuids": sorted(self._uuids),
-            "last_advert_age_s": round(now - self._last_advert_s, 3),
+            "last_advert_age_s": age_s,
             "backoff_s": self._backoff_s,
             "last_error": self.last_error,
         }
@@ -201,19 +205,20 @@ class BleBeaconScanner:
             self._backoff_s = self._restart_base_s
         try:
             frame = parse_ibeacon(adv.manufacturer_data)
+            if frame is None:
+                self.counts["not_ibeacon"] += 1
+                return
+            if self._uuids and frame.uuid not in self._uuids:
+                self.counts["other_uuid"] += 1
+                return
+            sighting = BeaconSighting(mac=str(device.address).upper(), uuid=frame.uuid,
+                                      major=frame.major, minor=frame.minor,
+                                      rssi_dbm=int(adv.rssi), tx_power_dbm=frame.tx_power_dbm,
+                                      t_s=now)
         except (MalformedAdvert, TypeError, AttributeError, ValueError) as exc:
             self.counts["malformed"] += 1
             log.debug("ble.malformed", mac=getattr(device, "address", "?"), error=str(exc))
             return
-        if frame is None:
-            self.counts["not_ibeacon"] += 1
-            return
-        if self._uuids and frame.uuid not in self._uuids:
-            self.counts["other_uuid"] += 1
-            return
-        sighting = BeaconSighting(mac=str(device.address).upper(), uuid=frame.uuid,
-                                  major=frame.major, minor=frame.minor, rssi_dbm=int(adv.rssi),
-                                  tx_power_dbm=frame.tx_power_dbm, t_s=now)
         self.counts["sightings"] += 1
         self.last_sighting = sighting
         for callback in list(self._callbacks):

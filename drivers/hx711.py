@@ -221,10 +221,23 @@ class Hx711:
         self.filter.outlier_counts = self._outlier_kg * abs(factor)
 
     async def average_raw(self) -> float:
-        """Mean raw code over a fresh, full moving-average window."""
+        """Mean raw code over a fresh, full moving-average window.
+
+        Raises DeviceUnavailable when the driver is not running or readings stop coming
+        (every read discarded: saturated input, a glitching clock line).
+        """
+        if self._task is None:
+            msg = f"{self.name}: not started"
+            raise DeviceUnavailable(msg)
         self.filter.clear()
+        wait_s = self.timeout_s + 10 * self.period_s
         for _ in range(self.filter.window):
-            reading = await self.next_reading()
+            try:
+                reading = await asyncio.wait_for(self.next_reading(), wait_s)
+            except TimeoutError:
+                msg = (f"{self.name}: no good reading for {wait_s:g} s "
+                       f"(discarded so far: {self.counts})")
+                raise DeviceUnavailable(msg) from None
         average = self.filter.average()
         return float(reading.raw) if average is None else average
 

@@ -251,3 +251,19 @@ class TestHx711FromSettings:
         settings.set("hx711.average_window", 4)
         assert (hx.tare_offset, hx.calibration_factor, hx.filter.window) == (-1234, 51_750.0, 4)
         assert hx.filter.outlier_counts == 51_750.0
+
+
+class TestHx711Tare:
+    def test_tare_with_only_saturated_reads_fails_clearly(self) -> None:
+        """Taring while every read is saturated raises DeviceUnavailable instead of hanging."""
+        async def main() -> None:
+            _, lines, hx = _rig()
+            await hx.start()
+            lines.saturate()
+            with pytest.raises(DeviceUnavailable, match="no good reading"):
+                await hx.tare()
+            await hx.close()
+            with pytest.raises(DeviceUnavailable, match="not started"):
+                await hx.tare()
+
+        vclock.run(main())

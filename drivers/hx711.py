@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import gc
 import statistics
 from collections import deque
 from collections.abc import Callable
@@ -160,7 +161,11 @@ class Hx711:
     async def start(self) -> None:
         if self._task is not None:
             return
-        self._lines = self._open_lines()
+        try:
+            self._lines = self._open_lines()
+        except OSError as exc:
+            msg = f"{self.name}: cannot open the GPIO lines ({exc})"
+            raise DeviceUnavailable(msg) from exc
         self._lines.set_sck(False)  # power up (PD_SCK low)
         self._discard_next = 1
         if not await self._wait_ready(max(self.timeout_s, 4 * self.period_s)):
@@ -264,7 +269,14 @@ class Hx711:
         """Clock out one conversion (DOUT low); raises ReadDiscarded."""
         assert self._lines is not None
         self.counts["reads"] += 1
-        return clock_out(self._lines, self.gain)
+        # A garbage collection in the middle of a pulse would hold PD_SCK high past 60 us.
+        gc_was_on = gc.isenabled()
+        gc.disable()
+        try:
+            return clock_out(self._lines, self.gain)
+        finally:
+            if gc_was_on:
+                gc.enable()
 
     async def _run(self) -> None:
         loop = asyncio.get_running_loop()

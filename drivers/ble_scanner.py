@@ -231,7 +231,13 @@ class BleBeaconScanner:
     # --- scanner lifecycle ------------------------------------------------------------------
     async def _start_scanner(self) -> None:
         scanner = self._factory(self._on_advert)
-        await asyncio.wait_for(scanner.start(), self._start_timeout_s)
+        try:
+            await asyncio.wait_for(scanner.start(), self._start_timeout_s)
+        except SCAN_ERRORS:
+            # A start that timed out may have reached BlueZ; do not leave discovery running.
+            with contextlib.suppress(*SCAN_ERRORS):
+                await asyncio.wait_for(scanner.stop(), self._start_timeout_s)
+            raise
         self._scanner = scanner
         self._last_advert_s = asyncio.get_running_loop().time()
         log.info("ble.scanning", uuids=len(self._uuids))

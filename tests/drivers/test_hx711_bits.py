@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from drivers.hx711 import Gain, ReadDiscarded, clock_out, to_signed24
 
@@ -81,3 +83,8 @@ class TestClockOut:
         assert clock_out(RecordedLines(0x01E240, {5: 59}), Gain.A128) == 123456
         with pytest.raises(ReadDiscarded):
             clock_out(RecordedLines(0x01E240, {5: 60}), Gain.A128)
+
+    @given(st.integers(-0x7FFFFF, 0x7FFFFE))
+    def test_every_legal_code_round_trips(self, value: int) -> None:
+        """Any code the chip can send unsaturated is read back as the same signed value."""
+        assert clock_out(RecordedLines(value & 0xFFFFFF), Gain.A128) == value

@@ -111,3 +111,22 @@ class TestSimBleAir:
         air = _air()
         air.mute("C3:00:00:00:01:03")
         assert _collect(air, 2.0) == []
+
+    def test_injected_adverts_reach_the_real_driver(self) -> None:
+        """inject() plays any advert (a phone, a broken beacon) through the same path."""
+        from drivers.ble_scanner import BleBeaconScanner
+
+        async def main() -> dict[str, int]:
+            air = _air()
+            air.mute("C3:00:00:00:01:03")
+            driver = BleBeaconScanner([UUID], scanner_factory=air.scanner_factory())
+            async with air.running():
+                await driver.start()
+                air.inject("5A:11:22:33:44:55", {0x004C: bytes.fromhex("1005031c2b8b4f")})
+                air.inject("5A:11:22:33:44:56", {0x004C: bytes.fromhex("0215fda50693")})
+                await asyncio.sleep(1)
+                await driver.close()
+            return driver.counts
+
+        counts = vclock.run(main())
+        assert (counts["not_ibeacon"], counts["malformed"], counts["sightings"]) == (1, 1, 0)

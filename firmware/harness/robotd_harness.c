@@ -12,10 +12,16 @@
  *   ENC <dl> <dr>     -> queue quadrature steps per wheel (signed ticks) -> "OK ENC"
  *   ADC <ch> <mV>     -> set analog input ch (0-7) in millivolts         -> "OK ADC"
  *   DOCK <0|1>        -> drive the dock contact pin (A2)                 -> "OK DOCK"
- *   LOOP              -> "LOOP n=.. min_us=.. p50_us=.. p99_us=.. max_us=.. mean_us=.."
+ *   LOOP              -> "LOOP n=.. period_p50_us=.. .. busy_p99_us=.. busy_max_us=.."
  *   LOOPRESET         -> "OK LOOPRESET"
  *   TIME              -> "TIME t_us=.. cycles=.. lag_us=.."
+ *   CORRUPT <pct>     -> corrupt that % of UART bytes, both ways        -> "OK CORRUPT"
+ *   UNPLUG / REPLUG   -> cut / restore the UART wires (bytes are lost)   -> "OK UNPLUG"
+ *   RESET             -> reset the MCU (as the reset button or DTR)      -> "OK RESET"
  *   QUIT              -> exits (so does EOF on stdin)
+ *
+ * Loop timing: the firmware writes GPIOR0 when loop() starts and GPIOR1 before it idles, so
+ * "period" is start to start (it includes idle sleep) and "busy" is start to idle.
  *
  * The UART bridge is our own, not simavr's uart_pty part: uart_pty feeds the AVR from a second
  * thread (avr_raise_irq is not thread-safe); here everything runs on the one emulator thread.
@@ -43,14 +49,15 @@
 
 #define F_CPU_HZ 16000000UL
 #define TICK_CYCLES 800            /* 50 us: pin sampling and encoder edge spacing */
-#define PACE_EVERY_TICKS 4         /* serve the pty and stdin, check the wall clock: 200 us */
+#define SERVICE_TICKS 20           /* serve the pty and stdin, check the wall clock: 1 ms */
 #define PTY_BACKLOG_MAX 1024       /* bytes unread by any client before we discard them */
 #define LOOP_HIST_US 20000
+#define CPU_US(c) ((c) / (F_CPU_HZ / 1000000UL))
 
 /* ATmega328P data-space register addresses. */
 enum {
 	R_PINB = 0x23, R_PORTB = 0x25, R_PINC = 0x26, R_PORTC = 0x28, R_PIND = 0x29, R_PORTD = 0x2B,
-	R_GPIOR0 = 0x3E, R_TCCR0A = 0x44, R_OCR0A = 0x47, R_OCR0B = 0x48,
+	R_GPIOR0 = 0x3E, R_GPIOR1 = 0x4A, R_TCCR0A = 0x44, R_OCR0A = 0x47, R_OCR0B = 0x48,
 	R_TCCR1A = 0x80, R_TCCR1B = 0x81, R_ICR1L = 0x86, R_ICR1H = 0x87,
 	R_OCR1AL = 0x88, R_OCR1AH = 0x89, R_UCSR0B = 0xC1,
 };
@@ -80,12 +87,22 @@ static pins_t last_pins;
 static int64_t enc_pending[2];
 static int enc_phase[2];
 static avr_irq_t *enc_a[2], *enc_b[2], *dock_pin;
-static uint64_t loop_last_cycle, loop_n, loop_sum_cycles, loop_min, loop_max;
-static uint32_t loop_hist[LOOP_HIST_US + 1];
+typedef struct {
+	uint64_t n, sum, min, max;
+	uint32_t hist[LOOP_HIST_US + 1];  /* by microsecond */
+} span_stats_t;
+static span_stats_t loop_period, loop_busy;
+static uint64_t loop_start_cycle;
 static uint64_t tick_count;
 static int64_t lag_us;
+static uint64_t cycle_base;        /* keeps emulated time monotonic across RESET */
+static double corrupt_pct;
+static int unplugged;
+static uint32_t adc_mv[8];
+static int dock_level;
 
-static uint64_t now_us(void) { return avr->cycle / (F_CPU_HZ / 1000000UL); }
+static uint64_t now_cycles(void) { return avr->cycle + cycle_base; }
+static uint64_t now_us(void) { return CPU_US(now_cycles()); }
 
 static int bit(uint8_t reg, int n) { return (avr->data[reg] >> n) & 1; }
 
@@ -116,10 +133,19 @@ static void print_pins(const char *tag, const pins_t *p) {
 	        p->pwm_r, p->in_l, p->in_r, p->servo_us, p->servo_period_us, p->leds);
 }
 
+static void flush_tx(void);
+
 /* ---- UART <-> pty ------------------------------------------------------------------------ */
+static uint8_t maybe_corrupt(uint8_t byte) {
+	if (corrupt_pct > 0 && (double)rand() / RAND_MAX * 100.0 < corrupt_pct)
+		return byte ^ (uint8_t)(1 + rand() % 255);
+	return byte;
+}
+
 static void uart_out_hook(avr_irq_t *irq, uint32_t value, void *param) {
 	(void)irq; (void)param;
-	if (tx_len < sizeof(tx_buf)) tx_buf[tx_len++] = (uint8_t)value;
+	if (!unplugged && tx_len < sizeof(tx_buf)) tx_buf[tx_len++] = maybe_corrupt((uint8_t)value);
+	if (value == '\n') flush_tx();  /* a whole line goes out at once, not at the next service */
 }
 static void uart_xon_hook(avr_irq_t *irq, uint32_t value, void *param) {
 	(void)irq; (void)value; (void)param; uart_xon = 1;
@@ -128,7 +154,7 @@ static void uart_xoff_hook(avr_irq_t *irq, uint32_t value, void *param) {
 	(void)irq; (void)value; (void)param; uart_xon = 0;
 }
 
-static void pty_service(void) {
+static void flush_tx(void) {
 	if (tx_len) {
 		int queued = 0;
 		/* Nobody reading the pty: drop what piled up rather than block the UART. */
@@ -142,15 +168,19 @@ static void pty_service(void) {
 			tx_len = 0;
 		}
 	}
+}
+
+static void pty_service(void) {
+	flush_tx();
 	if (rx_done == rx_len) {
 		ssize_t r = read(pty_master, rx_buf, sizeof(rx_buf));
-		rx_len = r > 0 ? (size_t)r : 0;
+		rx_len = r > 0 && !unplugged ? (size_t)r : 0;
 		rx_done = 0;
 	}
 	/* Hold bytes until setup() has enabled the receiver (RXEN0), as a host waits for a boot. */
 	if (!bit(R_UCSR0B, 4)) return;
 	avr_irq_t *in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
-	while (uart_xon && rx_done < rx_len) avr_raise_irq(in, rx_buf[rx_done++]);
+	while (uart_xon && rx_done < rx_len) avr_raise_irq(in, maybe_corrupt(rx_buf[rx_done++]));
 }
 
 static void open_pty(void) {
@@ -186,7 +216,7 @@ static void connect_uart(void) {
 /* ---- encoders: one quadrature transition per wheel per tick -------------------------------- */
 static void encoders_step(void) {
 	/* A leads B going forward: AB = 00, 10, 11, 01. */
-	static const int A[4] = {0, 1, 1, 0}, B[4] = {0, 0, 1, 1};
+	static const int A[4] = {0, 1, 1, 0}, B[4] = {0, 0, 1, 1};  /* by phase */
 	for (int side = 0; side < 2; side++) {
 		if (!enc_pending[side]) continue;
 		int dir = enc_pending[side] > 0 ? 1 : -1;
@@ -198,34 +228,50 @@ static void encoders_step(void) {
 	}
 }
 
-/* ---- main-loop timing from the firmware's GPIOR0 marker ------------------------------------ */
-static void gpior0_write(avr_t *a, avr_io_addr_t addr, uint8_t v, void *param) {
-	(void)param;
-	a->data[addr] = v;
-	if (loop_last_cycle) {
-		uint64_t d = a->cycle - loop_last_cycle;
-		loop_n++;
-		loop_sum_cycles += d;
-		if (!loop_min || d < loop_min) loop_min = d;
-		if (d > loop_max) loop_max = d;
-		uint64_t us = d / 16;
-		loop_hist[us > LOOP_HIST_US ? LOOP_HIST_US : us]++;
-	}
-	loop_last_cycle = a->cycle;
+/* ---- main-loop timing from the firmware's GPIOR0 / GPIOR1 markers -------------------------- */
+static void span_add(span_stats_t *st, uint64_t cycles) {
+	st->n++;
+	st->sum += cycles;
+	if (!st->min || cycles < st->min) st->min = cycles;
+	if (cycles > st->max) st->max = cycles;
+	uint64_t us = CPU_US(cycles);
+	st->hist[us > LOOP_HIST_US ? LOOP_HIST_US : us]++;
 }
 
-static double loop_percentile_us(double q) {
-	uint64_t want = (uint64_t)(q * (double)loop_n), seen = 0;
+static void loop_marker_write(avr_t *a, avr_io_addr_t addr, uint8_t v, void *param) {
+	(void)param;
+	a->data[addr] = v;
+	uint64_t now = now_cycles();
+	if (addr == R_GPIOR0) {
+		if (loop_start_cycle) span_add(&loop_period, now - loop_start_cycle);
+		loop_start_cycle = now;
+	} else if (loop_start_cycle) {
+		span_add(&loop_busy, now - loop_start_cycle);
+	}
+}
+
+static double span_percentile_us(const span_stats_t *st, double q) {
+	uint64_t want = (uint64_t)(q * (double)st->n), seen = 0;
 	for (int us = 0; us <= LOOP_HIST_US; us++) {
-		seen += loop_hist[us];
+		seen += st->hist[us];
 		if (seen > want) return us;
 	}
 	return LOOP_HIST_US;
 }
 
+static void print_span(const char *name, const span_stats_t *st) {
+	fprintf(ctl, " %s_min_us=%.2f %s_p50_us=%.0f %s_p99_us=%.0f %s_max_us=%.2f %s_mean_us=%.2f",
+	        name, st->min / 16.0, name, span_percentile_us(st, 0.5), name,
+	        span_percentile_us(st, 0.99), name, st->max / 16.0, name,
+	        st->n ? (double)st->sum / (double)st->n / 16.0 : 0.0);
+}
+
+static void reset_mcu(void);
+
 /* ---- control channel ---------------------------------------------------------------------- */
 static void handle_command(char *line) {
 	long a = 0, b = 0;
+	double pct = 0;
 	if (strcmp(line, "STATE") == 0) {
 		pins_t p = read_pins();
 		print_pins("STATE", &p);
@@ -234,21 +280,31 @@ static void handle_command(char *line) {
 		enc_pending[1] += b;
 		fprintf(ctl, "OK ENC\n");
 	} else if (sscanf(line, "ADC %ld %ld", &a, &b) == 2 && a >= 0 && a < 8) {
-		avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + (int)a),
-		              (uint32_t)(b < 0 ? 0 : b));
+		adc_mv[a] = (uint32_t)(b < 0 ? 0 : b);
+		avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + (int)a), adc_mv[a]);
 		fprintf(ctl, "OK ADC\n");
 	} else if (sscanf(line, "DOCK %ld", &a) == 1) {
-		avr_raise_irq(dock_pin, a ? 1 : 0);
+		dock_level = a ? 1 : 0;
+		avr_raise_irq(dock_pin, dock_level);
 		fprintf(ctl, "OK DOCK\n");
 	} else if (strcmp(line, "LOOP") == 0) {
-		fprintf(ctl, "LOOP n=%llu min_us=%.2f p50_us=%.0f p99_us=%.0f max_us=%.2f mean_us=%.2f\n",
-		        (unsigned long long)loop_n, loop_min / 16.0, loop_percentile_us(0.5),
-		        loop_percentile_us(0.99), loop_max / 16.0,
-		        loop_n ? (double)loop_sum_cycles / (double)loop_n / 16.0 : 0.0);
+		fprintf(ctl, "LOOP n=%llu", (unsigned long long)loop_period.n);
+		print_span("period", &loop_period);
+		print_span("busy", &loop_busy);
+		fprintf(ctl, "\n");
 	} else if (strcmp(line, "LOOPRESET") == 0) {
-		loop_n = loop_sum_cycles = loop_min = loop_max = 0;
-		memset(loop_hist, 0, sizeof(loop_hist));
+		memset(&loop_period, 0, sizeof(loop_period));
+		memset(&loop_busy, 0, sizeof(loop_busy));
 		fprintf(ctl, "OK LOOPRESET\n");
+	} else if (sscanf(line, "CORRUPT %lf", &pct) == 1) {
+		corrupt_pct = pct;
+		fprintf(ctl, "OK CORRUPT\n");
+	} else if (strcmp(line, "UNPLUG") == 0 || strcmp(line, "REPLUG") == 0) {
+		unplugged = line[0] == 'U';
+		fprintf(ctl, "OK %s\n", line);
+	} else if (strcmp(line, "RESET") == 0) {
+		reset_mcu();
+		fprintf(ctl, "OK RESET\n");
 	} else if (strcmp(line, "TIME") == 0) {
 		fprintf(ctl, "TIME t_us=%llu cycles=%llu lag_us=%lld\n", (unsigned long long)now_us(),
 		        (unsigned long long)avr->cycle, (long long)lag_us);
@@ -276,8 +332,9 @@ static void control_service(void) {
 	fflush(ctl);
 }
 
-/* Sleeps while the emulated clock is ahead of the wall clock. */
-static void pace(void) {
+/* Waits while the emulated clock is ahead of the wall clock; returns 1 when pty or stdin input
+ * cut the wait short (the caller serves it at once). */
+static int pace(void) {
 	struct timespec now;
 	clock_gettime(CLOCK_MONOTONIC, &now);
 	int64_t wall_us = (now.tv_sec - wall_start.tv_sec) * 1000000LL +
@@ -285,9 +342,43 @@ static void pace(void) {
 	int64_t ahead_us = (int64_t)now_us() - wall_us;
 	lag_us = -ahead_us;
 	if (ahead_us > 100) {
+		struct pollfd pfd[2] = {{.fd = 0, .events = POLLIN},
+		                        {.fd = rx_done == rx_len ? pty_master : -1, .events = POLLIN}};
 		struct timespec ts = {.tv_sec = 0, .tv_nsec = ahead_us * 1000};
-		nanosleep(&ts, NULL);
+		return ppoll(pfd, 2, &ts, NULL) > 0;
 	}
+	return 0;
+}
+
+static void service(void) {
+	pty_service();
+	control_service();
+}
+
+/* The harness paces time itself; simavr's default would usleep while the AVR sleeps. */
+static void no_sleep(avr_t *a, avr_cycle_count_t how_long) { (void)a; (void)how_long; }
+
+static void drive_inputs(void) {
+	static const int A[4] = {0, 1, 1, 0}, B[4] = {0, 0, 1, 1};
+	for (int side = 0; side < 2; side++) {
+		avr_raise_irq(enc_a[side], A[enc_phase[side]]);
+		avr_raise_irq(enc_b[side], B[enc_phase[side]]);
+	}
+	avr_raise_irq(dock_pin, dock_level);
+	for (int ch = 0; ch < 8; ch++)
+		avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + ch), adc_mv[ch]);
+}
+
+static avr_cycle_count_t tick(avr_t *a, avr_cycle_count_t when, void *param);
+
+static void reset_mcu(void) {
+	uint64_t before = now_cycles();
+	avr_reset(avr);  /* also clears the cycle timers */
+	cycle_base = before - avr->cycle;
+	loop_start_cycle = 0;
+	uart_xon = 1;
+	drive_inputs();
+	avr_cycle_timer_register(avr, TICK_CYCLES, tick, NULL);
 }
 
 static avr_cycle_count_t tick(avr_t *a, avr_cycle_count_t when, void *param) {
@@ -298,10 +389,9 @@ static avr_cycle_count_t tick(avr_t *a, avr_cycle_count_t when, void *param) {
 		last_pins = p;
 		print_pins("EV", &p);
 	}
-	if (++tick_count % PACE_EVERY_TICKS == 0) {
-		pty_service();
-		control_service();
-		if (!free_run) pace();
+	if (++tick_count % SERVICE_TICKS == 0) {
+		service();
+		if (!free_run && pace()) service();
 	}
 	return when + TICK_CYCLES;
 }
@@ -335,21 +425,21 @@ int main(int argc, char **argv) {
 	avr->vcc = avr->avcc = avr->aref = 5000;
 
 	connect_uart();
+	/* Encoders: left A/B on D2/D4, right A/B on D3/D7. They idle at AB = 11 (phase 2), the
+	 * level the firmware's pull-ups give, so enabling them makes no edge. */
 	for (int side = 0; side < 2; side++) {
-		/* Left A/B on D2/D4, right A/B on D3/D7. They idle at AB = 11, the level the
-		 * firmware's pull-ups give, so enabling them makes no edge. */
 		enc_a[side] = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('D'), side ? 3 : 2);
 		enc_b[side] = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('D'), side ? 7 : 4);
 		enc_phase[side] = 2;
-		avr_raise_irq(enc_a[side], 1);
-		avr_raise_irq(enc_b[side], 1);
 	}
 	dock_pin = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('C'), 2);
-	avr_raise_irq(dock_pin, 0);
 	/* Power-on defaults: nothing in front (150 cm), a full 12.6 V battery (4.2 V at A1). */
-	avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0), 391);
-	avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC1), 4200);
-	avr_register_io_write(avr, R_GPIOR0, gpior0_write, NULL);
+	adc_mv[0] = 391;
+	adc_mv[1] = 4200;
+	drive_inputs();
+	avr->sleep = no_sleep;
+	avr_register_io_write(avr, R_GPIOR0, loop_marker_write, NULL);
+	avr_register_io_write(avr, R_GPIOR1, loop_marker_write, NULL);
 	open_pty();
 	avr_cycle_timer_register(avr, TICK_CYCLES, tick, NULL);
 

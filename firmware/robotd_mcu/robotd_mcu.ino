@@ -7,6 +7,7 @@
 // MOTOR/HB. No heap: fixed buffers only. Documentation: docs/firmware.md.
 #include <Arduino.h>
 #include <avr/interrupt.h>
+#include <avr/sleep.h>
 #include "link.h"
 
 // ---- pin map (Arduino Uno) -----------------------------------------------------------------
@@ -147,10 +148,12 @@ static void motors_stop() { motors_set(0, 0, true, true); }
 static void servo_begin() {
   pinMode(PIN_SERVO, OUTPUT);
   digitalWrite(PIN_SERVO, LOW);
+  TCCR1B = 0;  // stopped while TOP and the compare value are set, then started
   TCCR1A = _BV(WGM11);
-  TCCR1B = _BV(WGM13) | _BV(WGM12) | _BV(CS11);
   ICR1 = SERVO_PERIOD_TICKS - 1;
   OCR1A = 0;
+  TCNT1 = 0;
+  TCCR1B = _BV(WGM13) | _BV(WGM12) | _BV(CS11);
 }
 
 static void servo_write(uint8_t angle_deg) {
@@ -513,12 +516,29 @@ void setup() {
   next_bat_ms = now_ms + 120;
 }
 
+// Idle sleep until the next interrupt: Timer0 (millis, every 1.024 ms), a received byte, a
+// transmitted byte or an encoder edge. All work is driven by millis() or by input, so nothing
+// waits longer than 1 ms; timers, UART and PWM keep running in idle mode.
+static void idle_until_interrupt() {
+  set_sleep_mode(SLEEP_MODE_IDLE);
+  cli();
+  if (Serial.available() == 0) {
+    sleep_enable();
+    sei();  // the instruction after SEI runs before any pending interrupt: no lost wake-up
+    sleep_cpu();
+    sleep_disable();
+  }
+  sei();
+}
+
 void loop() {
-  GPIOR0 = ++loop_marker;  // one OUT per loop: lets the emulator time the loop in cycles
+  GPIOR0 = ++loop_marker;  // loop start and end markers: the emulator times the loop in cycles
   uint32_t now_ms = millis();
   serial_poll(now_ms);
   // '>' not '>=': millis() steps unevenly (1.024 ms ticks), this keeps the stop >= 500 ms.
   if (motors_on && now_ms - last_drive_ms > DEADMAN_MS) motors_stop();
   leds_update(now_ms);
   send_telemetry(now_ms);
+  GPIOR1 = loop_marker;
+  idle_until_interrupt();
 }

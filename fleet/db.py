@@ -19,6 +19,7 @@ from alembic.config import Config
 from sqlalchemy import event, text
 from sqlalchemy.engine import Connection, make_url
 from sqlalchemy.ext.asyncio import (
+    AsyncConnection,
     AsyncEngine,
     AsyncSession,
     async_sessionmaker,
@@ -43,9 +44,13 @@ def normalize_url(url: str) -> str:
     raise ValueError(msg)
 
 
-def _sqlite_engine(url: str, begin: str) -> AsyncEngine:
+def _sqlite_engine(url: str, begin: str | None) -> AsyncEngine:
+    """``begin``: the statement that opens a transaction; None for autocommit reads (each
+    statement its own snapshot, and no BEGIN/ROLLBACK round trips to aiosqlite's thread)."""
     memory = make_url(url).database in (None, "", ":memory:")
     kwargs: dict[str, Any] = {"poolclass": StaticPool} if memory else {}
+    if begin is None:
+        kwargs["pool_reset_on_return"] = None
     engine = create_async_engine(url, connect_args={"timeout": 30}, **kwargs)
 
     @event.listens_for(engine.sync_engine, "connect")
@@ -60,9 +65,12 @@ def _sqlite_engine(url: str, begin: str) -> AsyncEngine:
         cursor.execute("PRAGMA busy_timeout=30000")
         cursor.close()
 
-    @event.listens_for(engine.sync_engine, "begin")
-    def _on_begin(conn: Connection) -> None:
-        conn.exec_driver_sql(begin)
+    if begin is not None:
+        statement = begin
+
+        @event.listens_for(engine.sync_engine, "begin")
+        def _on_begin(conn: Connection) -> None:
+            conn.exec_driver_sql(statement)
 
     return engine
 
@@ -75,10 +83,11 @@ class Database:
         self.dialect = make_url(self.url).get_backend_name()
         self._write_lock = asyncio.Lock()
         if self.dialect == "sqlite":
-            self.read_engine = _sqlite_engine(self.url, "BEGIN")
-            self.write_engine = (
-                self.read_engine if make_url(self.url).database in (None, "", ":memory:")
-                else _sqlite_engine(self.url, "BEGIN IMMEDIATE"))
+            if make_url(self.url).database in (None, "", ":memory:"):
+                self.read_engine = self.write_engine = _sqlite_engine(self.url, "BEGIN")
+            else:
+                self.read_engine = _sqlite_engine(self.url, None)
+                self.write_engine = _sqlite_engine(self.url, "BEGIN IMMEDIATE")
         else:
             self.read_engine = create_async_engine(self.url, pool_size=10, max_overflow=20)
             self.write_engine = self.read_engine
@@ -87,9 +96,15 @@ class Database:
 
     @asynccontextmanager
     async def read(self) -> AsyncIterator[AsyncSession]:
-        """A read-only session (its transaction is rolled back when it closes)."""
+        """A read-only session (on SQLite each statement reads its own snapshot)."""
         async with self._reads() as session:
             yield session
+
+    @asynccontextmanager
+    async def read_connection(self) -> AsyncIterator[AsyncConnection]:
+        """A Core connection for hot read paths (cheaper than an ORM session)."""
+        async with self.read_engine.connect() as conn:
+            yield conn
 
     @asynccontextmanager
     async def write(self, *, serial: bool = True) -> AsyncIterator[AsyncSession]:

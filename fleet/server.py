@@ -17,6 +17,7 @@ from typing import Any
 import structlog
 from sqlalchemy import text
 
+from fleet.cache import SiteCache
 from fleet.clock import Clock, system_clock
 from fleet.db import Database
 from fleet.services.assignment import process_queue
@@ -51,6 +52,7 @@ class FleetServer:
         if isinstance(settings, FleetSettings):
             settings = settings.public()
         self._settings = settings
+        self.cache = SiteCache()
         self._tasks: list[asyncio.Task[None]] = []
         self.started = False
 
@@ -70,6 +72,7 @@ class FleetServer:
                         "SELECT setval(pg_get_serial_sequence('customers', 'id'), "
                         "COALESCE((SELECT MAX(id) FROM customers), 0) + 1, false)"))
                 await process_queue(session, now)
+        self.cache.invalidate()
         self.started = True
         if monitors:
             self.start_monitors()

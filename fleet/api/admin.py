@@ -85,7 +85,8 @@ async def put_room(body: RoomIn, http: HttpRequest) -> RoomOut:
     """Create a room, or set the floor colour of an existing one."""
     async with server_of(http).db.write() as session:
         room = await admin.put_room(session, body.Name, body.FloorColor)
-        return RoomOut(Id=room.id, Name=room.name, FloorColor=room.floor_color)
+    server_of(http).cache.invalidate()
+    return RoomOut(Id=room.id, Name=room.name, FloorColor=room.floor_color)
 
 
 @router.get("/beacons", response_model=list[BeaconOut])
@@ -106,7 +107,8 @@ async def put_beacon(body: BeaconIn, http: HttpRequest) -> BeaconOut:
             rssi_threshold_dbm=body.RssiThreshold, is_base=body.IsBase, is_active=body.IsActive)
         room = await session.get(Room, beacon.room_id)
         assert room is not None
-        return _beacon_out(beacon, room)
+    server_of(http).cache.invalidate()
+    return _beacon_out(beacon, room)
 
 
 def _beacon_out(beacon: Beacon, room: Room) -> BeaconOut:
@@ -128,7 +130,9 @@ async def add_customer(body: CustomerIn, http: HttpRequest) -> CustomerOut:
         customer = await admin.put_customer(session, name=body.Name, room=body.RoomName,
                                             beacon=body.BeaconMacAddress, customer_id=None,
                                             create=True)
-        return await _customer_out(session, customer)
+        out = await _customer_out(session, customer)
+    server_of(http).cache.invalidate()
+    return out
 
 
 async def _customer_out(session: Any, customer: Customer) -> CustomerOut:
@@ -151,7 +155,8 @@ async def put_settings(body: SettingsUpdate, http: HttpRequest) -> dict[str, Any
             merged = await store_settings(session, body.given())
         except ValidationError as exc:
             raise Invalid("; ".join(str(e["msg"]) for e in exc.errors())) from exc
-        return merged.public()
+    server_of(http).cache.invalidate()
+    return merged.public()
 
 
 @router.get("/notifications", response_model=list[NotificationOut])

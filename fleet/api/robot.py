@@ -34,7 +34,7 @@ async def data_exchange(
         is_in_target=body.IsInTarget, weight_kg=body.WeightKg,
         ultrasonic_distance=body.UltrasonicDistance,
     )
-    reply = await exchange(server.db, server.clock, report)
+    reply = await exchange(server.db, server.clock, server.cache, report)
     nav = reply.navigation
     return DataExchangeOut(
         ActiveBeacons=[

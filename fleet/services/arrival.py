@@ -7,13 +7,13 @@ from dataclasses import dataclass
 from datetime import datetime
 
 import structlog
-from sqlalchemy import select
 from sqlalchemy.ext.asyncio import AsyncSession
 
-from fleet.models import Beacon, Robot
+from fleet.cache import BeaconRow, SiteView
+from fleet.models import Robot
 from fleet.services.assignment import process_queue
 from fleet.services.common import current_request, release, set_status
-from fleet.services.navigation import customer_room_beacons
+from fleet.services.navigation import target_beacons
 from fleet.services.notify import notify
 from fleet.status import Disposition, Status
 
@@ -28,7 +28,7 @@ class Sighting:
     rssi_dbm: int
 
 
-def reached(targets: Sequence[Beacon], sightings: Sequence[Sighting]) -> bool:
+def reached(targets: Sequence[BeaconRow], sightings: Sequence[Sighting]) -> bool:
     """A target beacon heard at or above its RSSI threshold."""
     by_mac = {b.mac_address.upper(): b for b in targets}
     for seen in sightings:
@@ -38,14 +38,9 @@ def reached(targets: Sequence[Beacon], sightings: Sequence[Sighting]) -> bool:
     return False
 
 
-async def base_beacons(session: AsyncSession) -> list[Beacon]:
-    result = await session.execute(
-        select(Beacon).where(Beacon.is_base.is_(True), Beacon.is_active.is_(True)))
-    return list(result.scalars().all())
-
-
 async def handle_arrival(
-    session: AsyncSession, now: datetime, robot: Robot, sightings: Sequence[Sighting]
+    session: AsyncSession, now: datetime, robot: Robot, sightings: Sequence[Sighting],
+    site: SiteView,
 ) -> str:
     """Apply an IsInTarget=true report; returns what happened (for logs and tests)."""
     request = await current_request(session, robot)
@@ -55,7 +50,8 @@ async def handle_arrival(
     if status in (Status.ACCEPTED, Status.GOING_TO_ROOM):
         # A robot that names the beacons it hears must hear a target; one that names none is
         # trusted, as in the seed.
-        if sightings and not reached(await customer_room_beacons(session, request), sightings):
+        targets = target_beacons(site, request)
+        if sightings and not reached(targets, sightings):
             return "still-travelling"
         arrived = (Status.ARRIVED_AT_ROOM if status == Status.ACCEPTED
                    else Status.ARRIVED_FOR_DELIVERY)
@@ -67,7 +63,7 @@ async def handle_arrival(
         return str(arrived)
     if status not in (Status.LAUNDRY_LOADED, Status.GOING_TO_BASE, Status.CANCELLED):
         return "ignored"
-    if not reached(await base_beacons(session), sightings):
+    if not reached(target_beacons(site, request), sightings):
         return "not-at-base"
     if status == Status.LAUNDRY_LOADED:
         set_status(request, Status.WASHING, now)

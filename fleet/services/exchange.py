@@ -1,23 +1,34 @@
 """The server side of the robot's 1 s data exchange (seed section 8): record the report,
-handle arrival and weight, answer with beacons, targets and orders."""
+handle arrival and weight, answer with beacons, targets and orders.
+
+Most reports change nothing: the robot is idle or on its way. Those are answered from a read
+and write the robot's last ping at most every ``PING_WRITE_S``, so hundreds of robots cost
+few writes. A report that may change a request (arrival, weight at the room, a robot back
+from offline) runs in a serialized write transaction.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from datetime import datetime, timedelta
 
-from sqlalchemy.ext.asyncio import AsyncSession
+from sqlalchemy import bindparam, select, update
 
+from fleet.cache import SiteCache
 from fleet.clock import Clock
 from fleet.db import Database
 from fleet.errors import NotFound
-from fleet.models import Robot
+from fleet.models import Request, Robot
 from fleet.services import weight
 from fleet.services.arrival import Sighting, handle_arrival
 from fleet.services.common import current_request, robot_by_name
 from fleet.services.navigation import Navigation, navigation
 from fleet.services.offline import restore
-from fleet.settings import load_settings
+from fleet.status import Status
+
+# Far below the offline threshold (30 s by default), so a skipped write never matters.
+PING_WRITE_S = 5.0
 
 
 @dataclass(frozen=True)
@@ -38,48 +49,96 @@ class Reply:
     maintenance_mode: bool
 
 
-async def _needs_serial(db: Database, report: Report) -> bool:
-    """Whether this report may change a request (then it must run serialized)."""
-    async with db.read() as session:
-        robot = await _robot(session, report.robot_name)
-        if robot.is_offline:
-            return True
-        request = await current_request(session, robot)
-        if request is None:
-            return False
-        return report.is_in_target or weight.needs_weight(request)
+@dataclass(frozen=True)
+class _Light:
+    """The one-statement read of a report that changes nothing."""
+
+    robot_id: int
+    is_offline: bool
+    stopped: bool
+    emergency_stop: bool
+    maintenance_mode: bool
+    last_ping_at: datetime | None
+    request_id: int | None
+    status: str
+    customer_id: int
+    robot_returned: bool
 
 
-async def _robot(session: AsyncSession, name: str) -> Robot:
-    robot = await robot_by_name(session, name)
-    if robot is None:
+_LIGHT_QUERY = (
+    select(Robot.id, Robot.is_offline, Robot.emergency_stop, Robot.maintenance_mode,
+           Robot.last_ping_at, Request.id, Request.status, Request.customer_id,
+           Request.robot_returned)
+    .select_from(Robot)
+    .outerjoin(Request, Request.id == Robot.current_request_id)
+    .where(Robot.name == bindparam("name"))
+)
+
+
+async def _light_read(db: Database, name: str) -> _Light:
+    async with db.read_connection() as conn:
+        row = (await conn.execute(_LIGHT_QUERY, {"name": name})).first()
+    if row is None:
         msg = f"robot {name!r} is not registered"
         raise NotFound(msg)
-    return robot
+    rid, offline, estop, maintenance, ping, req_id, status, customer, returned = row
+    return _Light(rid, offline, estop or maintenance, estop, maintenance,
+                  ping, req_id, status or "", customer or 0, bool(returned))
 
 
-async def exchange(db: Database, clock: Clock, report: Report) -> Reply:
+def _may_change(light: _Light, report: Report) -> bool:
+    if light.is_offline:
+        return True
+    if light.request_id is None:
+        return False
+    return report.is_in_target or light.status in (
+        Status.ARRIVED_AT_ROOM, Status.ARRIVED_FOR_DELIVERY)
+
+
+async def exchange(db: Database, clock: Clock, cache: SiteCache, report: Report) -> Reply:
     """One data exchange. Raises NotFound for an unknown robot."""
-    serial = await _needs_serial(db, report)
-    async with db.write(serial=serial) as session:
+    light = await _light_read(db, report.robot_name)
+    cfg = await cache.settings(db)
+    site = await cache.site(db)
+    if not _may_change(light, report):
         now = clock()
-        cfg = await load_settings(session)
-        robot = await _robot(session, report.robot_name)
-        robot.last_ping_at = now
-        if robot.weight_kg != report.weight_kg:
-            robot.weight_kg = report.weight_kg
-        if robot.ultrasonic_distance != report.ultrasonic_distance:
-            robot.ultrasonic_distance = report.ultrasonic_distance
-        if robot.is_in_target != report.is_in_target:
-            robot.is_in_target = report.is_in_target
-        if serial:
-            if robot.is_offline:
-                await restore(session, now, robot)
-            if report.is_in_target:
-                await handle_arrival(session, now, robot, report.sightings)
-            request = await current_request(session, robot)
-            if request is not None:
-                weight.evaluate(session, now, cfg, request, report.weight_kg)
-        request = await current_request(session, robot)
-        nav = await navigation(session, cfg, robot, request)
+        if (light.last_ping_at is None
+                or now - light.last_ping_at >= timedelta(seconds=PING_WRITE_S)):
+            await _record_ping(db, light.robot_id, now, report)
+        request = light if light.request_id is not None else None
+        nav = navigation(site, cfg, request, stopped=light.stopped)
+        return Reply(nav, light.emergency_stop, light.maintenance_mode)
+    async with db.write() as session:
+        now = clock()
+        robot = await robot_by_name(session, report.robot_name)
+        if robot is None:
+            msg = f"robot {report.robot_name!r} is not registered"
+            raise NotFound(msg)
+        _apply_report(robot, now, report)
+        if robot.is_offline:
+            await restore(session, now, robot)
+        if report.is_in_target:
+            await handle_arrival(session, now, robot, report.sightings, site)
+        current = await current_request(session, robot)
+        if current is not None:
+            weight.evaluate(session, now, cfg, current, report.weight_kg)
+        nav = navigation(site, cfg, current,
+                         stopped=robot.emergency_stop or robot.maintenance_mode)
         return Reply(nav, robot.emergency_stop, robot.maintenance_mode)
+
+
+def _apply_report(robot: Robot, now: datetime, report: Report) -> None:
+    robot.last_ping_at = now
+    if robot.weight_kg != report.weight_kg:
+        robot.weight_kg = report.weight_kg
+    if robot.ultrasonic_distance != report.ultrasonic_distance:
+        robot.ultrasonic_distance = report.ultrasonic_distance
+    if robot.is_in_target != report.is_in_target:
+        robot.is_in_target = report.is_in_target
+
+
+async def _record_ping(db: Database, robot_id: int, now: datetime, report: Report) -> None:
+    async with db.write(serial=False) as session:
+        await session.execute(update(Robot).where(Robot.id == robot_id).values(
+            last_ping_at=now, weight_kg=report.weight_kg,
+            ultrasonic_distance=report.ultrasonic_distance, is_in_target=report.is_in_target))

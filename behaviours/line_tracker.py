@@ -10,6 +10,7 @@ nearest the previous line position, and the line is the median over the rows tha
 from __future__ import annotations
 
 import colorsys
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -43,6 +44,8 @@ Plane = npt.NDArray[Any]  # float32 rows (cv2 returns loosely typed arrays)
 _TOO_DARK = 20.0  # floor brightness (grey levels) below which nothing can be seen
 _GREY_TINT = 24.0  # channel spread (grey levels) a grey surface shows from noise and light
 _BACKGROUND_FRAC = 0.17  # background window, fraction of the width: wider than any line
+_GAP_PX = 3  # gaps this narrow inside a run are noise
+_PAD = 2  # zero columns either side of each row, so runs never cross rows
 _MAX_WORK_PX = 320  # wider frames are read every 2nd (3rd...) column: same answer, less work
 
 
@@ -211,7 +214,7 @@ class LineTracker:
             wanted = _reduce(cv2.min, [planes[c] for c in colour.channels])
             others = _reduce(cv2.max, [planes[c] for c in (0, 1, 2) if c not in colour.channels])
             raw = wanted - others
-        score = cv2.blur(raw / np.maximum(floor, 1.0), (5, 1))
+        score = raw / np.maximum(floor, 1.0)
         threshold = self.params.min_contrast * _THRESHOLD_SCALE[colour.kind]
         return self._pick(score, threshold, colour, step, full_width)
 
@@ -220,48 +223,63 @@ class LineTracker:
         p = self.params
         centre = (full_width - 1) / 2
         k, width = score.shape
-        mask = np.zeros((k, width + 2), np.int8)
-        mask[:, 1:-1] = score > threshold
-        edges = np.diff(mask, axis=1)
-        row, start = np.nonzero(edges == 1)
-        end = np.nonzero(edges == -1)[1]
-        run_w = end - start
+        # Rows laid end to end with two zero columns either side: runs never cross rows, and
+        # every run has a start and an end, so 1-D operations find them all at once.
+        span = width + 2 * _PAD
+        padded = np.zeros((k, span), np.float32)
+        padded[:, _PAD:-_PAD] = score
+        raw = padded.ravel()
+        flat = raw.copy()  # a 3-tap mean along the rows takes the edge off the sensor noise
+        flat[1:-1] += raw[:-2] + raw[2:]
+        flat /= 3
+        above = flat > threshold
+        change = (above[1:] != above[:-1]).nonzero()[0] + 1
+        begin, end = change[0::2], change[1::2]
+        if begin.size > 1:  # noise splits faint lines: close gaps of up to _GAP_PX
+            join = (begin[1:] - end[:-1] <= _GAP_PX) & (begin[1:] // span == end[:-1] // span)
+            begin = begin[np.concatenate(([True], ~join))]
+            end = end[np.concatenate((~join, [True]))]
+        run_w = end - begin
         keep = (run_w >= max(2, p.min_width_frac * width)) & (run_w <= p.max_width_frac * width)
-        row, start, end = row[keep], start[keep], end[keep]
-        if row.size == 0:
+        begin, end, run_w = begin[keep], end[keep], run_w[keep]
+        if begin.size == 0:
             return self._lost(centre, colour, "no line")
+        row = begin // span
         near = self._last_x if self._last_x is not None and self._misses < 10 else centre
-        near_sub = (near - (step - 1) / 2) / step
-        order = np.lexsort((np.abs((start + end - 1) / 2 - near_sub), row))
+        near_flat = row * span + _PAD + (near - (step - 1) / 2) / step
+        order = np.lexsort((np.abs((begin + end - 1) / 2 - near_flat), row))
+        ordered_rows = row[order]
         first = np.ones(order.size, bool)
-        first[1:] = row[order][1:] != row[order][:-1]
-        chosen = order[first]
-        if chosen.size < max(1, (k + 2) // 3):
+        first[1:] = ordered_rows[1:] != ordered_rows[:-1]
+        chosen = np.sort(order[first])
+        found = chosen.size
+        if found < max(1, (k + 2) // 3):
             return self._lost(centre, colour, "too few rows")
-        xs, contrasts, widths = [], [], []
-        edge_rows = 0
-        for i in chosen.tolist():
-            r, a, b = int(row[i]), int(start[i]), int(end[i])
-            seg = score[r, a:b]
-            mass = float(seg.sum())
-            xs.append(float(seg @ self._cols(width)[a:b]) / max(mass, 1e-6))
-            contrasts.append(mass / (b - a))
-            widths.append(b - a)
-            edge_rows += a == 0 or b == width
+        a, b = begin[chosen], end[chosen]
+        bounds = np.empty(2 * found, np.intp)
+        bounds[0::2], bounds[1::2] = a, b
+        mass = np.add.reduceat(flat, bounds)[0::2]
+        moment = np.add.reduceat(flat * self._cols(k, span), bounds)[0::2]
+        xs = (moment / np.maximum(mass, 1e-6)).tolist()
         line_x = _median_of(xs) * step + (step - 1) / 2
-        at_edge = edge_rows * 2 > len(xs)
-        candidates = int(np.bincount(row).max())
-        confidence = min(1.0, _median_of(contrasts) / (2 * threshold)) * len(xs) / k
-        if at_edge:
+        columns = a - row[chosen] * span
+        at_edge = int(np.count_nonzero((columns <= _PAD)
+                                       | (columns + run_w[chosen] >= span - _PAD)))
+        candidates = found if found == row.size else int(np.bincount(row).max())
+        contrast = _median_of((mass / run_w[chosen]).tolist())
+        confidence = min(1.0, contrast / (2 * threshold)) * found / k
+        if at_edge * 2 > found:
             confidence *= 0.6
         if candidates > 1:
             confidence *= 0.8
         return LineReading(line_x - centre, confidence, False, line_x,
-                           _median_of(widths) * step, at_edge, candidates, colour.name)
+                           _median_of(run_w[chosen].tolist()) * step, at_edge * 2 > found,
+                           candidates, colour.name)
 
-    def _cols(self, width: int) -> Plane:
-        if self._col_index.shape[0] != width:
-            self._col_index = np.arange(width, dtype=np.float32)
+    def _cols(self, rows: int, span: int) -> Plane:
+        """Column index of every cell of the padded, flattened rows."""
+        if self._col_index.shape[0] != rows * span:
+            self._col_index = np.tile(np.arange(-_PAD, span - _PAD, dtype=np.float32), rows)
         return self._col_index
 
     def _lost(self, centre: float, colour: _Colour, reason: str) -> LineReading:
@@ -285,10 +303,15 @@ def _background(value: Plane, first: Callable[..., Any], then: Callable[..., Any
     k, width = value.shape
     blocks = max(4, width // 8)
     coarse = cv2.resize(value, (blocks, k), interpolation=cv2.INTER_AREA)
-    kernel = np.ones((1, max(3, round(blocks * _BACKGROUND_FRAC)) | 1), np.uint8)
+    kernel = _kernel(max(3, round(blocks * _BACKGROUND_FRAC)) | 1)
     smooth = then(first(coarse, kernel), kernel)
     out: Plane = cv2.resize(smooth, (width, k), interpolation=cv2.INTER_LINEAR)
     return out
+
+
+@functools.lru_cache(maxsize=8)
+def _kernel(size: int) -> npt.NDArray[np.uint8]:
+    return np.ones((1, size), np.uint8)
 
 
 def _reduce(op: Callable[[Any, Any], Any], planes: list[Plane]

@@ -40,7 +40,7 @@ class TestFindsTheLine:
     @settings(max_examples=25, deadline=None)
     @given(offset_m=st.floats(-0.1, 0.1), heading_deg=st.floats(-15, 15))
     def test_error_matches_where_the_line_is(self, offset_m: float, heading_deg: float) -> None:
-        """Anywhere in view, the error is the line's true offset at the ROI within 3 px."""
+        """Wholly in view, the error is the line's true offset at the ROI within 3 px."""
         camera = camera_over(east(3.0))
         pose = Pose(1.0, 3.0 + offset_m, math.radians(heading_deg))
         reading = LineTracker().track(camera.render(pose))
@@ -50,7 +50,7 @@ class TestFindsTheLine:
         ahead_x, ahead_y = pose.to_world(fwd, 0.0)
         left_m = (ahead_y - 3.0) / math.cos(pose.heading_rad)
         truth = px(camera, left_m)
-        if abs(truth) > 150:
+        if abs(truth) > 110:  # partly out of view: see the at-edge test
             return
         assert not reading.lost
         assert reading.error_px == pytest.approx(truth, abs=3.0)

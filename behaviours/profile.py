@@ -17,6 +17,7 @@ StateTask = Callable[[RobotContext], Awaitable[None]]
 PROFILES: dict[str, str] = {
     "idle": "behaviours.profile:IdleProfile",
     "square": "behaviours.square_profile:SquareProfile",
+    "laundry": "behaviours.laundry.profile:LaundryProfile",
 }
 """Profile name (``robot.profile``) -> ``module:Class``; the class is built with no arguments."""
 

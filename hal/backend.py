@@ -6,6 +6,8 @@ from dataclasses import dataclass, fields
 from enum import Enum
 from typing import Any
 
+import httpx
+
 from hal.devices import (
     Audio,
     Battery,
@@ -47,6 +49,9 @@ class Devices:
     dock_ir: DockIr | None = None
     lidar: Lidar | None = None
     audio: Audio | None = None
+    network: httpx.AsyncBaseTransport | None = None
+    """How the robot reaches the fleet server: None is the operating system's network; the
+    simulator gives a transport to its in-process server (and can cut it)."""
 
     def distinct(self) -> list[Any]:
         """Each device to start and close, once, in slot order.

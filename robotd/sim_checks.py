@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -44,7 +45,8 @@ def finished(scenario: Scenario, robots: dict[str, RobotRecord]) -> bool:
 
 
 def failures(scenario: Scenario, robots: dict[str, RobotRecord], elapsed_s: float,
-             extra: list[str] | None = None) -> list[str]:
+             extra: list[str] | None = None,
+             events: list[dict[str, Any]] | None = None) -> list[str]:
     """Every success condition that does not hold, as a sentence; empty when all hold."""
     success = scenario.success
     reasons: list[str] = list(extra or [])
@@ -73,6 +75,7 @@ def failures(scenario: Scenario, robots: dict[str, RobotRecord], elapsed_s: floa
             who = f"{pose.robot}: " if many else ""
             reasons.append(f"{who}ended {off * 100:.1f} cm from ({pose.x_m:.2f}, {pose.y_m:.2f})"
                            f", tolerance {pose.tolerance_m * 100:.1f} cm")
+    reasons += _arrival_failures(scenario, events or [])
     if elapsed_s >= success.time_limit_s and not finished(scenario, robots) \
             and success.final_state is not None:
         reasons.append(f"time limit of {success.time_limit_s:g} s reached")
@@ -93,3 +96,23 @@ def summary_figures(robots: dict[str, RobotRecord]) -> dict[str, Any]:
             fig["mean_cross_track_cm"] = round(r.mean_cross_track_m * 100, 2)
         out[name] = fig
     return out
+
+
+def _arrival_failures(scenario: Scenario, events: list[dict[str, Any]]) -> list[str]:
+    """``arrivals = [{ room, within_m }]``: the robot stopped by that room's beacon."""
+    reasons = []
+    for want in scenario.success.extra.get("arrivals", []):
+        room, within = str(want.get("room")), float(want.get("within_m", 0.5))
+        beacons = [b for b in scenario.world.beacons if b.room == room]
+        arrivals = [e for e in events if e.get("kind") == "arrival" and e.get("room") == room]
+        if not beacons:
+            reasons.append(f"arrivals: no beacon in room {room} in the world")
+        elif not arrivals:
+            reasons.append(f"never arrived at room {room}")
+        else:
+            e = arrivals[0]
+            off = min(math.hypot(e["x_m"] - b.x_m, e["y_m"] - b.y_m) for b in beacons)
+            if off > within:
+                reasons.append(f"arrived at room {room} {off:.2f} m from its beacon, "
+                               f"more than {within:g} m")
+    return reasons

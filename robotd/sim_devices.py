@@ -7,14 +7,19 @@ are added when the robot's profile uses those devices.
 
 from __future__ import annotations
 
+import random
 from typing import Any
 
 import structlog
 
+from drivers import ble_scanner, hx711
 from drivers.arduino.link import ArduinoLink
 from hal.backend import Devices
+from hal.sim.ble_model import BleAirParams, SimBleAir
 from hal.sim.body import DiffDriveBody
+from hal.sim.camera_model import CameraMount, SimCamera
 from hal.sim.fake_mcu import FakeMcu
+from hal.sim.hx711_model import SimHx711Lines
 from hal.sim.sim_serial import SimSerialPorts
 from hal.sim.world import World
 from robotd.config.settings import Settings
@@ -26,7 +31,7 @@ class SimRig:
     """One robot's simulated hardware, and the bench switches the scenario script uses."""
 
     def __init__(self, world: World, body: DiffDriveBody, settings: Settings, *, seed: int,
-                 index: int, mcu: str = "fake") -> None:
+                 index: int, mcu: str = "fake", needs: tuple[str, ...] = ()) -> None:
         self.world = world
         self.body = body
         self.settings = settings
@@ -43,10 +48,32 @@ class SimRig:
             battery=self.link.battery, servo=self.link, leds=self.link,
         )
         self._models: list[Any] = []
+        self.air: SimBleAir | None = None
+        self.hx711_lines: SimHx711Lines | None = None
+        rng_key = f"{seed}:{index}"
+        if "camera" in needs:
+            mount = CameraMount(width_px=settings.get("camera.width"),
+                                height_px=settings.get("camera.height"),
+                                fps=settings.get("camera.fps"))
+            self.devices.camera = SimCamera(world, body, mount, seed=seed * 1000 + index)
+        if "beacons" in needs:
+            self.air = SimBleAir(body, rng=random.Random(f"{rng_key}:ble"),
+                                 params=BleAirParams(
+                                     path_loss_exponent=settings.get("ble.path_loss_exponent")))
+            self.devices.beacons = ble_scanner.from_settings(settings, self.air.scanner_factory())
+        if "load_cell" in needs:
+            lines = SimHx711Lines.on_body(
+                body, rng=random.Random(f"{rng_key}:hx711"), sps=settings.get("hx711.sps"),
+                offset_counts=settings.get("hx711.tare_offset"),
+                counts_per_kg=settings.get("hx711.calibration_factor"))
+            self.hx711_lines = lines
+            self.devices.load_cell = hx711.from_settings(settings, lambda: lines)
         self._deadman_seen = 0
 
     async def run(self) -> None:
-        """Anything the simulated hardware does on its own (none for the fake MCU yet)."""
+        """What the simulated hardware does on its own: beacons advertising."""
+        if self.air is not None:
+            await self.air.run()
 
     async def close(self) -> None:
         await self.mcu.close()
@@ -72,5 +99,5 @@ class SimRig:
 
 
 def build_sim_rig(world: World, body: DiffDriveBody, settings: Settings, *, seed: int,
-                  index: int, mcu: str = "fake") -> SimRig:
-    return SimRig(world, body, settings, seed=seed, index=index, mcu=mcu)
+                  index: int, mcu: str = "fake", needs: tuple[str, ...] = ()) -> SimRig:
+    return SimRig(world, body, settings, seed=seed, index=index, mcu=mcu, needs=needs)

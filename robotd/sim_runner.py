@@ -119,6 +119,7 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
         int(scenario.raw.get("scenario", {}).get("seed", 1))
     workdir = Path(tempfile.mkdtemp(prefix="robotd-sim-"))
     events: list[dict[str, Any]] = []
+    player: ScriptPlayer | None = None
     many = len(scenario.robots) > 1
     robots: dict[str, SimRobot] = {}
 
@@ -134,16 +135,19 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
         entry.setdefault("t", loop.time())
         if many:
             entry["robot"] = robot
+        if record is not None and "x_m" not in entry and entry.get("kind") != "service":
+            pose = record.body.pose
+            entry["x_m"], entry["y_m"] = pose.x_m, pose.y_m
         if record is not None and entry.get("kind") == "transition":
             dst = str(entry.get("dst", ""))
             record.state = dst
             record.states_seen.append(dst)
             if dst == "estop" or dst.startswith("estop."):
                 record.estops += 1
-            pose = record.body.pose
-            entry["x_m"], entry["y_m"] = pose.x_m, pose.y_m
             console.transition(loop.time(), robot, str(entry.get("src")), dst,
                                str(entry.get("trigger")), many)
+            if player is not None:
+                player.state_changed()
         events.append(entry)
 
     try:
@@ -152,10 +156,11 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
             body = DiffDriveBody(scenario.world, Pose(spec.x_m, spec.y_m, spec.heading_rad),
                                  spec.body, rng=random.Random(f"{seed}:{spec.name}:body"),
                                  payload_kg=spec.payload_kg, clock=loop.time)
-            rig = build_sim_rig(scenario.world, body, settings, seed=seed, index=index,
-                                mcu=getattr(args, "mcu", "fake") or "fake")
-            socket_path = _socket_path(getattr(args, "socket", None), workdir, spec.name, index)
             profile = load_profile(settings.get("robot.profile"))
+            rig = build_sim_rig(scenario.world, body, settings, seed=seed, index=index,
+                                mcu=getattr(args, "mcu", "fake") or "fake",
+                                needs=tuple(profile.devices))
+            socket_path = _socket_path(getattr(args, "socket", None), workdir, spec.name, index)
             daemon = Daemon(settings, rig.devices, profile, state_dir=workdir / spec.name,
                             socket_path=socket_path, wall_clock=wall_clock, notify=False,
                             handle_signals=False)
@@ -177,7 +182,7 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
 
     try:
         player = ScriptPlayer(scenario, {n: r.rig for n, r in robots.items()}, on_script_event,
-                              console)
+                              console, state_of=lambda n: robots[n].record.state)
     except ScenarioError as exc:
         print(f"robotd sim: {scenario.source}: {exc}")
         return 2
@@ -200,7 +205,8 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
         await asyncio.sleep(_WATCH_PERIOD_S)
         now = loop.time() - start
         for n, r in robots.items():
-            if scenario.world.lines and r.record.state.startswith("mission"):
+            moving = abs(r.body.wheel_mps[0] + r.body.wheel_mps[1]) / 2 > 0.05
+            if scenario.world.lines and moving and r.record.state.startswith("mission"):
                 r.record.cross_track_sum_m += scenario.world.cross_track_m(r.body.pose.x_m,
                                                                            r.body.pose.y_m)
                 r.record.cross_track_samples += 1
@@ -242,7 +248,7 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
         await r.rig.close()
 
     records = {n: r.record for n, r in robots.items()}
-    reasons = failures(scenario, records, elapsed, extra)
+    reasons = failures(scenario, records, elapsed, extra, events)
     ok = not reasons
     figures = summary_figures(records)
     events.append({"t": loop.time(), "kind": "result", "ok": ok, "reasons": reasons,

@@ -40,12 +40,15 @@ class ScriptPlayer:
                "person.place", "person.remove", "settings.set")
 
     def __init__(self, scenario: Scenario, rigs: dict[str, SimRig],
-                 record: Callable[[dict[str, Any]], None], console: SimConsole) -> None:
+                 record: Callable[[dict[str, Any]], None], console: SimConsole,
+                 state_of: Callable[[str], str] = lambda _robot: "") -> None:
         self.scenario = scenario
+        self.state_of = state_of
         self.rigs = rigs
         self.record = record
         self.console = console
         self.done = not scenario.script
+        self._state_changed = asyncio.Event()
         self._pending: set[asyncio.Task[None]] = set()
         for i, step in enumerate(scenario.script):
             if step.action not in self.ACTIONS:
@@ -57,6 +60,10 @@ class ScriptPlayer:
                 msg = f"script[{i}].robot: no robot named {robot!r}"
                 raise ScenarioError(msg)
 
+    def state_changed(self) -> None:
+        """A robot changed state (steps with ``when_state`` wait for this)."""
+        self._state_changed.set()
+
     async def run(self) -> None:
         loop = asyncio.get_running_loop()
         start = loop.time()
@@ -64,6 +71,13 @@ class ScriptPlayer:
             delay = start + step.at_s - loop.time()
             if delay > 0:
                 await asyncio.sleep(delay)
+            when = step.args.get("when_state")
+            if when is not None:
+                robot = str(step.args.get("robot", next(iter(self.rigs))))
+                while not _in_state(self.state_of(robot), str(when)):
+                    self._state_changed.clear()
+                    await self._state_changed.wait()
+                await asyncio.sleep(float(step.args.get("delay_s", 0.0)))
             await self._do(step)
         if self._pending:
             await asyncio.gather(*self._pending)
@@ -76,7 +90,8 @@ class ScriptPlayer:
         pose = rig.body.pose
         self.record({"kind": "script", "action": step.action, "robot": robot,
                      "x_m": pose.x_m, "y_m": pose.y_m,
-                     **{k: v for k, v in args.items() if k != "robot"}})
+                     **{k: v for k, v in args.items() if k not in ("robot", "when_state",
+                                                                     "delay_s")}})
         self.console.event(asyncio.get_running_loop().time(),
                            f"script: {step.action} {_args_text(args)}".rstrip())
         duration = args.get("duration_s")
@@ -115,4 +130,9 @@ class ScriptPlayer:
 
 
 def _args_text(args: dict[str, Any]) -> str:
-    return " ".join(f"{k}={v}" for k, v in args.items())
+    return " ".join(f"{k}={v}" for k, v in args.items()
+                    if k not in ("when_state", "delay_s", "robot"))
+
+
+def _in_state(state: str, wanted: str) -> bool:
+    return state == wanted or state.startswith(wanted + ".")

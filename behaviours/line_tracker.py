@@ -223,57 +223,61 @@ class LineTracker:
         p = self.params
         centre = (full_width - 1) / 2
         k, width = score.shape
-        # Rows laid end to end with two zero columns either side: runs never cross rows, and
-        # every run has a start and an end, so 1-D operations find them all at once.
+        # Rows laid end to end with zero columns either side, so runs never cross rows and
+        # 1-D operations find them all at once. Adding the row shifted by -1, 0, +1 is a
+        # 3-tap sum that takes the edge off sensor noise (hence 3 * threshold).
         span = width + 2 * _PAD
         padded = np.zeros((k, span), np.float32)
-        padded[:, _PAD:-_PAD] = score
-        raw = padded.ravel()
-        flat = raw.copy()  # a 3-tap mean along the rows takes the edge off the sensor noise
-        flat[1:-1] += raw[:-2] + raw[2:]
-        flat /= 3
-        above = flat > threshold
+        padded[:, _PAD - 1:-_PAD - 1] = score
+        padded[:, _PAD:-_PAD] += score
+        padded[:, _PAD + 1:-_PAD + 1] += score
+        flat = padded.ravel()
+        above = flat > 3 * threshold
         change = (above[1:] != above[:-1]).nonzero()[0] + 1
         begin, end = change[0::2], change[1::2]
-        if begin.size > 1:  # noise splits faint lines: close gaps of up to _GAP_PX
+        if begin.size > k:  # noise splits faint lines: close gaps of up to _GAP_PX
             join = (begin[1:] - end[:-1] <= _GAP_PX) & (begin[1:] // span == end[:-1] // span)
             begin = begin[np.concatenate(([True], ~join))]
             end = end[np.concatenate((~join, [True]))]
         run_w = end - begin
         keep = (run_w >= max(2, p.min_width_frac * width)) & (run_w <= p.max_width_frac * width)
-        begin, end, run_w = begin[keep], end[keep], run_w[keep]
+        if not keep.all():
+            begin, end, run_w = begin[keep], end[keep], run_w[keep]
         if begin.size == 0:
             return self._lost(centre, colour, "no line")
         row = begin // span
-        near = self._last_x if self._last_x is not None and self._misses < 10 else centre
-        near_flat = row * span + _PAD + (near - (step - 1) / 2) / step
-        order = np.lexsort((np.abs((begin + end - 1) / 2 - near_flat), row))
-        ordered_rows = row[order]
-        first = np.ones(order.size, bool)
-        first[1:] = ordered_rows[1:] != ordered_rows[:-1]
-        chosen = np.sort(order[first])
-        found = chosen.size
+        candidates = 1
+        if begin.size > 1 and not (row[1:] != row[:-1]).all():
+            candidates = int(np.bincount(row).max())
+            near = self._last_x if self._last_x is not None and self._misses < 10 else centre
+            near_flat = row * span + _PAD + (near - (step - 1) / 2) / step
+            order = np.lexsort((np.abs((begin + end - 1) / 2 - near_flat), row))
+            ordered_rows = row[order]
+            first = np.ones(order.size, bool)
+            first[1:] = ordered_rows[1:] != ordered_rows[:-1]
+            chosen = np.sort(order[first])
+            begin, end, run_w = begin[chosen], end[chosen], run_w[chosen]
+        found = begin.size
         if found < max(1, (k + 2) // 3):
             return self._lost(centre, colour, "too few rows")
-        a, b = begin[chosen], end[chosen]
         bounds = np.empty(2 * found, np.intp)
-        bounds[0::2], bounds[1::2] = a, b
+        bounds[0::2], bounds[1::2] = begin, end
         mass = np.add.reduceat(flat, bounds)[0::2]
         moment = np.add.reduceat(flat * self._cols(k, span), bounds)[0::2]
         xs = (moment / np.maximum(mass, 1e-6)).tolist()
         line_x = _median_of(xs) * step + (step - 1) / 2
-        columns = a - row[chosen] * span
-        at_edge = int(np.count_nonzero((columns <= _PAD)
-                                       | (columns + run_w[chosen] >= span - _PAD)))
-        candidates = found if found == row.size else int(np.bincount(row).max())
-        contrast = _median_of((mass / run_w[chosen]).tolist())
+        line_w = _median_of(run_w.tolist()) * step
+        # Seen cut off by the image border: its visible part's centre is within half its
+        # width (plus the smoothing's spread) of the border.
+        reach = line_w / 2 + 2 * step
+        at_edge = line_x < reach or line_x > full_width - 1 - reach
+        contrast = _median_of((mass / run_w).tolist()) / 3
         confidence = min(1.0, contrast / (2 * threshold)) * found / k
-        if at_edge * 2 > found:
+        if at_edge:
             confidence *= 0.6
         if candidates > 1:
             confidence *= 0.8
-        return LineReading(line_x - centre, confidence, False, line_x,
-                           _median_of(run_w[chosen].tolist()) * step, at_edge * 2 > found,
+        return LineReading(line_x - centre, confidence, False, line_x, line_w, at_edge,
                            candidates, colour.name)
 
     def _cols(self, rows: int, span: int) -> Plane:

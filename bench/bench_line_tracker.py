@@ -101,9 +101,6 @@ def bench_tracker(mount: CameraMount, count: int, passes: int) -> None:
     frames = render_frames(mount, count, seed=mount.width_px)
     images = [f for f, _ in frames]
     tracker = LineTracker()
-    top = int(tracker.params.roi_top * mount.height_px)
-    bottom = int(tracker.params.roi_bottom * mount.height_px)
-    mid_row = (top + bottom - 1) / 2
 
     def ours(image: Any) -> Any:
         tracker.reset()  # every frame is a fresh scene: no help from the previous position
@@ -115,7 +112,7 @@ def bench_tracker(mount: CameraMount, count: int, passes: int) -> None:
         reading = ours(image)
         if not reading.lost and reading.x_px is not None:
             ours_found += 1
-            ours_err.append(abs(reading.x_px - true_column(mount, pose, mid_row)))
+            ours_err.append(abs(reading.x_px - true_column(mount, pose, reading.row_px)))
         naive = naive_track(image)
         if naive is not None:
             naive_found += 1

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import asyncio
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, Protocol
 
 from drivers.camera.capture import CaptureCamera
 from drivers.camera.picamera import PiCamera
@@ -12,7 +12,19 @@ from drivers.camera.uvc import UvcCamera
 from drivers.camera.video_file import VideoFileCamera
 from hal.devices import DeviceUnavailable
 
-__all__ = ["CaptureCamera", "PiCamera", "UvcCamera", "VideoFileCamera", "open_camera", "probe"]
+__all__ = ["CaptureCamera", "PiCamera", "UvcCamera", "VideoFileCamera", "from_settings",
+           "open_camera", "probe"]
+
+_KEYS = ("source", "device", "file", "loop", "width", "height", "fps")
+
+
+class SettingsView(Protocol):
+    def get(self, dotted: str) -> Any: ...
+
+
+def from_settings(settings: SettingsView) -> CaptureCamera:
+    """The camera from the ``camera`` section (``robotd.hardware`` calls this)."""
+    return open_camera({key: settings.get(f"camera.{key}") for key in _KEYS})
 
 
 def open_camera(options: Mapping[str, Any], *, name: str = "camera") -> CaptureCamera:

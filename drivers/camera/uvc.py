@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import re
+
 import cv2
 
 from drivers.camera.capture import CaptureCamera, Image
@@ -28,8 +31,7 @@ class UvcCamera(CaptureCamera):
         return f"camera {self.device}"
 
     def _open(self) -> None:
-        target: int | str = int(self.device) if self.device.isdigit() else self.device
-        cap = cv2.VideoCapture(target, cv2.CAP_V4L2)
+        cap = cv2.VideoCapture(_v4l2_target(self.device), cv2.CAP_V4L2)
         if not cap.isOpened():
             cap.release()
             msg = (f"camera {self.device}: cannot open (plugged in? see `v4l2-ctl "
@@ -53,3 +55,12 @@ class UvcCamera(CaptureCamera):
         cap, self._cap = self._cap, None
         if cap is not None:
             cap.release()
+
+
+def _v4l2_target(device: str) -> int | str:
+    """OpenCV's V4L2 backend opens devices by index: ``0``, ``/dev/video0`` and a
+    ``/dev/v4l/by-id/...`` link to it all become 0; anything else is passed as given."""
+    if device.isdigit():
+        return int(device)
+    match = re.fullmatch(r"/dev/video(\d+)", os.path.realpath(device))
+    return int(match.group(1)) if match else device

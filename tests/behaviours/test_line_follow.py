@@ -364,3 +364,21 @@ class TestColour:
         settings.set("line_follow.colour", "red")
         assert follower.tracker.colour == "red"
         unwatch()
+
+
+class TestLayering:
+    @pytest.mark.parametrize("module", ["behaviours/line_follow.py",
+                                        "behaviours/line_tracker.py"])
+    def test_the_behaviour_imports_no_driver_and_no_simulator(self, module: str) -> None:
+        """Behaviours see hal interfaces only: no drivers, no hal.sim, no frame capture."""
+        import ast
+        from pathlib import Path
+
+        root = Path(__file__).resolve().parents[2]
+        tree = ast.parse((root / module).read_text())
+        names = [alias.name for node in ast.walk(tree) if isinstance(node, ast.Import)
+                 for alias in node.names]
+        names += [node.module or "" for node in ast.walk(tree)
+                  if isinstance(node, ast.ImportFrom)]
+        assert not [n for n in names if n.startswith(("drivers", "hal.sim", "picamera2"))]
+        assert "VideoCapture" not in (root / module).read_text()

@@ -142,7 +142,7 @@ class LineFollower:
                 self._ticks.append(now)
                 self._late_s.append(max(0.0, now - next_tick))
                 frame = await self._fresh_frame(now + 0.9 * self.period_s)
-                command = self._step(frame, now)
+                command = self._step(frame)
                 if frame is not None:
                     self._latency_s.append(loop.time() - frame.t_s)
                 await self._send(command)
@@ -270,7 +270,7 @@ class LineFollower:
         turn = cfg.turn_speed * self._direction
         return MotorCommand.from_signed(turn, -turn)
 
-    def _step(self, frame: Frame | None, now: float) -> MotorCommand:
+    def _step(self, frame: Frame | None) -> MotorCommand:
         if frame is None:
             reading = LineReading(0.0, 0.0, True, colour=self.tracker.colour, reason="no frame")
             width = self._camera.width_px

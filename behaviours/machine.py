@@ -183,6 +183,9 @@ class RobotMachine:
                 result = await self._fire(request)
                 if request.result is not None and not request.result.done():
                     request.result.set_result(result)
+                if self._driver is not None and self._driver.cancelling():
+                    # transitions swallows a CancelledError that lands inside a transition.
+                    raise asyncio.CancelledError
         finally:
             self.halt_behaviours()
 

@@ -42,6 +42,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     check = sub.add_parser("check-config", help="check a config file; one line per problem")
     check.add_argument("path", metavar="PATH")
+    sub.add_parser("example-config", help="print a commented config with every key")
 
     probe = sub.add_parser("probe", help="check one real device through its driver",
                            description="Devices: " + "; ".join(
@@ -61,6 +62,11 @@ def main(argv: list[str] | None = None) -> int:
         return cmd_sim(args)
     if args.command == "check-config":
         return cmd_check_config(args)
+    if args.command == "example-config":
+        from robotd.config.example import render_example
+
+        print(render_example(), end="")
+        return 0
     return cmd_probe(args)
 
 

@@ -1,0 +1,319 @@
+"""The robot state machine: tables, dotted paths, estop, timeouts, state tasks."""
+
+from __future__ import annotations
+
+import asyncio
+from typing import Any
+
+import pytest
+
+from behaviours.context import RobotContext
+from behaviours.machine import MachineModel, RobotMachine
+from behaviours.machine_tables import (
+    CORE_TRANSITIONS,
+    DOCK_SEARCH_TIMEOUT_S,
+    DOCK_STEP_TIMEOUT_S,
+    ROOT_STATES,
+    callback_names,
+    root_states,
+)
+from behaviours.profile import BaseProfile, IdleProfile, StateTask
+from hal.backend import Devices
+from hal.ports import system_wall_clock
+from robotd import vclock
+from robotd.config import Settings
+from robotd.config.loader import defaults
+
+
+class DictStore(dict[str, Any]):
+    def put(self, key: str, value: Any) -> None:
+        self[key] = value
+
+    def delete(self, key: str) -> None:
+        self.pop(key, None)
+
+
+class DriveProfile(BaseProfile):
+    """A profile with two mission states, a task in ``mission.drive`` and hooks recorded."""
+
+    name = "drive"
+
+    def __init__(self, task: StateTask | None = None) -> None:
+        self.hooks: list[tuple[str, str]] = []
+        self._task = task
+
+    def mission_states(self) -> list[str | dict[str, Any]]:
+        return ["drive", {"name": "unload", "on_enter": "unload_started"}]
+
+    def mission_transitions(self) -> list[dict[str, Any]]:
+        return [{"trigger": "arrived", "source": "mission.drive", "dest": "mission.unload"}]
+
+    def state_tasks(self) -> dict[str, StateTask]:
+        return {"mission.drive": self._task} if self._task else {}
+
+    def unload_started(self, _event: Any) -> None:
+        self.hooks.append(("callback", "unload_started"))
+
+    def on_enter(self, state: str, ctx: RobotContext) -> None:
+        self.hooks.append(("enter", state))
+
+    def on_exit(self, state: str, ctx: RobotContext) -> None:
+        self.hooks.append(("exit", state))
+
+
+class Rig:
+    def __init__(self, profile: BaseProfile) -> None:
+        self.events: list[tuple[str, dict[str, Any]]] = []
+        self.transitions: list[tuple[str, str, str]] = []
+        self.moved = asyncio.Event()
+        self.motor_stops = 0
+        self.ctx = RobotContext(Devices(), Settings(defaults()), DictStore(), system_wall_clock,
+                                lambda kind, **f: self.events.append((kind, f)))
+        self.machine = RobotMachine(profile, self.ctx, on_transition=self._moved,
+                                    stop_motors=self._stop)
+        self.task: asyncio.Task[None] | None = None
+
+    def _moved(self, src: str, dst: str, trigger: str) -> None:
+        self.transitions.append((src, dst, trigger))
+        self.moved.set()
+
+    async def _stop(self) -> None:
+        self.motor_stops += 1
+
+    async def start(self) -> None:
+        self.task = asyncio.create_task(self.machine.run(lambda: None))
+        await asyncio.sleep(0)
+        assert await self.machine.trigger("booted")
+
+    async def close(self) -> None:
+        assert self.task is not None
+        self.task.cancel()
+        await asyncio.gather(self.task, return_exceptions=True)
+
+
+def run_with(profile: BaseProfile, body: Any) -> Any:
+    async def main() -> Any:
+        rig = Rig(profile)
+        await rig.start()
+        try:
+            return await body(rig)
+        finally:
+            await rig.close()
+
+    return vclock.run(main())
+
+
+class TestTables:
+    def test_every_callback_named_in_the_tables_exists(self) -> None:
+        """Each callback/condition string in the core tables is a MachineModel method."""
+        names = callback_names(root_states([]), CORE_TRANSITIONS)
+        assert names, "the tables name callbacks"
+        missing = sorted(n for n in names if not hasattr(MachineModel, n))
+        assert missing == []
+
+    def test_profile_callbacks_resolve_on_the_profile(self) -> None:
+        """A callback a profile's table names is found on the profile."""
+        async def body(rig: Rig) -> list[str]:
+            return rig.machine.missing_callbacks()
+
+        assert run_with(DriveProfile(), body) == []
+
+    def test_root_states_are_the_designed_ones(self) -> None:
+        """boot, idle, mission, docking, relocate, recovery, estop, maintenance."""
+        names = [s["name"] for s in root_states([])]
+        assert tuple(names) == ROOT_STATES
+
+
+class TestTransitions:
+    def test_states_are_dotted_lowercase_paths(self) -> None:
+        """Entering docking lands in docking.search.wall_follow, shown with dots."""
+        async def body(rig: Rig) -> str:
+            await rig.machine.trigger("go_dock")
+            await rig.machine.trigger("beam_found")
+            return rig.machine.state
+
+        assert run_with(IdleProfile(), body) == "docking.approach"
+
+    def test_every_transition_is_reported_with_source_destination_and_trigger(self) -> None:
+        """on_transition hears (src, dst, trigger) for each transition, in order."""
+        async def body(rig: Rig) -> list[tuple[str, str, str]]:
+            await rig.machine.trigger("go_dock")
+            return rig.transitions
+
+        assert run_with(IdleProfile(), body) == [
+            ("boot", "idle", "booted"), ("idle", "docking.search.wall_follow", "go_dock")]
+
+    def test_a_refused_trigger_returns_false_and_changes_nothing(self) -> None:
+        """resume outside estop is refused without an exception."""
+        async def body(rig: Rig) -> tuple[bool, bool, str]:
+            refused = await rig.machine.trigger("resume")
+            unknown = await rig.machine.trigger("no_such_trigger")
+            return refused, unknown, rig.machine.state
+
+        assert run_with(IdleProfile(), body) == (False, False, "idle")
+
+    @pytest.mark.parametrize("path", [
+        ["start_mission"], ["go_dock"], ["go_dock", "beam_found", "beams_overlap"],
+        ["lost"], ["maintenance"], ["start_mission", "fault"],
+    ])
+    def test_estop_is_reachable_from_every_state_and_stops_the_motors(
+            self, path: list[str]) -> None:
+        """From any state estop is entered and the motors are stopped on entry."""
+        async def body(rig: Rig) -> tuple[str, int]:
+            for trigger in path:
+                assert await rig.machine.trigger(trigger), trigger
+            stops = rig.motor_stops
+            assert await rig.machine.trigger("estop")
+            return rig.machine.state, rig.motor_stops - stops
+
+        state, stops = run_with(DriveProfile(), body)
+        assert state == "estop"
+        assert stops >= 1
+
+    def test_resume_leaves_estop_for_idle(self) -> None:
+        async def body(rig: Rig) -> str:
+            await rig.machine.trigger("estop")
+            await rig.machine.trigger("resume")
+            return rig.machine.state
+
+        assert run_with(IdleProfile(), body) == "idle"
+
+    def test_profile_states_nest_under_mission_with_hooks(self) -> None:
+        """mission's first child is its initial state; enter/exit hooks see dotted paths."""
+        profile = DriveProfile()
+
+        async def body(rig: Rig) -> str:
+            await rig.machine.trigger("start_mission")
+            await rig.machine.trigger("arrived")
+            return rig.machine.state
+
+        assert run_with(profile, body) == "mission.unload"
+        assert ("enter", "mission") in profile.hooks
+        assert ("enter", "mission.drive") in profile.hooks
+        assert ("exit", "mission.drive") in profile.hooks
+        assert ("callback", "unload_started") in profile.hooks
+
+
+class TestTimeouts:
+    def test_a_dock_step_that_takes_too_long_goes_back_to_search(self) -> None:
+        """docking.approach times out after DOCK_STEP_TIMEOUT_S (virtual time)."""
+        async def body(rig: Rig) -> tuple[str, float]:
+            loop = asyncio.get_running_loop()
+            await rig.machine.trigger("go_dock")
+            await rig.machine.trigger("beam_found")
+            start = loop.time()
+            rig.moved.clear()
+            await rig.moved.wait()
+            return rig.machine.state, loop.time() - start
+
+        state, waited_s = run_with(IdleProfile(), body)
+        assert state == "docking.search.wall_follow"
+        assert waited_s == DOCK_STEP_TIMEOUT_S
+
+    def test_a_timeout_does_not_fire_into_a_state_entered_since(self) -> None:
+        """Leaving a timed state cancels its timeout: nothing happens at the old deadline."""
+        async def body(rig: Rig) -> str:
+            await rig.machine.trigger("go_dock")
+            await rig.machine.trigger("beam_found")
+            await asyncio.sleep(DOCK_STEP_TIMEOUT_S - 1)
+            await rig.machine.trigger("beams_overlap")
+            await asyncio.sleep(DOCK_STEP_TIMEOUT_S - 2)
+            return rig.machine.state
+
+        assert run_with(IdleProfile(), body) == "docking.align"
+
+    def test_three_failed_dock_attempts_end_in_recovery(self) -> None:
+        """The seed's retry limit: the third failed attempt falls back to recovery."""
+        async def body(rig: Rig) -> list[str]:
+            await rig.machine.trigger("go_dock")
+            seen = []
+            for _ in range(3):
+                await rig.machine.trigger("beam_found")
+                await rig.machine.trigger("beams_overlap")
+                await rig.machine.trigger("aligned")
+                await rig.machine.trigger("signal_lost")
+                seen.append(rig.machine.state)
+            return seen
+
+        assert run_with(IdleProfile(), body) == [
+            "docking.search.wall_follow", "docking.search.wall_follow", "recovery"]
+
+
+class TestStateTasks:
+    def test_a_state_task_runs_while_its_state_is_active(self) -> None:
+        """Started on entering mission.drive, cancelled on leaving it."""
+        log: list[str] = []
+
+        async def drive(ctx: RobotContext) -> None:
+            log.append("started")
+            try:
+                await asyncio.sleep(3600)
+            except asyncio.CancelledError:
+                log.append("cancelled")
+                raise
+
+        async def body(rig: Rig) -> str:
+            await rig.machine.trigger("start_mission")
+            await asyncio.sleep(1)
+            await rig.machine.trigger("arrived")
+            await asyncio.sleep(0)
+            return rig.machine.state
+
+        assert run_with(DriveProfile(drive), body) == "mission.unload"
+        assert log == ["started", "cancelled"]
+
+    def test_a_task_may_fire_the_trigger_that_ends_its_own_state(self) -> None:
+        async def drive(ctx: RobotContext) -> None:
+            await asyncio.sleep(5)
+            await ctx.trigger("arrived")
+
+        async def body(rig: Rig) -> str:
+            await rig.machine.trigger("start_mission")
+            await asyncio.sleep(10)
+            return rig.machine.state
+
+        assert run_with(DriveProfile(drive), body) == "mission.unload"
+
+    def test_a_failing_behaviour_sends_the_robot_to_recovery(self) -> None:
+        """An exception in a state task is an event and a ``fault``, not a crash."""
+        async def drive(ctx: RobotContext) -> None:
+            await asyncio.sleep(1)
+            msg = "wheel jammed"
+            raise RuntimeError(msg)
+
+        events: list[Any] = []
+
+        async def body(rig: Rig) -> str:
+            await rig.machine.trigger("start_mission")
+            await asyncio.sleep(2)
+            events.extend(rig.events)
+            return rig.machine.state
+
+        assert run_with(DriveProfile(drive), body) == "recovery"
+        assert events[0][0] == "behaviour"
+        assert "wheel jammed" in events[0][1]["error"]
+
+    def test_a_search_that_finds_no_beam_ends_in_recovery(self) -> None:
+        async def body(rig: Rig) -> tuple[str, float]:
+            loop = asyncio.get_running_loop()
+            await rig.machine.trigger("go_dock")
+            rig.moved.clear()
+            await rig.moved.wait()
+            return rig.machine.state, loop.time()
+
+        assert run_with(IdleProfile(), body) == ("recovery", DOCK_SEARCH_TIMEOUT_S)
+
+
+class TestDriver:
+    def test_cancelling_the_driver_mid_transition_stops_it(self) -> None:
+        """The machine service ends when cancelled, even inside a transition's callbacks."""
+        async def body(rig: Rig) -> bool:
+            assert rig.task is not None
+            rig.moved.clear()
+            rig.machine.post("go_dock")
+            await rig.moved.wait()  # set from inside the transition
+            rig.task.cancel()
+            await asyncio.wait({rig.task}, timeout=5)
+            return rig.task.done()
+
+        assert run_with(IdleProfile(), body) is True

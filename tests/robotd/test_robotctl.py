@@ -1,0 +1,134 @@
+"""robotctl against a running daemon: tables, --json, exit codes, clear connect errors."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+import re
+import socket
+from pathlib import Path
+
+import pytest
+from daemon_harness import running_daemon
+
+from robotd import ctl
+
+LOG_LINE = re.compile(r"^\d{4}-\d\d-\d\d \d\d:\d\d:\d\d \[")
+
+
+async def robotctl(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    """Run robotctl in a thread (it blocks; the daemon must not); its output without logs."""
+    capsys.readouterr()
+    code = await asyncio.to_thread(ctl.main, list(argv))
+    out = capsys.readouterr()
+
+    def keep(text: str) -> str:
+        return "".join(x for x in text.splitlines(keepends=True) if not LOG_LINE.match(x))
+
+    return code, keep(out.out), keep(out.err)
+
+
+class TestCommands:
+    async def test_status_is_a_readable_table_by_default_and_json_on_request(
+            self, capsys: pytest.CaptureFixture[str]) -> None:
+        async with running_daemon(config={"robot": {"name": "tbl-1"}}) as daemon:
+            sock = str(daemon.socket_path)
+            code, table, _ = await robotctl(capsys, "--socket", sock, "status")
+            jcode, text, _ = await robotctl(capsys, "--socket", sock, "--json", "status")
+        assert code == jcode == 0
+        assert "robot     tbl-1" in table
+        assert "state     idle" in table
+        assert "SERVICE" in table and "machine" in table
+        assert json.loads(text)["robot"] == "tbl-1"
+
+    async def test_tune_set_and_get(self, capsys: pytest.CaptureFixture[str]) -> None:
+        async with running_daemon() as daemon:
+            sock = str(daemon.socket_path)
+            set_code, set_out, _ = await robotctl(capsys, "--socket", sock, "tune", "set",
+                                                  "line_follow.kp", "0.6", "--persist")
+            get_code, get_out, _ = await robotctl(capsys, "--socket", sock, "tune", "get",
+                                                  "line_follow.kp")
+        assert (set_code, set_out) == (0, "line_follow.kp = 0.6 (persisted)\n")
+        assert (get_code, get_out) == (0, "line_follow.kp = 0.6\n")
+
+    async def test_a_refusal_is_exit_1_with_the_daemons_reason(
+            self, capsys: pytest.CaptureFixture[str]) -> None:
+        async with running_daemon() as daemon:
+            code, _, err = await robotctl(capsys, "--socket", str(daemon.socket_path),
+                                          "tune", "set", "line_follow.kp", "-3")
+        assert code == 1
+        assert err == "robotctl: robotd refused: line_follow.kp: must be >= 0, got -3\n"
+
+    async def test_estop_resume_and_events(self, capsys: pytest.CaptureFixture[str]) -> None:
+        async with running_daemon() as daemon:
+            sock = str(daemon.socket_path)
+            assert (await robotctl(capsys, "--socket", sock, "estop"))[0] == 0
+            assert daemon.state == "estop"
+            assert (await robotctl(capsys, "--socket", sock, "resume"))[0] == 0
+            code, out, _ = await robotctl(capsys, "--socket", sock, "events", "--kind",
+                                          "transition")
+        assert code == 0
+        assert "src=estop dst=idle trigger=resume" in out
+
+    def test_usage_errors_exit_2(self, capsys: pytest.CaptureFixture[str]) -> None:
+        with pytest.raises(SystemExit) as exc:
+            ctl.main(["tune", "set", "line_follow.kp"])
+        assert exc.value.code == 2
+
+
+class TestConnectErrors:
+    def test_a_missing_socket_says_so_and_exits_3(self, tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+        code = ctl.main(["--socket", str(tmp_path / "none.sock"), "status"])
+        err = capsys.readouterr().err
+        assert code == 3
+        assert err.startswith(f"robotctl: no control socket at {tmp_path / 'none.sock'}: "
+                              "is robotd running?")
+
+    def test_a_stale_socket_nobody_listens_on_exits_3(self, tmp_path: Path,
+                                                     capsys: pytest.CaptureFixture[str]) -> None:
+        path = str(tmp_path / "stale.sock")
+        with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as stale:
+            stale.bind(path)
+        assert ctl.main(["--socket", path, "status"]) == 3
+        assert "nothing listens on" in capsys.readouterr().err
+
+    @pytest.mark.skipif(os.geteuid() == 0, reason="root may open any socket")
+    def test_a_socket_without_permission_says_what_to_check(
+            self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        path = str(tmp_path / "locked.sock")
+        with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as server:
+            server.bind(path)
+            server.listen()
+            os.chmod(path, 0)
+            assert ctl.main(["--socket", path, "status"]) == 3
+        assert "permission denied" in capsys.readouterr().err
+
+
+class TestRender:
+    def test_watch_redraws_in_place_on_a_terminal(self) -> None:
+        """Each refresh starts with cursor-home + clear-screen when stdout is a TTY."""
+
+        class Tty:
+            def __init__(self) -> None:
+                self.text = ""
+
+            def isatty(self) -> bool:
+                return True
+
+            def write(self, text: str) -> None:
+                self.text += text
+
+            def flush(self) -> None:
+                raise KeyboardInterrupt  # end after the first screen
+
+        class Conn:
+            def call(self, method: str, params: object = None) -> object:
+                return {"status": {"robot": "w", "state": "idle", "services": []},
+                        "sensors": {"devices": {}}, "events": []}[method]
+
+        out = Tty()
+        assert ctl.watch(Conn(), 1.0, out) == 0  # type: ignore[arg-type]
+        assert out.text.startswith("\x1b[H\x1b[2J")
+        assert "state     idle" in out.text

@@ -49,6 +49,15 @@ def _serial_check(settings: Settings) -> str | None:
     return None
 
 
+def _camera_check(settings: Settings) -> str | None:
+    if settings.get("camera.source") != "uvc":
+        return None
+    device = str(settings.get("camera.device"))
+    if not Path(device).exists():
+        return f"camera {device} does not exist (check camera.device and the cable; ls /dev/video*)"
+    return None
+
+
 def _any_path(pattern: str, what: str) -> Check:
     def check(_settings: Settings) -> str | None:
         return None if glob.glob(pattern) else f"no {what} found ({pattern})"
@@ -58,8 +67,7 @@ def _any_path(pattern: str, what: str) -> Check:
 HARDWARE: dict[str, Hardware] = {
     "arduino": Hardware(("motors", "encoders", "front_range", "battery", "servo", "leds"),
                         _serial_check, "drivers.arduino:from_settings"),
-    "camera": Hardware(("camera",), _any_path("/dev/video*", "camera"),
-                       "drivers.camera:from_settings"),
+    "camera": Hardware(("camera",), _camera_check, "drivers.camera:from_settings"),
     "ble": Hardware(("beacons",), _any_path("/sys/class/bluetooth/hci*", "Bluetooth adapter"),
                     "drivers.ble_scanner:from_settings"),
     "hx711": Hardware(("load_cell",), _any_path("/dev/gpiochip*", "GPIO chip"),
@@ -70,7 +78,9 @@ HARDWARE: dict[str, Hardware] = {
     "audio": Hardware(("audio",), _any_path("/dev/snd/pcm*", "sound card"),
                       "drivers.audio:from_settings"),
 }
-SLOTS = tuple(f.name for f in fields(Devices))
+SLOTS = tuple(f.name for f in fields(Devices)
+              if any(f.name in hw.slots for hw in HARDWARE.values()))
+"""The device slots real hardware fills (``network`` is the operating system's)."""
 
 
 def needed_slots(settings: Settings, profile_devices: Iterable[str]) -> list[str]:

@@ -42,6 +42,9 @@ class RecordingMotors:
     async def stop(self) -> None:
         self.stops += 1
 
+    async def close(self) -> None:
+        self.started = False
+
     async def drive(self, command: MotorCommand) -> None:
         self.commands.append(command)
 

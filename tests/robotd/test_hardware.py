@@ -1,0 +1,40 @@
+"""Building real devices from the config: what is needed, and one line per missing device."""
+
+from __future__ import annotations
+
+import pytest
+
+from robotd.config import Settings
+from robotd.config.loader import defaults
+from robotd.hardware import HardwareMissing, build_devices, needed_slots
+
+
+def settings(**sections: dict[str, object]) -> Settings:
+    values = defaults()
+    for name, keys in sections.items():
+        values[name].update(keys)
+    return Settings(values)
+
+
+class TestBuildDevices:
+    def test_a_profile_that_needs_nothing_gets_no_devices(self) -> None:
+        assert build_devices(settings(), ()).distinct() == []
+
+    def test_the_profiles_needs_and_hal_devices_are_merged_in_slot_order(self) -> None:
+        s = settings(hal={"devices": ["lidar", "motors"]})
+        assert needed_slots(s, ("camera", "motors")) == ["motors", "camera", "lidar"]
+
+    def test_each_missing_device_is_one_line(self) -> None:
+        s = settings(hal={"devices": ["encoders", "motors", "toaster"]},
+                     serial={"port": "/dev/ttyNOPE3"},
+                     camera={"device": "/dev/videoNOPE"})
+        with pytest.raises(HardwareMissing) as exc:
+            build_devices(s, ("camera",))
+        assert exc.value.problems == [
+            "hal.devices: unknown device 'toaster' (known: motors, encoders, front_range, "
+            "battery, servo, leds, camera, beacons, load_cell, dock_ir, lidar, audio)",
+            "motors, encoders (arduino): serial port /dev/ttyNOPE3 does not exist (check "
+            "serial.port, the USB cable, and ls /dev/ttyACM* /dev/ttyUSB*)",
+            "camera (camera): camera /dev/videoNOPE does not exist (check camera.device and "
+            "the cable; ls /dev/video*)",
+        ]

@@ -76,6 +76,16 @@ def failures(scenario: Scenario, robots: dict[str, RobotRecord], elapsed_s: floa
             reasons.append(f"{who}ended {off * 100:.1f} cm from ({pose.x_m:.2f}, {pose.y_m:.2f})"
                            f", tolerance {pose.tolerance_m * 100:.1f} cm")
     reasons += _arrival_failures(scenario, events or [])
+    for want in success.extra.get("final_rooms", []):
+        record = robots.get(str(want.get("robot")))
+        if record is None:
+            reasons.append(f"final_rooms: no robot named {want.get('robot')!r}")
+            continue
+        pose = record.body.pose
+        room = scenario.world.room_at(pose.x_m, pose.y_m)
+        if room != want.get("room"):
+            reasons.append(f"{record.name} ended in {room or 'no room'} "
+                           f"({pose.x_m:.2f}, {pose.y_m:.2f}), expected {want.get('room')}")
     if elapsed_s >= success.time_limit_s and not finished(scenario, robots) \
             and success.final_state is not None:
         reasons.append(f"time limit of {success.time_limit_s:g} s reached")
@@ -115,4 +125,22 @@ def _arrival_failures(scenario: Scenario, events: list[dict[str, Any]]) -> list[
             if off > within:
                 reasons.append(f"arrived at room {room} {off:.2f} m from its beacon, "
                                f"more than {within:g} m")
+    return reasons
+
+
+def request_failures(scenario: Scenario, customers: list[Any]) -> list[str]:
+    """``requests = [{ customer, status, paid? }]``: how each customer's request ended."""
+    reasons = []
+    by_id = {c.plan.customer: c for c in customers}
+    for want in scenario.success.extra.get("requests", []):
+        cid = int(want["customer"])
+        c = by_id.get(cid)
+        if c is None:
+            reasons.append(f"requests: no customer {cid} in [[fleet.customers]]")
+            continue
+        if c.status != want.get("status"):
+            reasons.append(f"customer {cid}'s request ended {c.status}, expected "
+                           f"{want.get('status')}")
+        if "paid" in want and bool(want["paid"]) != c.paid:
+            reasons.append(f"customer {cid} {'did not pay' if want['paid'] else 'paid'}")
     return reasons

@@ -59,7 +59,7 @@ def draw_trajectory(
     import matplotlib.pyplot as plt
     from matplotlib.patches import Rectangle
 
-    fig, ax = plt.subplots(figsize=(9, 9 * world.height_m / max(world.width_m, 1e-6) + 0.6))
+    fig, ax = plt.subplots(figsize=(11.5, 9 * world.height_m / max(world.width_m, 1e-6) + 0.6))
     for room in world.rooms:
         ax.add_patch(Rectangle((room.x_min_m, room.y_min_m), room.x_max_m - room.x_min_m,
                                room.y_max_m - room.y_min_m, facecolor="#f2f2ec",
@@ -92,7 +92,10 @@ def draw_trajectory(
     states = sorted({p.state for points in tracks.values() for p in points})
     cmap = plt.get_cmap("tab10")
     colour = {s: cmap(i % 10) for i, s in enumerate(states)}
-    for robot, points in tracks.items():
+    styles = ["-", "--", ":", "-."]
+    labelled: set[str] = set()
+    for index, (robot, points) in enumerate(tracks.items()):
+        style = styles[index % len(styles)]
         for state in states:
             px: list[float] = []
             py: list[float] = []
@@ -101,12 +104,17 @@ def draw_trajectory(
                     px += [a.x_m, b2.x_m, math.nan]
                     py += [a.y_m, b2.y_m, math.nan]
             if px:
-                label = f"{robot}: {state or '-'}" if len(tracks) > 1 else (state or "-")
-                ax.plot(px, py, color=colour[state], lw=1.8, zorder=4, label=label)
+                label = None if state in labelled else (state or "-")
+                labelled.add(state)
+                ax.plot(px, py, color=colour[state], lw=1.8, ls=style, zorder=4, label=label)
         if points:
             ax.plot(points[0].x_m, points[0].y_m, marker="o", mfc="white", mec="black", ms=7,
                     zorder=5)
             ax.plot(points[-1].x_m, points[-1].y_m, marker="o", color="black", ms=5, zorder=5)
+            if len(tracks) > 1:
+                ax.plot([], [], color="black", ls=style, label=f"path of {robot}")
+                ax.annotate(robot, (points[-1].x_m, points[-1].y_m), fontsize=7,
+                            xytext=(4, 6 + 8 * index), textcoords="offset points")
 
     seen: set[str] = set()
     notes_at: dict[tuple[float, float], int] = {}
@@ -133,7 +141,7 @@ def draw_trajectory(
     ax.set_ylabel("y (m)")
     ax.set_title(title, fontsize=10)
     ax.grid(True, color="#eee", lw=0.5)
-    ax.legend(loc="upper right", fontsize=7, framealpha=0.85)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, framealpha=0.85)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -24,7 +24,8 @@ import structlog
 from behaviours.profile import load_profile
 from hal.sim.body import DiffDriveBody
 from hal.sim.geometry import Pose
-from hal.sim.scenario import RobotSpec, Scenario, ScenarioError, load_scenario
+from fleet.site import SiteError, parse_site
+from hal.sim.scenario import RobotSpec, Scenario, ScenarioError, load_scenario, read_beside
 from hal.sim.tracks import PathRecorder, TrackPoint
 from robotd import vclock
 from robotd.config import ConfigError, load_config
@@ -32,9 +33,16 @@ from robotd.config.errors import ConfigProblem
 from robotd.config.loader import defaults
 from robotd.config.settings import Settings
 from robotd.logs import configure_logging
-from robotd.sim_checks import RobotRecord, failures, finished, summary_figures
+from robotd.sim_checks import (
+    RobotRecord,
+    failures,
+    finished,
+    request_failures,
+    summary_figures,
+)
 from robotd.sim_console import SimConsole
 from robotd.sim_devices import SimRig, build_sim_rig
+from robotd.sim_fleet import FLEET_URL, Customer, CustomerPlan, InProcessFleet, Staff
 from robotd.sim_report import draw_trajectory, write_events
 from robotd.sim_script import ScriptPlayer
 
@@ -80,6 +88,8 @@ def run_sim(args: argparse.Namespace) -> int:
 def _robot_settings(scenario: Scenario, spec: RobotSpec, config_path: str | None) -> Settings:
     values = defaults()
     values["robot"]["profile"] = scenario.profile
+    if "fleet" in scenario.raw:
+        values["fleet"]["url"] = FLEET_URL
     problems: list[ConfigProblem] = []
     _apply(values, scenario.config, f"{scenario.source} [config]", problems)
     _apply(values, spec.config, f"{scenario.source} [robot.config]", problems)
@@ -133,7 +143,7 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
         record = robots[robot].record if robot in robots else None
         entry = dict(event)
         entry.setdefault("t", loop.time())
-        if many:
+        if many and robot:
             entry["robot"] = robot
         if record is not None and "x_m" not in entry and entry.get("kind") != "service":
             pose = record.body.pose
@@ -150,7 +160,28 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
                 player.state_changed()
         events.append(entry)
 
+    fleet: InProcessFleet | None = None
+    customers: list[Customer] = []
+    staff: Staff | None = None
+
+    def set_payload(robot: str, kg: float) -> None:
+        if robot in robots:
+            robots[robot].body.payload_kg = kg
+
     try:
+        fleet_table = scenario.raw.get("fleet")
+        if isinstance(fleet_table, dict):
+            site = parse_site(read_beside(scenario, str(fleet_table.get("site", ""))),
+                              str(fleet_table.get("site")))
+            fleet = InProcessFleet(workdir, site, dict(fleet_table.get("settings", {})),
+                                   SIM_EPOCH)
+            plans = [CustomerPlan.from_table(t, f"fleet.customers[{i}]")
+                     for i, t in enumerate(fleet_table.get("customers", []))]
+            customers = [Customer(p, fleet.client, lambda ev: on_event("", ev), set_payload)
+                         for p in plans]
+            staff = Staff(fleet.client, lambda ev: on_event("", ev), set_payload,
+                          float(fleet_table.get("washing_s", 30.0)))
+            await fleet.start()
         for index, spec in enumerate(scenario.robots):
             settings = _robot_settings(scenario, spec, getattr(args, "config", None))
             body = DiffDriveBody(scenario.world, Pose(spec.x_m, spec.y_m, spec.heading_rad),
@@ -160,6 +191,8 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
             rig = build_sim_rig(scenario.world, body, settings, seed=seed, index=index,
                                 mcu=getattr(args, "mcu", "fake") or "fake",
                                 needs=tuple(profile.devices))
+            if fleet is not None:
+                rig.devices.network = fleet.transport
             socket_path = _socket_path(getattr(args, "socket", None), workdir, spec.name, index)
             daemon = Daemon(settings, rig.devices, profile, state_dir=workdir / spec.name,
                             socket_path=socket_path, wall_clock=wall_clock, notify=False,
@@ -167,9 +200,14 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
             daemon.add_event_listener(functools.partial(on_event, spec.name))
             robots[spec.name] = SimRobot(spec, settings, body, rig, daemon,
                                     RobotRecord(spec.name, body), socket_path)
-    except (ConfigError, ValueError) as exc:
+    except (ConfigError, ValueError, SiteError, ScenarioError) as exc:
         print(f"robotd sim: {exc}")
+        if fleet is not None:
+            await fleet.close()
         return 2
+    if scenario.world.robots_see_each_other:
+        for r in robots.values():
+            r.body.others = [o.body for o in robots.values() if o is not r]
 
     for r in robots.values():
         console.line(f"{r.spec.name}: profile {r.settings.get('robot.profile')}, "
@@ -196,6 +234,10 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
     daemon_tasks = {n: asyncio.create_task(r.daemon.run(), name=f"daemon.{n}")
                     for n, r in robots.items()}
     tasks.append(asyncio.create_task(player.run(), name="script"))
+    people = [asyncio.create_task(c.run(), name=f"customer.{c.plan.customer}")
+              for c in customers]
+    if staff is not None:
+        tasks.append(asyncio.create_task(staff.run(), name="staff"))
 
     start = loop.time()
     limit = scenario.success.time_limit_s
@@ -226,7 +268,7 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
                          f"{_task_outcome(daemon_tasks[dead[0]])}")
             break
         if finished(scenario, robots_records := {n: r.record for n, r in robots.items()}) \
-                and player.done:
+                and player.done and all(t.done() for t in people):
             break
         if now >= limit:
             break
@@ -241,11 +283,17 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
     with contextlib.suppress(TimeoutError):
         await asyncio.wait_for(asyncio.gather(*daemon_tasks.values(), return_exceptions=True),
                                _STOP_TIMEOUT_S)
-    for task in tasks:
+    for task in [*tasks, *people]:
         task.cancel()
-    await asyncio.gather(*tasks, return_exceptions=True)
+    await asyncio.gather(*tasks, *people, return_exceptions=True)
     for r in robots.values():
         await r.rig.close()
+    if staff is not None:
+        extra += staff.double_assignments
+    if customers:
+        extra += request_failures(scenario, customers)
+    if fleet is not None:
+        await fleet.close()
 
     records = {n: r.record for n, r in robots.items()}
     reasons = failures(scenario, records, elapsed, extra, events)

@@ -24,6 +24,8 @@ log = structlog.get_logger(__name__)
 TO_ROOM, AT_ROOM = "mission.to_room", "mission.at_room"
 TO_BASE, AT_BASE = "mission.to_base", "mission.at_base"
 FOLLOWING = (TO_ROOM, TO_BASE)
+MAX_LINE_RETRIES = 2
+LINE_RETRY_PAUSE_S = 5.0
 
 
 class Navigator:
@@ -36,6 +38,8 @@ class Navigator:
         self.directive = Directive.stand_still()
         self.target_room: str | None = None
         self.arrived_room: str | None = None
+        self.line_losses = 0  # in a row, since the last arrival
+        self._last_loss_s = 0.0
         self._server_estop = False
         self._server_maintenance = False
         self.problems: list[str] = []
@@ -79,6 +83,8 @@ class Navigator:
         room = rooms[0] if rooms else None
         if directive.line_following:
             if state == "recovery":
+                if not self._may_retry():
+                    return
                 await self.ctx.trigger("recovered")
                 state = self.ctx.state
             if room is not None and room == self.arrived_room and state in (AT_ROOM, AT_BASE):
@@ -101,6 +107,17 @@ class Navigator:
                                   and self.arrived_room is None):
             await self.ctx.trigger("mission_done")
 
+    def line_lost(self) -> None:
+        """The line follower gave up; the robot is stopped in ``recovery``."""
+        self.line_losses += 1
+        self._last_loss_s = self.ctx.loop_time_s()
+
+    def _may_retry(self) -> bool:
+        """Try again a few seconds later, a few times; then stay stopped for a person to see."""
+        if self.line_losses > MAX_LINE_RETRIES:
+            return False
+        return self.ctx.loop_time_s() - self._last_loss_s >= LINE_RETRY_PAUSE_S
+
     def _on_arrival_change(self, in_target: bool) -> None:
         if not in_target:
             return
@@ -112,6 +129,7 @@ class Navigator:
                    if b.mac in self.arrival.reached and b.config is not None}
         room = next(iter(sorted(reached & rooms)), self.target_room)
         self.arrived_room = room
+        self.line_losses = 0
         self.ctx.emit("arrival", room=room, beacons=self.arrival.reached)
         log.info("laundry.arrived", room=room)
         trigger = "arrived_base" if state == TO_BASE else "arrived_room"
@@ -123,5 +141,6 @@ class Navigator:
 
     def status(self) -> dict[str, Any]:
         return {"target_room": self.target_room, "arrived_room": self.arrived_room,
+                "line_losses": self.line_losses,
                 "line_following": self.directive.line_following,
                 "follow_color": self.directive.follow_color, "problems": self.problems}

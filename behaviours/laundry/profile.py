@@ -24,7 +24,9 @@ from behaviours.laundry.navigator import AT_BASE, AT_ROOM, TO_BASE, TO_ROOM, Nav
 from behaviours.laundry.report import RobotReport
 from behaviours.line_follow import LineFollower, LineLostError
 from behaviours.load_check import LoadCheck
+from behaviours.obstacle_guard import ObstacleGuard
 from behaviours.profile import BaseProfile, StateTask
+from hal.devices import Motors
 
 if TYPE_CHECKING:
     from behaviours.context import RobotContext
@@ -80,7 +82,10 @@ class LaundryProfile(BaseProfile):
         tracker = BeaconTracker.from_settings(d.beacons, ctx.settings)
         arrival = Arrival.from_settings(tracker, ctx.settings)
         load = LoadCheck.from_settings(d.load_cell, ctx.settings) if d.load_cell else None
-        self.follower = LineFollower(d.camera, d.motors, ctx.settings)
+        wheels: Motors = d.motors
+        if d.front_range is not None:
+            wheels = ObstacleGuard(d.motors, d.front_range, ctx.settings, ctx.emit)
+        self.follower = LineFollower(d.camera, wheels, ctx.settings)
         navigator = Navigator(ctx, tracker, arrival, self.follower.set_follow_colour)
         self.navigator = navigator
         sensing: list[Callable[[], Any]] = [tracker.run, arrival.run]
@@ -132,4 +137,6 @@ class LaundryProfile(BaseProfile):
         except LineLostError as exc:
             ctx.emit("line.lost", error=str(exc))
             log.error("laundry.line_lost", error=str(exc))
+            if self.navigator is not None:
+                self.navigator.line_lost()
             await ctx.trigger("fault")

@@ -75,6 +75,7 @@ class DiffDriveBody:
         self._ticks = [0.0, 0.0]
         self._in_contact = False
         self._free_m = -1.0  # distance it can move before walls must be checked again
+        self.others: list[DiffDriveBody] = []  # other robots, seen by the front sensor
 
     @property
     def pose(self) -> Pose:
@@ -116,6 +117,10 @@ class DiffDriveBody:
             if person.present:
                 hit_m = min(hit_m, _ray_circle(x, y, self.pose.heading_rad,
                                                person.x_m, person.y_m, person.radius_m))
+        for other in self.others:
+            o = other.pose
+            hit_m = min(hit_m, _ray_circle(x, y, self.pose.heading_rad, o.x_m, o.y_m,
+                                           other.params.radius_m))
         cm = hit_m * 100 + self.rng.gauss(0, p.range_noise_cm)
         return float(min(p.range_max_cm, max(p.range_min_cm, cm)))
 

@@ -73,9 +73,23 @@ class Scenario:
     raw: dict[str, Any]
 
 
+def read_beside(scenario: Scenario, name: str) -> str:
+    """A file named in a scenario, relative to the scenario (built-ins: beside them)."""
+    if scenario.source.startswith("<builtin "):
+        res = resources.files("hal.sim") / "scenarios" / name
+        return res.read_text(encoding="utf-8")
+    path = Path(scenario.source).parent / name
+    try:
+        return path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        msg = f"{scenario.source}: {name}: cannot read: {exc}"
+        raise ScenarioError(msg) from exc
+
+
 def builtin_names() -> list[str]:
     folder = resources.files("hal.sim") / "scenarios"
-    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
+    return sorted(p.name[:-5] for p in folder.iterdir()
+                  if p.name.endswith(".toml") and not p.name.endswith("-site.toml"))
 
 
 def load_scenario(name_or_path: str) -> Scenario:

@@ -102,6 +102,7 @@ class World:
     people: list[Person] = field(default_factory=list)
     zones: dict[str, Room] = field(default_factory=dict)
     floor_bgr: tuple[int, int, int] = (200, 205, 210)
+    robots_see_each_other: bool = True
 
     def room_at(self, x_m: float, y_m: float) -> str | None:
         for room in self.rooms:
@@ -170,7 +171,8 @@ class World:
                  for name, t in r.get("zones", {}).items()}
         floor = tuple(int(v) for v in r.get("floor_bgr", (200, 205, 210)))
         return cls(width, height, segments_array(walls), rooms, lines, beacons, dock, people,
-                   zones, (floor[0], floor[1], floor[2]))
+                   zones, (floor[0], floor[1], floor[2]),
+                   bool(r.get("robots_see_each_other", True)))
 
 
 def _room(r: _Reader, name: str | None = None) -> Room:

@@ -133,6 +133,16 @@ SECTIONS: dict[str, Section] = {
             opt("url", "str", "", "Base URL of the fleet server; empty: no fleet server."),
             opt("period_s", "float", 1.0, "Data exchange period.", min=0.1, max=60, tunable=True),
         )),
+        Section("safety", "Stopping for what is in front of the robot.", (
+            opt("stop_distance_cm", "float", 30.0,
+                "Forward motion stops when the front sensor reads less than this.",
+                min=0, max=500, tunable=True),
+            opt("resume_distance_cm", "float", 40.0,
+                "...and resumes once it reads more than this.", min=0, max=500, tunable=True),
+            opt("max_reading_age_s", "float", 1.0,
+                "A front reading older than this does not count (the robot stops).",
+                min=0.05, max=10, tunable=True),
+        )),
         Section("laundry", "The laundry robot (seed 000, robot side).", (
             opt("base_room", "str", "base", "Room name of the base (laundry room) beacons."),
             opt("server_grace_s", "float", 5.0,

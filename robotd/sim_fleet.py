@@ -1,0 +1,209 @@
+"""The laundry fleet server inside the simulator, and the people who use it.
+
+``InProcessFleet`` runs the real fleet app on the simulator's event loop (its clock follows
+virtual time); the robots' real HTTP clients reach it through an ASGI transport. Customers and
+the laundry staff are actors that use the same HTTP API a phone app or an admin page would:
+they create requests, load and unload the robots' bins, confirm, cancel, mark washing done and
+pay, each as their scenario table says.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+import httpx
+import structlog
+
+from fleet.app import create_app
+from fleet.clock import loop_clock
+from fleet.site import Site
+
+log = structlog.get_logger(__name__)
+
+ACTIVE = {"Pending", "Accepted", "ArrivedAtRoom", "LaundryLoaded",
+          "FinishedWashingGoingToRoom", "FinishedWashingArrivedAtRoom",
+          "FinishedWashingGoingToBase"}
+FLEET_URL = "http://fleet.sim"
+Record = Callable[[dict[str, Any]], None]
+SetPayload = Callable[[str, float], None]
+
+
+class InProcessFleet:
+    """The fleet app on this loop, a SQLite file in the run's work directory."""
+
+    def __init__(self, workdir: Path, site: Site, settings: dict[str, Any],
+                 origin: datetime) -> None:
+        loop = asyncio.get_running_loop()
+        self.app = create_app(f"sqlite:///{workdir / 'fleet.db'}", site=site,
+                              clock=loop_clock(origin, loop.time), settings=settings)
+        self.transport = httpx.ASGITransport(app=self.app)
+        self.client = httpx.AsyncClient(transport=self.transport, base_url=FLEET_URL)
+
+    async def start(self) -> None:
+        await self.app.state.fleet.start()
+
+    async def close(self) -> None:
+        await self.client.aclose()
+        await self.app.state.fleet.stop()
+
+
+@dataclass
+class CustomerPlan:
+    """What one customer does (a ``[[fleet.customers]]`` table of the scenario)."""
+
+    customer: int
+    request_at_s: float
+    load_kg: float = 0.0  # 0: never loads (the request times out)
+    load_after_s: float = 5.0
+    reduce_to_kg: float | None = None  # after an overweight refusal, takes some out
+    unload_after_s: float = 5.0
+    cancel_in: str | None = None  # cancels as soon as the request has this status
+    pays: bool = True
+
+    @classmethod
+    def from_table(cls, t: dict[str, Any], where: str) -> CustomerPlan:
+        known = set(cls.__dataclass_fields__)
+        unknown = set(t) - known
+        if unknown:
+            msg = f"{where}.{sorted(unknown)[0]}: unknown key (known: {', '.join(sorted(known))})"
+            raise ValueError(msg)
+        return cls(**t)
+
+
+class Customer:
+    def __init__(self, plan: CustomerPlan, client: httpx.AsyncClient, record: Record,
+                 set_payload: SetPayload) -> None:
+        self.plan = plan
+        self.client = client
+        self.record = record
+        self.set_payload = set_payload
+        self.request_id: int | None = None
+        self.status: str | None = None
+        self.paid = False
+
+    async def run(self) -> None:
+        loop = asyncio.get_running_loop()
+        await asyncio.sleep(max(0.0, self.plan.request_at_s - loop.time()))
+        response = await self.client.post("/api/requests", json={"CustomerId": self.plan.customer})
+        self._note("customer.request", response)
+        if response.status_code != 201:
+            return
+        self.request_id = int(response.json()["Id"])
+        done: set[str] = set()
+        while True:
+            request = await self._get()
+            status = str(request["Status"])
+            if status != self.status:
+                self.status = status
+                self.record({"kind": "request", "customer": self.plan.customer,
+                             "request": self.request_id, "status": status,
+                             "robot": request.get("AssignedRobotName")})
+            robot = request.get("AssignedRobotName")
+            if self.plan.cancel_in == status and "cancel" not in done:
+                done.add("cancel")
+                await self._act("cancel")
+            elif status == "ArrivedAtRoom" and "load" not in done and self.plan.load_kg > 0:
+                done.add("load")
+                await asyncio.sleep(self.plan.load_after_s)
+                await self._load(str(robot))
+            elif status == "FinishedWashingArrivedAtRoom" and "unload" not in done:
+                done.add("unload")
+                await asyncio.sleep(self.plan.unload_after_s)
+                self.set_payload(str(robot), 0.0)
+                await self._confirm("confirm-unloaded")
+            elif status == "Completed" and self.plan.pays and not self.paid:
+                self.paid = (await self._act("pay")).status_code == 200
+            if status in ("Completed", "Cancelled", "Declined") and (
+                    self.paid or not self.plan.pays or status != "Completed"):
+                return
+            await asyncio.sleep(1.0)
+
+    async def _load(self, robot: str) -> None:
+        self.set_payload(robot, self.plan.load_kg)
+        await asyncio.sleep(3.0)  # the robot reports a settled weight within its period
+        if (await self._confirm("confirm-loaded")).status_code == 409 \
+                and self.plan.reduce_to_kg is not None:
+            self.set_payload(robot, self.plan.reduce_to_kg)
+            await asyncio.sleep(3.0)
+            await self._confirm("confirm-loaded")
+
+    async def _confirm(self, action: str) -> httpx.Response:
+        """Confirm, retrying while the robot's weight report catches up (409)."""
+        response = await self._act(action)
+        for _ in range(5):
+            if response.status_code != 409 or "Overweight" in response.text \
+                    or "overweight" in response.text:
+                break
+            await asyncio.sleep(2.0)
+            response = await self._act(action)
+        return response
+
+    async def _act(self, action: str) -> httpx.Response:
+        response = await self.client.post(f"/api/requests/{self.request_id}/{action}")
+        self._note(f"customer.{action}", response)
+        return response
+
+    async def _get(self) -> dict[str, Any]:
+        response = await self.client.get(f"/api/requests/{self.request_id}")
+        body: dict[str, Any] = response.json()
+        return body
+
+    def _note(self, kind: str, response: httpx.Response) -> None:
+        entry: dict[str, Any] = {"kind": kind, "customer": self.plan.customer,
+                                 "code": response.status_code}
+        if response.status_code >= 400:
+            entry["detail"] = response.json().get("detail", response.text[:200])
+        self.record(entry)
+
+
+class Staff:
+    """The laundry room: empties robots that bring laundry, marks washing done after a while."""
+
+    def __init__(self, client: httpx.AsyncClient, record: Record, set_payload: SetPayload,
+                 washing_s: float) -> None:
+        self.client = client
+        self.record = record
+        self.set_payload = set_payload
+        self.washing_s = washing_s
+        self._washing_since: dict[int, float] = {}
+        self.double_assignments: list[str] = []
+
+    async def run(self) -> None:
+        loop = asyncio.get_running_loop()
+        while True:
+            requests = (await self.client.get("/api/requests")).json()
+            self._audit(requests, loop.time())
+            for r in requests:
+                rid = int(r["Id"])
+                if r["Status"] == "Washing" and rid not in self._washing_since:
+                    self._washing_since[rid] = loop.time()
+                    self.set_payload(str(r["AssignedRobotName"]), 0.0)
+                    self.record({"kind": "staff.unloaded", "request": rid,
+                                 "robot": r["AssignedRobotName"]})
+                elif r["Status"] == "Washing" and \
+                        loop.time() - self._washing_since[rid] >= self.washing_s:
+                    response = await self.client.post(f"/api/requests/{rid}/washing-done")
+                    if response.status_code == 200:
+                        robot = str(response.json()["AssignedRobotName"])
+                        self.set_payload(robot, float(r.get("WeightKg") or 4.0))
+                        self.record({"kind": "staff.washing_done", "request": rid,
+                                     "robot": robot})
+            await asyncio.sleep(1.0)
+
+    def _audit(self, requests: list[dict[str, Any]], t_s: float) -> None:
+        """No robot may serve two active requests at once."""
+        serving: dict[str, list[int]] = {}
+        for r in requests:
+            if r["Status"] in ACTIVE - {"Pending"} and r["AssignedRobotName"]:
+                serving.setdefault(str(r["AssignedRobotName"]), []).append(int(r["Id"]))
+        for robot, ids in serving.items():
+            if len(ids) > 1:
+                problem = f"t={t_s:.1f} s: robot {robot} serves requests {ids}"
+                if problem not in self.double_assignments:
+                    self.double_assignments.append(problem)
+                    self.record({"kind": "double_assignment", "robot": robot, "requests": ids})

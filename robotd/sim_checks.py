@@ -81,11 +81,11 @@ def failures(scenario: Scenario, robots: dict[str, RobotRecord], elapsed_s: floa
         if record is None:
             reasons.append(f"final_rooms: no robot named {want.get('robot')!r}")
             continue
-        pose = record.body.pose
-        room = scenario.world.room_at(pose.x_m, pose.y_m)
+        where = record.body.pose
+        room = scenario.world.room_at(where.x_m, where.y_m)
         if room != want.get("room"):
             reasons.append(f"{record.name} ended in {room or 'no room'} "
-                           f"({pose.x_m:.2f}, {pose.y_m:.2f}), expected {want.get('room')}")
+                           f"({where.x_m:.2f}, {where.y_m:.2f}), expected {want.get('room')}")
     if elapsed_s >= success.time_limit_s and not finished(scenario, robots) \
             and success.final_state is not None:
         reasons.append(f"time limit of {success.time_limit_s:g} s reached")

@@ -22,9 +22,9 @@ from typing import Any
 import structlog
 
 from behaviours.profile import load_profile
+from fleet.site import SiteError, parse_site
 from hal.sim.body import DiffDriveBody
 from hal.sim.geometry import Pose
-from fleet.site import SiteError, parse_site
 from hal.sim.scenario import RobotSpec, Scenario, ScenarioError, load_scenario, read_beside
 from hal.sim.tracks import PathRecorder, TrackPoint
 from robotd import vclock

@@ -118,6 +118,7 @@ class RobotMachine:
             ignore_invalid_triggers=True, after_state_change=[self._changed],
         )
         self._triggers = set(self.machine.events)
+        self._allowed: dict[str, list[str]] = {}
         for path in self.machine.get_nested_state_names():
             state = self.machine.get_state(path)
             state.add_callback("enter", self._enter_hook(path))
@@ -138,7 +139,11 @@ class RobotMachine:
 
     def allowed_triggers(self) -> list[str]:
         """Triggers that the current state (or a state around it) has a transition for."""
-        return sorted(t for t in self.machine.get_triggers(self.state) if t in self._triggers)
+        state = self.state
+        if state not in self._allowed:
+            self._allowed[state] = sorted(
+                t for t in self.machine.get_triggers(state) if t in self._triggers)
+        return list(self._allowed[state])
 
     def missing_callbacks(self) -> list[str]:
         """Callback names in the tables that neither the model nor the profile defines."""

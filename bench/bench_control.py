@@ -46,7 +46,8 @@ def rss_mb(pid: int) -> float:
     return 0.0
 
 
-async def round_trips(sock: str, requests: int, concurrent: bool) -> list[float]:
+async def concurrent_round_trips(sock: str, requests: int) -> list[float]:
+    """20 asyncio clients, each sending its next request as soon as it has the answer."""
     streams = [await asyncio.open_unix_connection(sock, limit=1 << 20) for _ in range(CLIENTS)]
     rtts_ms: list[float] = []
 
@@ -57,17 +58,29 @@ async def round_trips(sock: str, requests: int, concurrent: bool) -> list[float]
             await reader.readline()
             rtts_ms.append((time.perf_counter() - start) * 1000)
 
-    if concurrent:
-        await asyncio.gather(*(one_client(r, w) for r, w in streams))
-    else:
-        for _ in range(requests):
-            for reader, writer in streams:
-                start = time.perf_counter()
-                writer.write(STATUS)
-                await reader.readline()
-                rtts_ms.append((time.perf_counter() - start) * 1000)
+    await asyncio.gather(*(one_client(r, w) for r, w in streams))
     for _, writer in streams:
         writer.close()
+    return rtts_ms
+
+
+def sequential_round_trips(sock: str, requests: int) -> list[float]:
+    """Blocking clients (no client-side event loop in the figure), asked in turn."""
+    conns = []
+    for _ in range(CLIENTS):
+        conn = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        conn.connect(sock)
+        conns.append((conn, conn.makefile("rb")))
+    rtts_ms: list[float] = []
+    for _ in range(requests):
+        for conn, reader in conns:
+            start = time.perf_counter()
+            conn.sendall(STATUS)
+            reader.readline()
+            rtts_ms.append((time.perf_counter() - start) * 1000)
+    for conn, reader in conns:
+        reader.close()
+        conn.close()
     return rtts_ms
 
 
@@ -110,8 +123,8 @@ def main() -> int:
             lag = status(sock)["loop_lag_ms"]
             assert isinstance(lag, dict)
 
-            one_at_a_time = asyncio.run(round_trips(sock, args.requests // 4, concurrent=False))
-            all_at_once = asyncio.run(round_trips(sock, args.requests, concurrent=True))
+            one_at_a_time = sequential_round_trips(sock, args.requests // 4)
+            all_at_once = asyncio.run(concurrent_round_trips(sock, args.requests))
             memory_mb = rss_mb(proc.pid)
         finally:
             proc.send_signal(signal.SIGTERM)

@@ -21,7 +21,7 @@ import numpy.typing as npt
 from hal.readings import Frame
 from hal.sim.body import DiffDriveBody
 from hal.sim.geometry import Pose
-from hal.sim.world import World
+from hal.sim.world import PaintedLine, World
 
 F32Array = npt.NDArray[Any]  # float32; cv2 returns loosely typed arrays
 U8Image = npt.NDArray[Any]  # uint8 BGR
@@ -113,6 +113,13 @@ class SimCamera:
             0.0, self.mount.noise_std, (2 * self.height_px, 2 * self.width_px, 3)
         ).astype(np.float32)
         self._static_gain = self._make_static_gain()
+        gw, gh = _AMBIENT_GRID
+        cc, rr = np.meshgrid(np.linspace(0, self.width_px - 1, gw),
+                             np.linspace(0, self.height_px - 1, gh))
+        mpp = self.mount.m_per_px
+        self._ambient_grid = (self.mount.forward_m + (self.height_px / 2 - rr - 0.5) * mpp,
+                              (self.width_px / 2 - cc - 0.5) * mpp)
+        self._segments: dict[int, tuple[PaintedLine, npt.NDArray[np.float64]]] = {}
         self._phases = self._rng.uniform(0, 2 * math.pi, 4)
         self._shot: _Shot | None = None
         self._floor: tuple[tuple[int, int, int], U8Image] | None = None
@@ -233,7 +240,7 @@ class SimCamera:
         scale = 1 << _DRAW_SHIFT
         c, s = math.cos(pose.heading_rad), math.sin(pose.heading_rad)
         for line in self.world.lines:
-            segs = line.segments()
+            segs = self._line_segments(line)
             if segs.shape[0] == 0:
                 continue
             near = _segment_distances(segs, cx, cy) < reach_m + line.width_m
@@ -252,27 +259,46 @@ class SimCamera:
                 p2 = (int(fixed[i + 1, 0]), int(fixed[i + 1, 1]))
                 cv2.line(image, p1, p2, colour, thickness, cv2.LINE_AA, _DRAW_SHIFT)
 
+    def _line_segments(self, line: PaintedLine) -> npt.NDArray[np.float64]:
+        cached = self._segments.get(id(line))
+        if cached is None or cached[0] is not line:
+            cached = (line, line.segments())
+            self._segments[id(line)] = cached
+        return cached[1]
+
     def _make_texture(self) -> F32Array:
+        """A seamless tile of floor texture, repeated so the whole view fits inside it.
+
+        Reading inside one big periodic image is ten times faster than cv2's wrap-around
+        border, and shifting by whole tiles is invisible, so the texture stays world-fixed.
+        """
         n = _TEXTURE_TILE_PX
         fine = self._rng.normal(0.0, 1.0, (n, n)).astype(np.float32)
-        blurred: F32Array = cv2.GaussianBlur(
-            self._rng.normal(0.0, 1.0, (n, n)).astype(np.float32), (0, 0), 6,
-            borderType=cv2.BORDER_REFLECT)
+        noise = np.tile(self._rng.normal(0.0, 1.0, (n, n)).astype(np.float32), (3, 3))
+        blurred: F32Array = cv2.GaussianBlur(noise, (0, 0), 6)[n:2 * n, n:2 * n]
         blotches = blurred / max(float(blurred.std()), 1e-6)
-        tex = 1.0 + self.mount.texture_std * (0.6 * fine + 0.8 * blotches)
-        return tex.astype(np.float32)
+        tile = 1.0 + self.mount.texture_std * (0.6 * fine + 0.8 * blotches)
+        reps = math.ceil(math.hypot(self.width_px, self.height_px) / n) + 2
+        self._texture_centre = reps * n / 2
+        return np.tile(tile.astype(np.float32), (reps, reps))
 
     def _texture_gain(self, pose: Pose) -> F32Array:
         m = self.mount
         mpp = m.m_per_px
         c, s = math.cos(pose.heading_rad), math.sin(pose.heading_rad)
         x0, y0 = m.px_to_floor(pose, 0.0, 0.0)
+        xc, yc = pose.to_world(m.forward_m, 0.0)
         n = _TEXTURE_TILE_PX
+        # Whole tiles taken off so the view centre lands in the middle tile of the texture.
+        base = self._texture_centre - n / 2
+        shift_x = n * math.floor(xc / mpp / n) - base
+        shift_y = n * math.floor(yc / mpp / n) - base
         # Destination pixel -> texture pixel: the texture is laid on the floor at camera scale.
-        affine = np.array([[s, -c, (x0 / mpp) % n], [-c, -s, (y0 / mpp) % n]], np.float64)
+        affine = np.array([[s, -c, x0 / mpp - shift_x], [-c, -s, y0 / mpp - shift_y]],
+                          np.float64)
         out: F32Array = cv2.warpAffine(self._texture, affine, (m.width_px, m.height_px),
                                        flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
-                                       borderMode=cv2.BORDER_WRAP)
+                                       borderMode=cv2.BORDER_REFLECT)
         return out
 
     def _make_static_gain(self) -> F32Array:
@@ -291,13 +317,7 @@ class SimCamera:
 
     def _ambient_gain(self, pose: Pose) -> F32Array:
         m = self.mount
-        gw, gh = _AMBIENT_GRID
-        cols = np.linspace(0, m.width_px - 1, gw)
-        rows = np.linspace(0, m.height_px - 1, gh)
-        cc, rr = np.meshgrid(cols, rows)
-        mpp = m.m_per_px
-        fwd = m.forward_m + (m.height_px / 2 - rr - 0.5) * mpp
-        left = (m.width_px / 2 - cc - 0.5) * mpp
+        fwd, left = self._ambient_grid
         c, s = math.cos(pose.heading_rad), math.sin(pose.heading_rad)
         x = pose.x_m + c * fwd - s * left
         y = pose.y_m + s * fwd + c * left

@@ -18,8 +18,9 @@ from hal.sim.world import PaintedLine, World
 CENTRE_PX = 159.5
 
 
-def camera_over(*lines: PaintedLine, mount: CameraMount | None = None) -> SimCamera:
-    world = World(6.0, 6.0, segments_array([]), lines=list(lines))
+def camera_over(*lines: PaintedLine, mount: CameraMount | None = None,
+                floor_bgr: tuple[int, int, int] = (200, 205, 210)) -> SimCamera:
+    world = World(6.0, 6.0, segments_array([]), lines=list(lines), floor_bgr=floor_bgr)
     return SimCamera(world, DiffDriveBody(world, Pose(1.0, 3.0, 0.0)), mount, seed=11)
 
 
@@ -78,8 +79,13 @@ class TestFindsTheLine:
 
     @pytest.mark.parametrize("colour", ["red", "green", "blue", "yellow", "white", "black"])
     def test_every_paint_colour_is_found_when_asked_for(self, colour: str) -> None:
-        """Each world paint is found by its FollowColor name, where it is."""
-        camera = camera_over(east(3.0, colour))
+        """Each world paint is found by its FollowColor name, where it is.
+
+        A white line is laid on a mid-grey floor: on the light default floor the lit parts of
+        a white line clip at 255, as in a real camera, and barely stand out.
+        """
+        floor = (110, 115, 120) if colour == "white" else (200, 205, 210)
+        camera = camera_over(east(3.0, colour), floor_bgr=floor)
         reading = LineTracker(colour=colour).track(frame_at(camera, -0.04))
         assert not reading.lost, reading.reason
         assert reading.error_px == pytest.approx(px(camera, -0.04), abs=3.0)

@@ -6,6 +6,7 @@ import argparse
 import asyncio
 import importlib
 import os
+import sqlite3
 import sys
 from pathlib import Path
 
@@ -145,9 +146,14 @@ def cmd_run(args: argparse.Namespace) -> int:
         for missing in exc.problems:
             print(f"robotd: missing device: {missing}", file=sys.stderr)
         return 1
-    daemon = Daemon(settings, devices, profile, state_dir=state_dir,
-                    socket_path=settings.get("control.socket"), wall_clock=system_wall_clock,
-                    config_path=config_path)
+    try:
+        daemon = Daemon(settings, devices, profile, state_dir=state_dir,
+                        socket_path=settings.get("control.socket"),
+                        wall_clock=system_wall_clock, config_path=config_path)
+    except (OSError, sqlite3.Error) as exc:
+        print(f"robotd: cannot open the state store in {state_dir}: {exc} (check "
+              "robot.state_dir; under systemd StateDirectory= provides it)", file=sys.stderr)
+        return 1
     code = asyncio.run(daemon.run())
     for failure in daemon.start_problems:
         print(f"robotd: could not start: {failure}", file=sys.stderr)

@@ -138,13 +138,13 @@ class ControlServer:
                 client.send_notification(line)
 
     async def _serve(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
-        client = Client(next(self._ids), writer, self.queue_limit)
         if len(self.clients) >= self.max_clients:
             writer.write(error_line(None, APP_ERROR, f"too many clients ({self.max_clients})"))
             with contextlib.suppress(OSError):
                 await asyncio.wait_for(writer.drain(), 1.0)
             writer.close()
             return
+        client = Client(next(self._ids), writer, self.queue_limit)
         self.clients[client.id] = client
         sender = asyncio.create_task(client.write_loop(), name=f"control-client-{client.id}")
         try:

@@ -169,3 +169,16 @@ class TestRobotdRun:
         assert done.returncode == 2
         assert done.stderr == (f"{config}:{line_of(config, 'baud =')}: serial.baud: expected "
                                "an integer, got a string ('fast')\n")
+
+    def test_a_state_dir_it_cannot_create_is_one_clear_line(self, workdir: Path) -> None:
+        blocker = workdir / "file"
+        blocker.write_text("")
+        config = write_config(workdir)
+        config.write_text(config.read_text().replace(str(workdir / "state"),
+                                                     str(blocker / "state")))
+        done = subprocess.run([sys.executable, "-m", "robotd.cli", "run", "--config",
+                               str(config)], capture_output=True, text=True, timeout=60,
+                              check=False)
+        assert done.returncode == 1
+        assert done.stderr.startswith(f"robotd: cannot open the state store in {blocker}/state")
+        assert "Traceback" not in done.stderr

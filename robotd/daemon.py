@@ -223,8 +223,8 @@ class Daemon:
         task.add_done_callback(lambda t: t.exception() if not t.cancelled() else None)
 
     def _link_changed(self, connected: bool) -> None:
-        if connected:
-            log.info("link.up")
+        if connected or self._stop.is_set():
+            log.info("link.changed", connected=connected)
         else:
             log.warning("link.down", note="motors count as stopped until the link is back")
         self.emit("link", status="up" if connected else "down")

@@ -6,7 +6,6 @@ temporary file, fsync, rename), so a power cut leaves the old file or the new on
 
 from __future__ import annotations
 
-import json
 import os
 import tomllib
 from pathlib import Path
@@ -52,13 +51,32 @@ def _value(value: Any) -> str:
     if isinstance(value, int | float):
         return repr(value)
     if isinstance(value, str):
-        return json.dumps(value)  # a JSON string is a valid TOML basic string
+        try:
+            value.encode("utf-8")
+        except UnicodeEncodeError:
+            msg = f"{value!r} is not valid Unicode text"
+            raise ValueError(msg) from None
+        return toml_string(value)
     if isinstance(value, list):
         return "[" + ", ".join(_value(v) for v in value) + "]"
     if isinstance(value, dict):
-        return "{" + ", ".join(f"{json.dumps(k)} = {_value(v)}" for k, v in value.items()) + "}"
+        return "{" + ", ".join(f"{toml_string(k)} = {_value(v)}" for k, v in value.items()) + "}"
     msg = f"cannot write {type(value).__name__} to TOML"
     raise TypeError(msg)
+
+
+def toml_string(text: str) -> str:
+    """A TOML basic string: quotes and backslashes escaped, control characters as \\uXXXX."""
+    out = ['"']
+    for char in text:
+        if char in ('"', "\\"):
+            out.append("\\" + char)
+        elif ord(char) < 0x20 or ord(char) == 0x7F:
+            out.append(f"\\u{ord(char):04x}")
+        else:
+            out.append(char)
+    out.append('"')
+    return "".join(out)
 
 
 def write_atomically(path: Path, text: str) -> None:

@@ -8,7 +8,7 @@ import os
 from typing import TYPE_CHECKING, Any
 
 from robotd import __version__
-from robotd.config.overrides import overrides_path, persist_override
+from robotd.config.overrides import overrides_path, persist_override, render_toml
 from robotd.control.rpc import APP_ERROR, INVALID_PARAMS, RpcError
 from robotd.control.server import Client, Handler
 
@@ -114,6 +114,9 @@ class _Methods:
             if error is not None:
                 raise RpcError(INVALID_PARAMS, f"{key}: {error}")
         try:
+            value = settings.check(key, value)
+            if persist:
+                render_toml({"check": {"value": value}})  # refuse before applying
             value = settings.set(key, value)
         except ValueError as exc:
             raise RpcError(INVALID_PARAMS, str(exc)) from None

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from behaviours.profile import load_profile
 from robotd.config.overrides import persist_override, read_overrides, render_toml
-from robotd.control.rpc import RpcError, parse_request
+from robotd.control.rpc import RpcError, parse_request, result_line
 
 JSON = st.recursive(st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False)
                     | st.text(), lambda inner: st.lists(inner) | st.dictionaries(st.text(),
@@ -50,6 +50,14 @@ class TestParseRequest:
 SCALARS = (st.booleans() | st.integers(-(2**63), 2**63 - 1)
            | st.floats(allow_nan=False, allow_infinity=False)
            | st.text(st.characters(exclude_categories=["Cs"])))
+
+
+class TestReplies:
+    def test_readings_that_are_not_finite_become_null(self) -> None:
+        """Strict JSON clients never see NaN or Infinity."""
+        line = result_line(3, {"range_cm": float("nan"), "t": [1.0, float("inf")]})
+        assert json.loads(line) == {"jsonrpc": "2.0", "id": 3,
+                                    "result": {"range_cm": None, "t": [1.0, None]}}
 
 
 class TestOverrides:

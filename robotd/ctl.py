@@ -133,6 +133,9 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_CONNECT
     except KeyboardInterrupt:
         return EXIT_OK
+    except BrokenPipeError:  # robotctl watch | head: the reader left
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_OK
     finally:
         conn.close()
 

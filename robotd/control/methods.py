@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import asyncio
-import dataclasses
 import os
 from typing import TYPE_CHECKING, Any
 
@@ -67,8 +66,6 @@ class _Methods:
             name = str(getattr(device, "name", type(device).__name__))
             try:
                 figures = dict(device.status())
-                if hasattr(device, "link_stats"):
-                    figures["link"] = dataclasses.asdict(device.link_stats())
             except Exception as exc:  # one broken device must not hide the others
                 figures = {"error": repr(exc)}
             out[name] = figures

@@ -137,6 +137,7 @@ class LineTracker:
         self._misses = 0
         self._rows: tuple[int, npt.NDArray[np.intp]] | None = None
         self._picks = np.zeros(0, np.intp)
+        self._mid_row = 0.0
         self._col_index = np.zeros(0, np.float32)
 
     @property
@@ -193,6 +194,7 @@ class LineTracker:
             picks = np.linspace(top, bottom - 1, min(p.rows, bottom - top)).astype(np.intp)
             self._rows = (h, picks)
             self._picks = picks
+            self._mid_row = _median_of(picks.tolist())
         step = max(1, -(-w // _MAX_WORK_PX))
         rows: Plane = image[self._rows[1]]
         if step > 1:  # mean of each column group: keeps sub-pixel detail, halves the noise
@@ -240,6 +242,7 @@ class LineTracker:
         above = flat > 3 * threshold
         change = (above[1:] != above[:-1]).nonzero()[0] + 1
         begin, end = change[0::2], change[1::2]
+        bounds = change  # begin, end, begin, end...: reduceat's segment starts
         if begin.size > k:  # noise splits faint lines: close gaps of up to _GAP_PX
             join = (begin[1:] - end[:-1] <= _GAP_PX) & (begin[1:] // span == end[:-1] // span)
             begin = begin[np.concatenate(([True], ~join))]
@@ -248,6 +251,7 @@ class LineTracker:
         keep = (run_w >= max(2, p.min_width_frac * width)) & (run_w <= p.max_width_frac * width)
         if not keep.all():
             begin, end, run_w = begin[keep], end[keep], run_w[keep]
+            bounds = np.empty(0, np.intp)
         if begin.size == 0:
             return self._lost(centre, colour, "no line")
         row = begin // span
@@ -265,12 +269,13 @@ class LineTracker:
         found = begin.size
         if found < max(1, (k + 2) // 3):
             return self._lost(centre, colour, "too few rows")
-        row_px = _median_of(self._picks[row].tolist())
-        bounds = np.empty(2 * found, np.intp)
-        bounds[0::2], bounds[1::2] = begin, end
-        mass = np.add.reduceat(flat, bounds)[0::2]
+        row_px = self._mid_row if found == k else _median_of(self._picks[row].tolist())
+        if bounds.size != 2 * found:
+            bounds = np.empty(2 * found, np.intp)
+            bounds[0::2], bounds[1::2] = begin, end
+        mass = np.add.reduceat(flat, bounds)[0::2]  # > 0: every run is above the threshold
         moment = np.add.reduceat(flat * self._cols(k, span), bounds)[0::2]
-        xs = (moment / np.maximum(mass, 1e-6)).tolist()
+        xs = (moment / mass).tolist()
         line_x = _median_of(xs) * step + (step - 1) / 2
         line_w = _median_of(run_w.tolist()) * step
         # Seen cut off by the image border: its visible part's centre is within half its

@@ -239,7 +239,7 @@ class ArduinoLink:
     # -- connection lifecycle ----------------------------------------------------------------
     async def _supervise(self) -> None:
         backoff_s = self.config.reconnect_min_s
-        while True:
+        while not self._closing:
             error = await self._connect_once()
             if error is None:
                 backoff_s = self.config.reconnect_min_s

@@ -45,6 +45,8 @@ T = TypeVar("T")
 # Fast resends per command are also bounded by count, so a line that garbles everything
 # cannot make the sender spin when the wire takes no time (the in-memory pipe).
 MAX_FAST_RESENDS = 32
+# The loop runs timers up to its clock resolution early; closer than this counts as due.
+CLOCK_SLACK_S = 1e-6
 # Slack for USB serial adapters that hold bytes back before passing them on (FTDI: 16 ms).
 USB_LATENCY_S = 0.02
 # Bytes of the longest reply (``#255 NAK:PARSE*CC\n``), to know when a reply is due.
@@ -134,12 +136,8 @@ class Session:
         for task in self._tasks:
             task.cancel()
         await asyncio.gather(*self._tasks, return_exceptions=True)
-        if self.inflight is not None:
-            self.inflight.command.settle(Outcome.LINK_DOWN, seq=self.inflight.seq,
-                                         detail="link went down in flight")
-            self.inflight = None
         self.writer.close()
-        with contextlib.suppress(OSError, asyncio.CancelledError):
+        with contextlib.suppress(OSError, TimeoutError):
             await asyncio.wait_for(self.writer.wait_closed(), timeout=1.0)
 
     async def race(self, future: asyncio.Future[T]) -> T:
@@ -288,6 +286,9 @@ class Session:
                           timeouts=timeouts, fast=fast)
         finally:
             self.inflight = None
+            # Cancelled with the connection: nobody can tell whether it ran.
+            command.settle(Outcome.LINK_DOWN, seq=seq, resends=timeouts + fast,
+                           detail="link went down in flight")
 
     def _worth_fast_resend(self, event: Event, fast: int, since_last_s: float,
                            since_first_s: float, frame_bytes: int) -> bool:
@@ -309,7 +310,7 @@ class Session:
         """The most telling event before ``deadline_s`` (ACK beats NAK beats the rest)."""
         while not self._events:
             remaining = deadline_s - self._loop.time()
-            if remaining <= 0:
+            if remaining <= CLOCK_SLACK_S:
                 return None
             self._wake.clear()
             with contextlib.suppress(TimeoutError):
@@ -342,7 +343,7 @@ class Session:
         while True:
             due = self.last_drive_tx_s + period
             now = self._loop.time()
-            if now < due:
+            if now < due - CLOCK_SLACK_S:
                 await asyncio.sleep(due - now)
                 continue
             busy = self.inflight is not None and self.inflight.command.kind in (
@@ -356,7 +357,7 @@ class Session:
         limit = self.config.silence_s
         while True:
             silent_s = self._loop.time() - self.last_rx_s
-            if silent_s >= limit:
+            if silent_s >= limit - CLOCK_SLACK_S:
                 msg = f"no intact line from the MCU for {silent_s:.2f} s"
                 raise LinkBroken(msg)
             await asyncio.sleep(limit - silent_s)

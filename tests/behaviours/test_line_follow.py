@@ -9,6 +9,8 @@ from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from behaviours.line_follow import LineFollower, LineLostError
 from behaviours.line_tracker import LineReading
@@ -174,6 +176,17 @@ class TestBands:
         follower.decide(seen(10), WIDTH, 1 / 13)
         assert follower.status()["band"] == "gentle"
         unwatch()
+
+
+    @settings(max_examples=50, deadline=None)
+    @given(error_px=st.floats(-160, 160))
+    def test_steering_is_mirror_symmetric(self, error_px: float) -> None:
+        """A line as far left as another is right gives the same command, wheels swapped."""
+        right, *_ = make()
+        left, *_ = make()
+        r = right.decide(seen(error_px), WIDTH, 1 / 13)
+        mirrored = left.decide(seen(-error_px), WIDTH, 1 / 13)
+        assert (r.left_pwm, r.right_pwm) == (mirrored.right_pwm, mirrored.left_pwm)
 
 
 class TestPid:

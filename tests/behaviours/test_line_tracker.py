@@ -149,6 +149,17 @@ class TestTwoLines:
         assert reading.confidence < 1.0
 
 
+    def test_a_crossing_line_does_not_pull_the_position(self) -> None:
+        """A same-colour line across the path fills some scan rows: those rows are dropped,
+        the others still give the line's position."""
+        crossing = PaintedLine("x", ((1.17, 0.0), (1.17, 6.0)), "black", 0.025)
+        camera = camera_over(east(3.0), crossing)
+        reading = LineTracker().track(frame_at(camera, 0.02))
+        assert not reading.lost
+        assert reading.error_px == pytest.approx(px(camera, 0.02), abs=3.0)
+        assert reading.confidence < 1.0
+
+
 class TestColours:
     def test_names_and_hex_codes_map_to_paints(self) -> None:
         """FollowColor may be a name in any case or #RRGGBB; None means the dark default."""

@@ -51,14 +51,16 @@ def pct(values: list[float], q: float) -> float:
 
 
 # --- 1. tracker speed and accuracy ----------------------------------------------------------
-def render_frames(mount: CameraMount, count: int, seed: int) -> list[tuple[Any, Pose]]:
-    world = World(6.0, 6.0, segments_array([]),
-                  lines=[PaintedLine("l", ((0.0, LINE_Y_M), (6.0, LINE_Y_M)), "black", 0.025)])
+def render_frames(mount: CameraMount, count: int, seed: int, *, colour: str = "black",
+                  extra: tuple[PaintedLine, ...] = (), offset_m: float = 0.06
+                  ) -> list[tuple[Any, Pose]]:
+    line = PaintedLine("l", ((0.0, LINE_Y_M), (6.0, LINE_Y_M)), colour, 0.025)
+    world = World(6.0, 6.0, segments_array([]), lines=[line, *extra])
     camera = SimCamera(world, DiffDriveBody(world, Pose(1, LINE_Y_M, 0)), mount, seed=seed)
     rng = random.Random(seed)
     frames = []
     for _ in range(count):
-        pose = Pose(rng.uniform(0.5, 5.0), LINE_Y_M + rng.uniform(-0.06, 0.06),
+        pose = Pose(rng.uniform(0.5, 5.0), LINE_Y_M + rng.uniform(-offset_m, offset_m),
                     math.radians(rng.uniform(-12, 12)))
         speed = rng.uniform(0.0, 0.4)
         frames.append((camera.render(pose, (speed, speed)), pose))
@@ -140,6 +142,41 @@ def bench_tracker(mount: CameraMount, count: int, passes: int) -> None:
                   f"max {max(errs):.2f} px")
         else:
             print(f"  accuracy {name:8s}: found 0/{count}")
+
+
+def bench_hard_cases(count: int) -> None:
+    """Frames the naive tracker was not built for: right answers out of ``count`` each."""
+    branch = PaintedLine("branch", ((0.0, LINE_Y_M + 0.07), (6.0, LINE_Y_M + 0.07)), "black",
+                         0.025)
+    harsh = CameraMount(vignette=0.5, light_gradient=0.8, ambient_variation=0.3)
+    cases: dict[str, tuple[CameraMount, dict[str, Any]]] = {
+        "second line 7 cm to the left": (CameraMount(), {"extra": (branch,)}),
+        "red line (following black: must be lost)": (CameraMount(), {"colour": "red"}),
+        "strong light gradient and vignette": (harsh, {}),
+    }
+    print(f"\nhard cases, 320x240, {count} frames each: answers within 3 px of the truth "
+          "(or lost, for the wrong colour); the scan-row tracker first sees the same pose "
+          "with only the black line, as when it was following it")
+    for seed, (name, (mount, kwargs)) in enumerate(cases.items(), start=5):
+        frames = render_frames(mount, count, seed, **kwargs)
+        before = render_frames(mount, count, seed)  # the same poses, one black line
+        wrong_colour = "colour" in kwargs
+        ours_ok = naive_ok = 0
+        tracker = LineTracker()
+        for (image, pose), (plain, _) in zip(frames, before, strict=True):
+            tracker.reset()
+            tracker.track(plain)
+            reading = tracker.track(image)
+            naive = naive_track(image)
+            if wrong_colour:
+                ours_ok += reading.lost
+                naive_ok += naive is None
+                continue
+            truth = true_column(mount, pose, reading.row_px)
+            ours_ok += not reading.lost and abs((reading.x_px or 0.0) - truth) <= 3
+            naive_ok += naive is not None and abs(
+                naive[0] - true_column(mount, pose, naive[1])) <= 3
+        print(f"  {name:42s} scan-row {ours_ok:3d}/{count}   naive {naive_ok:3d}/{count}")
 
 
 # --- 2. loop latency and jitter -------------------------------------------------------------
@@ -319,6 +356,7 @@ def main() -> int:
     print(f"OpenCV {cv2.__version__}, numpy {np.__version__}, cv2 threads {cv2.getNumThreads()}")
     for mount in (CameraMount(), CameraMount(width_px=640, height_px=480)):
         bench_tracker(mount, opts.frames, opts.passes)
+    bench_hard_cases(min(opts.frames, 100))
     bench_loop(opts.seconds)
     return 0
 

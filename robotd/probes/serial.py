@@ -24,6 +24,7 @@ from drivers.serial_port import open_serial
 from hal.devices import DeviceUnavailable
 from robotd.config.errors import ConfigError
 from robotd.config.loader import defaults, load_config
+from robotd.config.settings import Settings
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -42,18 +43,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _config(args: argparse.Namespace) -> LinkConfig:
-    values = load_config(args.config)["serial"] if args.config else defaults()["serial"]
+    values = load_config(args.config) if args.config else defaults()
     for key in ("port", "baud", "framing"):
         if getattr(args, key) is not None:
-            values[key] = getattr(args, key)
-    return LinkConfig(
-        port=values["port"], baud=values["baud"], framing=Framing(values["framing"]),
-        ack_timeout_s=values["ack_timeout_s"], max_resends=values["max_resends"],
-        heartbeat_s=values["heartbeat_s"], queue_limit=values["queue_limit"],
-        reconnect_max_s=values["reconnect_max_s"],
-        min_firmware_protocol=values["min_firmware_protocol"],
-        handshake_timeout_s=values.get("handshake_timeout_s", 3.0),
-    )
+            values["serial"][key] = getattr(args, key)
+    return LinkConfig.from_settings(Settings(values))
 
 
 async def run(args: argparse.Namespace) -> int:

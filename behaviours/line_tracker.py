@@ -259,12 +259,8 @@ class LineTracker:
         if begin.size > 1 and not (row[1:] != row[:-1]).all():
             candidates = int(np.bincount(row).max())
             near = self._last_x if self._last_x is not None and self._misses < 10 else centre
-            near_flat = row * span + _PAD + (near - (step - 1) / 2) / step
-            order = np.lexsort((np.abs((begin + end - 1) / 2 - near_flat), row))
-            ordered_rows = row[order]
-            first = np.ones(order.size, bool)
-            first[1:] = ordered_rows[1:] != ordered_rows[:-1]
-            chosen = np.sort(order[first])
+            chosen = _one_line(row, (begin + end - 1) / 2 - row * span - _PAD,
+                               (near - (step - 1) / 2) / step, width / 8, (k + 2) // 3)
             begin, end, run_w, row = begin[chosen], end[chosen], run_w[chosen], row[chosen]
         found = begin.size
         if found < max(1, (k + 2) // 3):
@@ -300,6 +296,28 @@ class LineTracker:
     def _lost(self, centre: float, colour: _Colour, reason: str) -> LineReading:
         last = 0.0 if self._last_x is None else self._last_x - centre
         return LineReading(last, 0.0, True, None, 0.0, False, 0, colour.name, reason)
+
+
+def _one_line(row: npt.NDArray[np.intp], mid: Plane, near: float, reach: float,
+              min_rows: int) -> npt.NDArray[np.intp]:
+    """Runs of several lines: pick one line and its run in each row.
+
+    The line is the one nearest ``near`` among runs that line up with runs in at least
+    ``min_rows`` rows (within ``reach``), so a speck of noise is not a line; each row then
+    keeps its run nearest that line, if within ``reach``. Choosing each row on its own
+    could mix two lines into a position between them.
+    """
+    apart = np.abs(mid[:, None] - mid[None, :]) <= reach
+    support = np.array([np.unique(row[m]).size for m in apart])
+    lines = support >= min_rows
+    pool = np.flatnonzero(lines) if lines.any() else np.arange(mid.size)
+    anchor = float(mid[pool[np.argmin(np.abs(mid[pool] - near))]])
+    distance = np.abs(mid - anchor)
+    order = np.lexsort((distance, row))
+    first = np.ones(order.size, bool)
+    first[1:] = row[order][1:] != row[order][:-1]
+    chosen = order[first]
+    return np.sort(chosen[distance[chosen] <= reach])
 
 
 def _median_of(values: list[float] | list[int]) -> float:

@@ -149,6 +149,19 @@ class TestTwoLines:
         assert reading.confidence < 1.0
 
 
+    def test_two_lines_are_never_mixed_into_a_position_between_them(self) -> None:
+        """Turned so each line is nearer the centre in some rows: one line is reported."""
+        camera = camera_over(east(3.0, name="a"), east(3.07, name="b"))
+        pose = Pose(1.0, 3.026, math.radians(4.6))
+        reading = LineTracker().track(camera.render(pose))
+        mount = camera.mount
+        fwd = mount.forward_m + (mount.height_px / 2 - reading.row_px - 0.5) * mount.m_per_px
+        columns = [mount.width_px / 2 - 0.5 - ((y - pose.y_m - math.sin(pose.heading_rad) * fwd)
+                                                / math.cos(pose.heading_rad)) / mount.m_per_px
+                   for y in (3.0, 3.07)]
+        assert reading.x_px is not None
+        assert min(abs(reading.x_px - c) for c in columns) < 3.0
+
     def test_a_crossing_line_does_not_pull_the_position(self) -> None:
         """A same-colour line across the path fills some scan rows: those rows are dropped,
         the others still give the line's position."""

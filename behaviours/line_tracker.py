@@ -1,8 +1,8 @@
 """Where the painted line is in a camera frame: position error in pixels, confidence, lost.
 
 The tracker reads a few scan rows across a region of interest instead of the whole frame. Each
-row gets a per-pixel score for the wanted colour, divided by the local floor brightness (a
-running maximum along the row), so light that falls off to the corners or varies over the
+row gets a per-pixel score for the wanted colour, divided by the local floor brightness (the
+row with the line closed over), so light that falls off to the corners or varies over the
 floor does not move the line. Runs of high score are line candidates; when there are several,
 one line is picked (nearest the previous position) and each row keeps its run of it. The
 position is the median over the rows that found the line.

@@ -96,6 +96,26 @@ def encode_command(payload: str, seq: int | None, framing: Framing) -> bytes:
     return line
 
 
+_WORDS = frozenset({"LED_IDLE", "LED_WAITING", "LED_MOVING", "SUCCESS_SCAN", "FAILURE_SCAN",
+                    "STOP", "HB", "HELLO"})
+_MOTOR = re.compile(r"MOTOR:(\d{1,3}),(\d{1,3}),([01]),([01])")
+_SERVO = re.compile(r"SERVO:(\d{1,3})")
+
+
+def well_formed(payload: str) -> bool:
+    """Whether ``payload`` is a command of the contract with values in range.
+
+    The MCU refusing such a command means the frame was damaged in a way its CRC missed.
+    """
+    if payload in _WORDS:
+        return True
+    if (motor := _MOTOR.fullmatch(payload)) is not None:
+        return int(motor.group(1)) <= 255 and int(motor.group(2)) <= 255
+    if (servo := _SERVO.fullmatch(payload)) is not None:
+        return int(servo.group(1)) <= 180
+    return False
+
+
 def frame_body(body: bytes) -> bytes:
     """``BODY*CC\\n`` for any body (what the MCU side sends in crc framing)."""
     return body + f"*{crc8(body):02X}\n".encode("ascii")

@@ -33,6 +33,7 @@ from drivers.arduino.framing import (
     Unparsed,
     encode_command,
     parse_line,
+    well_formed,
 )
 from drivers.arduino.outbox import Command, Kind, Outbox, Outcome
 from drivers.arduino.stats import LinkCounters
@@ -47,6 +48,8 @@ T = TypeVar("T")
 MAX_FAST_RESENDS = 32
 # The loop runs timers up to its clock resolution early; closer than this counts as due.
 CLOCK_SLACK_S = 1e-6
+# A well-formed command the MCU refuses (NAK:PARSE/RANGE) is sent again this often at most.
+MAX_REFUSAL_RESENDS = 2
 # Slack for USB serial adapters that hold bytes back before passing them on (FTDI: 16 ms).
 USB_LATENCY_S = 0.02
 # Bytes of the longest reply (``#255 NAK:PARSE*CC\n``), to know when a reply is due.
@@ -249,7 +252,7 @@ class Session:
         first_s = last_s = self._loop.time()
         await self._write(frame, command.kind)
         self.counters.sent += 1
-        timeouts = fast = 0
+        timeouts = fast = refusals = 0
         try:
             while True:
                 event = await self._next_event(last_s + self.config.ack_timeout_s)
@@ -257,7 +260,8 @@ class Session:
                 if isinstance(event, Ack | Hello):
                     self._acked(inflight, event, timeouts + fast, now - first_s)
                     return
-                if isinstance(event, Nak) and event.reason != "CRC":
+                if isinstance(event, Nak) and event.reason != "CRC" and (
+                        refusals >= MAX_REFUSAL_RESENDS or not well_formed(command.payload)):
                     command.settle(Outcome.NAK, seq=seq, resends=timeouts + fast,
                                    detail=f"NAK:{event.reason}")
                     log.warning("link.nak", seq=seq, payload=command.payload,
@@ -268,7 +272,10 @@ class Session:
                     command.settle(Outcome.SUPERSEDED, seq=seq, resends=timeouts + fast,
                                    detail="preempted by STOP")
                     return
-                if event is None:
+                if isinstance(event, Nak) and event.reason != "CRC":
+                    refusals += 1  # a valid command refused: damage the CRC did not catch
+                    fast += 1
+                elif event is None:
                     if timeouts >= self.config.max_resends or now - first_s >= (
                             self.config.give_up_s - 1e-9):
                         self._lost(inflight, timeouts + fast)

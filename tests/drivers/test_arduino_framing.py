@@ -17,6 +17,7 @@ from drivers.arduino.framing import (
     encode_command,
     frame_body,
     parse_line,
+    well_formed,
 )
 
 
@@ -83,3 +84,13 @@ class TestParseLine:
     def test_garbage_never_raises(self, raw: bytes, framing: Framing) -> None:
         """Any bytes at all give a Line, never an exception."""
         parse_line(raw, framing)
+
+
+class TestWellFormed:
+    def test_contract_commands_with_values_in_range_are_well_formed(self) -> None:
+        """MOTOR 0-255 and 0|1, SERVO 0-180 and the bare words; nothing else."""
+        for good in ("MOTOR:0,255,1,0", "SERVO:180", "LED_IDLE", "STOP", "HB", "HELLO"):
+            assert well_formed(good), good
+        for bad in ("MOTOR:256,0,1,0", "MOTOR:1,2,2,0", "SERVO:181", "SERVO:-1", "DANCE",
+                    "MOTOR:1,2,1"):
+            assert not well_formed(bad), bad

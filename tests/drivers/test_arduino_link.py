@@ -208,6 +208,23 @@ class TestCommands:
 
         on_bench(scenario)
 
+    def test_a_valid_command_refused_by_the_board_is_sent_again(self) -> None:
+        """A NAK:PARSE for a well-formed command means damage the CRC missed: the driver
+        resends it (same SEQ) instead of giving up, and it runs once."""
+
+        async def scenario(bench: Bench) -> None:
+            bench.mcu.delay(0.2)
+            await asyncio.sleep(0.3)
+            servo = bench.link.submit("SERVO:66")
+            await asyncio.sleep(0.01)
+            seq = bench.seqs_on_wire()[-1]
+            bench.mcu_writes(frame_body(f"#{seq} NAK:PARSE".encode()))
+            delivery = await servo
+            assert delivery.ok and delivery.resends >= 1
+            assert bench.plant.servo_angles == [66]
+
+        on_bench(scenario, heartbeat_s=30.0)
+
     def test_heartbeats_keep_the_wheels_turning_while_nothing_else_is_sent(self) -> None:
         """A MOTOR then 3 s of silence from the robot: HBs feed the deadman, no stop."""
 

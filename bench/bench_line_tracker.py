@@ -91,17 +91,21 @@ def naive_track(image: Any) -> tuple[float, float] | None:
     return m["m10"] / m["m00"], m["m01"] / m["m00"]
 
 
-def time_per_frame(func: Callable[[Any], Any], images: list[Any], passes: int) -> list[float]:
-    """Each frame's best time over ``passes`` runs: on a shared machine the best of a few
-    runs is the work itself, not the other processes that preempted it."""
-    times = []
+def time_per_frame(funcs: list[Callable[[Any], Any]], images: list[Any], passes: int
+                   ) -> list[list[float]]:
+    """Each frame's best time over ``passes`` runs, for each function. The functions take
+    turns on every frame, so a busy spell on the shared machine hits them alike, and the best
+    of a few runs is the work itself, not the other processes that preempted it."""
+    times: list[list[float]] = [[] for _ in funcs]
     for image in images:
-        best = math.inf
+        best = [math.inf] * len(funcs)
         for _ in range(passes):
-            t0 = time.perf_counter()
-            func(image)
-            best = min(best, time.perf_counter() - t0)
-        times.append(best)
+            for i, func in enumerate(funcs):
+                t0 = time.perf_counter()
+                func(image)
+                best[i] = min(best[i], time.perf_counter() - t0)
+        for i, b in enumerate(best):
+            times[i].append(b)
     return times
 
 
@@ -125,8 +129,7 @@ def bench_tracker(mount: CameraMount, count: int, passes: int) -> None:
         if naive is not None:
             naive_found += 1
             naive_err.append(abs(naive[0] - true_column(mount, pose, naive[1])))
-    t_ours = time_per_frame(ours, images, passes)
-    t_naive = time_per_frame(naive_track, images, passes)
+    t_ours, t_naive = time_per_frame([ours, naive_track], images, passes)
     p50_ours, p50_naive = statistics.median(t_ours) * 1e3, statistics.median(t_naive) * 1e3
     print(f"\n{mount.width_px}x{mount.height_px}, {count} frames, best of {passes} runs each")
     print(f"  scan-row tracker: p50 {p50_ours:.3f} ms  p99 {pct(t_ours, 99) * 1e3:.3f} ms  "

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import colorsys
 import functools
+import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -249,15 +250,18 @@ class LineTracker:
             begin = begin[np.concatenate(([True], ~join))]
             end = end[np.concatenate((~join, [True]))]
         run_w = end - begin
-        keep = (run_w >= max(2, p.min_width_frac * width)) & (run_w <= p.max_width_frac * width)
-        if not keep.all():
+        narrowest, widest = max(2, p.min_width_frac * width), p.max_width_frac * width
+        widths = run_w.tolist()  # a few runs: plain Python is cheaper than more array calls
+        if widths and (min(widths) < narrowest or max(widths) > widest):
+            keep = (run_w >= narrowest) & (run_w <= widest)
             begin, end, run_w = begin[keep], end[keep], run_w[keep]
             bounds = np.empty(0, np.intp)
         if begin.size == 0:
             return self._lost(centre, colour, "no line")
         row = begin // span
+        rows = row.tolist()
         candidates = 1
-        if begin.size > 1 and not (row[1:] != row[:-1]).all():
+        if any(a == b for a, b in itertools.pairwise(rows)):
             candidates = int(np.bincount(row).max())
             near = self._last_x if self._last_x is not None and self._misses < 10 else centre
             chosen = _one_line(row, (begin + end - 1) / 2 - row * span - _PAD,

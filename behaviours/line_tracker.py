@@ -209,7 +209,7 @@ class LineTracker:
         centre = (full_width - 1) / 2
         value = cv2.max(cv2.max(planes[0], planes[1]), planes[2])
         low = cv2.min(cv2.min(planes[0], planes[1]), planes[2])
-        floor = _background(value, cv2.dilate, cv2.erode)
+        floor = _background(value, cv2.MORPH_CLOSE)
         if float(cv2.mean(floor)[0]) < _TOO_DARK:
             return self._lost(centre, colour, "too dark")
         if colour.kind in ("dark", "light"):
@@ -218,12 +218,12 @@ class LineTracker:
             if colour.kind == "dark":
                 raw = floor - value - tint
             else:
-                raw = value - _background(value, cv2.erode, cv2.dilate) - tint
+                raw = value - _background(value, cv2.MORPH_OPEN) - tint
         else:
             wanted = _reduce(cv2.min, [planes[c] for c in colour.channels])
             others = _reduce(cv2.max, [planes[c] for c in (0, 1, 2) if c not in colour.channels])
             raw = wanted - others
-        score = raw / np.maximum(floor, 1.0)
+        score = cv2.divide(raw, floor)  # 0 where the floor is 0
         threshold = self.params.min_contrast * _THRESHOLD_SCALE[colour.kind]
         return self._pick(score, threshold, colour, step, full_width)
 
@@ -331,18 +331,18 @@ def _median_of(values: list[float] | list[int]) -> float:
     return float(ordered[n // 2] if n % 2 else (ordered[n // 2 - 1] + ordered[n // 2]) / 2)
 
 
-def _background(value: Plane, first: Callable[..., Any], then: Callable[..., Any]) -> Plane:
+def _background(value: Plane, closing: int) -> Plane:
     """The floor's brightness along each row without the line.
 
-    A morphological closing (dilate then erode: removes dark lines) or opening (removes bright
-    ones) wider than a line, on 8-pixel block means: it follows uneven light, costs little and
-    ignores sensor noise.
+    A morphological closing (``cv2.MORPH_CLOSE``: removes dark lines) or opening (removes
+    bright ones) wider than a line, on 8-pixel block means: it follows uneven light, costs
+    little and ignores sensor noise.
     """
     k, width = value.shape
     blocks = max(4, width // 8)
     coarse = cv2.resize(value, (blocks, k), interpolation=cv2.INTER_AREA)
     kernel = _kernel(max(3, round(blocks * _BACKGROUND_FRAC)) | 1)
-    smooth = cv2.blur(then(first(coarse, kernel), kernel), (3, 1))
+    smooth = cv2.blur(cv2.morphologyEx(coarse, closing, kernel), (3, 1))
     out: Plane = cv2.resize(smooth, (width, k), interpolation=cv2.INTER_LINEAR)
     return out
 

@@ -2,20 +2,24 @@
 the settings, the beacons with their rooms, and each customer's room.
 
 A change made through this process clears them at once; a change made by another server
-process on the same database is seen after at most ``ttl_s`` of loop time.
+process on the same database is seen after at most ``ttl_s`` of loop time. One load runs at a
+time: callers arriving while it runs wait for it rather than start their own.
 """
 
 from __future__ import annotations
 
 import asyncio
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
+from typing import Generic, TypeVar
 
 from sqlalchemy import select
-from sqlalchemy.ext.asyncio import AsyncSession
 
 from fleet.db import Database
 from fleet.models import Beacon, Customer, Room
 from fleet.settings import FleetSettings, load_settings
+
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -37,44 +41,73 @@ class SiteView:
     customer_rooms: dict[int, int | None]
 
 
-class SiteCache:
-    def __init__(self, ttl_s: float = 2.0) -> None:
-        self.ttl_s = ttl_s
-        self._settings: tuple[float, FleetSettings] | None = None
-        self._site: tuple[float, SiteView] | None = None
+class Cached(Generic[T]):
+    """A value loaded by one caller at a time and kept for ``ttl_s`` of loop time."""
+
+    def __init__(self, load: Callable[[], Awaitable[T]], ttl_s: float) -> None:
+        self._load = load
+        self._ttl_s = ttl_s
+        self._value: tuple[float, int, T] | None = None
+        self._epoch = 0
+        self._lock = asyncio.Lock()
 
     def invalidate(self) -> None:
-        self._settings = None
-        self._site = None
+        self._epoch += 1
+        self._value = None
 
-    def _fresh(self, stamp: float) -> bool:
-        return asyncio.get_running_loop().time() - stamp < self.ttl_s
+    def _fresh(self) -> T | None:
+        value = self._value
+        if value is None or value[1] != self._epoch:
+            return None
+        if asyncio.get_running_loop().time() - value[0] >= self._ttl_s:
+            return None
+        return value[2]
 
-    async def settings(self, db: Database) -> FleetSettings:
-        if self._settings is not None and self._fresh(self._settings[0]):
-            return self._settings[1]
-        async with db.read() as session:
-            cfg = await load_settings(session)
-        self._settings = (asyncio.get_running_loop().time(), cfg)
-        return cfg
+    async def get(self) -> T:
+        value = self._fresh()
+        if value is not None:
+            return value
+        async with self._lock:
+            value = self._fresh()
+            if value is not None:
+                return value
+            epoch = self._epoch
+            loaded = await self._load()
+            if epoch == self._epoch:
+                self._value = (asyncio.get_running_loop().time(), epoch, loaded)
+            return loaded
 
-    async def site(self, db: Database) -> SiteView:
-        if self._site is not None and self._fresh(self._site[0]):
-            return self._site[1]
-        async with db.read() as session:
-            return await self._load_site(session)
 
-    async def _load_site(self, session: AsyncSession) -> SiteView:
-        rows = (await session.execute(
-            select(Beacon, Room).join(Room, Beacon.room_id == Room.id)
-            .where(Beacon.is_active.is_(True)).order_by(Beacon.id)
-        )).all()
-        beacons = [BeaconRow(b.id, b.mac_address, b.name, b.room_id, r.name, r.floor_color,
-                             b.rssi_threshold_dbm, b.is_base) for b, r in rows]
-        all_rooms = dict((await session.execute(
-            select(Beacon.id, Beacon.room_id))).all())
-        customers = (await session.execute(select(Customer.id, Customer.beacon_id))).all()
-        view = SiteView(beacons, {
-            cid: (all_rooms.get(bid) if bid is not None else None) for cid, bid in customers})
-        self._site = (asyncio.get_running_loop().time(), view)
-        return view
+class SiteCache:
+    def __init__(self, db: Database, ttl_s: float = 2.0) -> None:
+        self._db = db
+        self._settings = Cached(self._load_settings, ttl_s)
+        self._site = Cached(self._load_site, ttl_s)
+
+    def invalidate(self) -> None:
+        self._settings.invalidate()
+        self._site.invalidate()
+
+    async def settings(self) -> FleetSettings:
+        return await self._settings.get()
+
+    async def site(self) -> SiteView:
+        return await self._site.get()
+
+    async def _load_settings(self) -> FleetSettings:
+        async with self._db.read() as session:
+            return await load_settings(session)
+
+    async def _load_site(self) -> SiteView:
+        async with self._db.read_connection() as conn:
+            rows = (await conn.execute(
+                select(Beacon.id, Beacon.mac_address, Beacon.name, Beacon.room_id, Room.name,
+                       Room.floor_color, Beacon.rssi_threshold_dbm, Beacon.is_base)
+                .join(Room, Beacon.room_id == Room.id)
+                .where(Beacon.is_active.is_(True)).order_by(Beacon.id)
+            )).all()
+            beacon_rooms = dict((await conn.execute(select(Beacon.id, Beacon.room_id))).all())
+            customers = (await conn.execute(select(Customer.id, Customer.beacon_id))).all()
+        beacons = [BeaconRow(*row) for row in rows]
+        return SiteView(beacons, {
+            cid: (beacon_rooms.get(bid) if bid is not None else None) for cid, bid in customers})

@@ -51,6 +51,9 @@ def _sqlite_engine(url: str, begin: str | None) -> AsyncEngine:
     kwargs: dict[str, Any] = {"poolclass": StaticPool} if memory else {}
     if begin is None:
         kwargs["pool_reset_on_return"] = None
+    if not memory:
+        # Opening an aiosqlite connection starts a thread: keep them, never churn overflow.
+        kwargs.update(pool_size=16 if begin is None else 4, max_overflow=0, pool_timeout=60)
     engine = create_async_engine(url, connect_args={"timeout": 30}, **kwargs)
 
     @event.listens_for(engine.sync_engine, "connect")
@@ -82,6 +85,8 @@ class Database:
         self.url = normalize_url(url)
         self.dialect = make_url(self.url).get_backend_name()
         self._write_lock = asyncio.Lock()
+        # Counts serialized write transactions of this process (caches of rows compare it).
+        self.generation = 0
         if self.dialect == "sqlite":
             if make_url(self.url).database in (None, "", ":memory:"):
                 self.read_engine = self.write_engine = _sqlite_engine(self.url, "BEGIN")
@@ -109,15 +114,19 @@ class Database:
     @asynccontextmanager
     async def write(self, *, serial: bool = True) -> AsyncIterator[AsyncSession]:
         """A transaction committed at the end; ``serial`` ones run one at a time site-wide."""
-        if self.dialect == "sqlite":
-            async with self._write_lock, self._writes() as session, session.begin():
+        try:
+            if self.dialect == "sqlite":
+                async with self._write_lock, self._writes() as session, session.begin():
+                    yield session
+                return
+            async with self._writes() as session, session.begin():
+                if serial:
+                    await session.execute(
+                        text("SELECT pg_advisory_xact_lock(:key)"), {"key": _ADVISORY_LOCK_KEY})
                 yield session
-            return
-        async with self._writes() as session, session.begin():
+        finally:
             if serial:
-                await session.execute(
-                    text("SELECT pg_advisory_xact_lock(:key)"), {"key": _ADVISORY_LOCK_KEY})
-            yield session
+                self.generation += 1
 
     async def migrate(self) -> None:
         """Bring the schema to the newest migration."""

@@ -21,6 +21,7 @@ from fleet.cache import SiteCache
 from fleet.clock import Clock, system_clock
 from fleet.db import Database
 from fleet.services.assignment import process_queue
+from fleet.services.exchange import RobotViews
 from fleet.services.offline import check_offline
 from fleet.services.timeouts import check_timeouts
 from fleet.settings import FleetSettings, load_settings, store_settings
@@ -28,6 +29,8 @@ from fleet.site import Site, apply_site, load_site
 from fleet.timehold import hold_loop_time
 
 log = structlog.get_logger(__name__)
+
+PING_FLUSH_S = 1.0
 
 
 class FleetServer:
@@ -52,7 +55,8 @@ class FleetServer:
         if isinstance(settings, FleetSettings):
             settings = settings.public()
         self._settings = settings
-        self.cache = SiteCache()
+        self.cache = SiteCache(self.db)
+        self.views = RobotViews(self.db)
         self._tasks: list[asyncio.Task[None]] = []
         self.started = False
 
@@ -86,6 +90,7 @@ class FleetServer:
                 "timeouts", lambda c: c.timeout_check_period_s, self.check_timeouts)),
             asyncio.create_task(self._monitor(
                 "offline", lambda c: c.offline_check_period_s, self.check_offline)),
+            asyncio.create_task(self._monitor("pings", lambda c: PING_FLUSH_S, self.flush_pings)),
         ]
 
     async def stop(self) -> None:
@@ -95,6 +100,10 @@ class FleetServer:
             with contextlib.suppress(asyncio.CancelledError):
                 await task
         self._tasks = []
+        try:
+            await self.flush_pings()
+        except Exception:
+            log.exception("fleet.pings.flush_failed")
         await self.db.dispose()
         self.started = False
         log.info("fleet.stopped")
@@ -104,14 +113,21 @@ class FleetServer:
             async with self.db.read() as session:
                 return await load_settings(session)
 
+    async def flush_pings(self) -> int:
+        """Write the robots' pending pings (the ping monitor does this every second)."""
+        with hold_loop_time():
+            return await self.views.flush_pings()
+
     async def check_timeouts(self) -> list[int]:
         """One pass of the timeout monitor (seed section 10); returns cancelled request ids."""
+        await self.flush_pings()
         with hold_loop_time():
             async with self.db.write() as session:
                 return await check_timeouts(session, self.clock(), await load_settings(session))
 
     async def check_offline(self) -> list[str]:
         """One pass of the offline monitor (seed section 13); returns robots gone offline."""
+        await self.flush_pings()
         with hold_loop_time():
             async with self.db.write() as session:
                 return await check_offline(session, self.clock(), await load_settings(session))
@@ -129,7 +145,7 @@ class FleetServer:
             await asyncio.sleep(period(cfg))
             try:
                 found = await check()
-                if found:
+                if found and isinstance(found, list):
                     log.info("fleet.monitor.acted", monitor=name, found=found)
             except Exception:
                 log.exception("fleet.monitor.failed", monitor=name)

@@ -35,6 +35,7 @@ Name = Annotated[str, Path(min_length=1, max_length=100, pattern=r"^[^\x00-\x1f\
 
 @router.get("/robots", response_model=list[RobotOut])
 async def list_robots(http: HttpRequest) -> list[RobotOut]:
+    await server_of(http).flush_pings()
     async with server_of(http).db.read() as session:
         robots = (await session.execute(select(Robot).order_by(Robot.id))).scalars().all()
         return [robot_out(r) for r in robots]
@@ -50,6 +51,7 @@ async def add_robot(body: RobotIn, http: HttpRequest) -> RobotOut:
 
 @router.get("/robots/{name}", response_model=RobotOut, responses=ERRORS)
 async def get_robot(name: Name, http: HttpRequest) -> RobotOut:
+    await server_of(http).flush_pings()
     async with server_of(http).db.read() as session:
         return robot_out(await _robot(session, name))
 

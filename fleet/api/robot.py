@@ -2,16 +2,19 @@
 
 from __future__ import annotations
 
+import functools
+import json
 from typing import Annotated
 
-from fastapi import APIRouter, Path
+from fastapi import APIRouter, Path, Response
 from fastapi import Request as HttpRequest
 
 from fleet.api.deps import ERRORS, server_of
-from fleet.api.schemas import ActiveBeacon, DataExchangeIn, DataExchangeOut
+from fleet.api.schemas import DataExchangeIn, DataExchangeOut
 from fleet.errors import Invalid
 from fleet.services.arrival import Sighting
-from fleet.services.exchange import Report, exchange
+from fleet.services.exchange import Reply, Report, exchange
+from fleet.services.navigation import BeaconConfig
 
 router = APIRouter(prefix="/api/Robot", tags=["robot"])
 
@@ -21,7 +24,7 @@ RobotName = Annotated[str, Path(min_length=1, max_length=100, pattern=r"^[^\x00-
 @router.post("/{RobotName}/data-exchange", response_model=DataExchangeOut, responses=ERRORS)
 async def data_exchange(
     RobotName: RobotName, body: DataExchangeIn, http: HttpRequest  # noqa: N803
-) -> DataExchangeOut:
+) -> Response:
     """The robot reports beacons, arrival, weight and distance; the server answers with the
     beacon configuration, navigation targets and orders."""
     if body.RobotName is not None and body.RobotName != RobotName:
@@ -34,15 +37,26 @@ async def data_exchange(
         is_in_target=body.IsInTarget, weight_kg=body.WeightKg,
         ultrasonic_distance=body.UltrasonicDistance,
     )
-    reply = await exchange(server.db, server.clock, server.cache, report)
+    reply = await exchange(server.db, server.clock, server.cache, server.views, report)
+    return Response(content=reply_json(reply), media_type="application/json")
+
+
+def reply_json(reply: Reply) -> bytes:
+    """The reply as JSON, from pre-encoded beacon entries (it is sent every second by every
+    robot, and the beacon list is the bulk of it)."""
     nav = reply.navigation
-    return DataExchangeOut(
-        ActiveBeacons=[
-            ActiveBeacon(MacAddress=b.mac_address, Name=b.name, RoomName=b.room_name,
-                         RssiThreshold=b.rssi_threshold_dbm,
-                         IsNavigationTarget=b.is_navigation_target)
-            for b in nav.beacons
-        ],
-        IsLineFollowing=nav.is_line_following, FollowColor=nav.follow_color,
-        EmergencyStop=reply.emergency_stop, MaintenanceMode=reply.maintenance_mode,
-    )
+    beacons = b",".join(_beacon_json(b) for b in nav.beacons)
+    tail = json.dumps({
+        "IsLineFollowing": nav.is_line_following, "FollowColor": nav.follow_color,
+        "EmergencyStop": reply.emergency_stop, "MaintenanceMode": reply.maintenance_mode,
+    }, separators=(",", ":")).encode()
+    return b'{"ActiveBeacons":[' + beacons + b"]," + tail[1:]
+
+
+@functools.lru_cache(maxsize=4096)
+def _beacon_json(beacon: BeaconConfig) -> bytes:
+    return json.dumps({
+        "MacAddress": beacon.mac_address, "Name": beacon.name, "RoomName": beacon.room_name,
+        "RssiThreshold": beacon.rssi_threshold_dbm,
+        "IsNavigationTarget": beacon.is_navigation_target,
+    }, separators=(",", ":")).encode()

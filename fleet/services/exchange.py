@@ -1,21 +1,22 @@
 """The server side of the robot's 1 s data exchange (seed section 8): record the report,
 handle arrival and weight, answer with beacons, targets and orders.
 
-Most reports change nothing: the robot is idle or on its way. Those are answered from a read
-and write the robot's last ping at most every ``PING_WRITE_S``, so hundreds of robots cost
-few writes. A report that may change a request (arrival, weight at the room, a robot back
-from offline) runs in a serialized write transaction.
+Most reports change nothing: the robot is idle or on its way. Those are answered from a
+cached read, and their pings are written in one batch a second, so hundreds of robots cost
+few writes and no report waits for one. A report that may change a request (arrival, weight
+at the room, a robot back from offline) runs in a serialized write transaction.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from datetime import datetime, timedelta
+from datetime import datetime
+from typing import Any
 
-from sqlalchemy import bindparam, select, update
+from sqlalchemy import select, update
 
-from fleet.cache import SiteCache
+from fleet.cache import Cached, SiteCache
 from fleet.clock import Clock
 from fleet.db import Database
 from fleet.errors import NotFound
@@ -26,9 +27,6 @@ from fleet.services.common import current_request, robot_by_name
 from fleet.services.navigation import Navigation, navigation
 from fleet.services.offline import restore
 from fleet.status import Status
-
-# Far below the offline threshold (30 s by default), so a skipped write never matters.
-PING_WRITE_S = 5.0
 
 
 @dataclass(frozen=True)
@@ -66,24 +64,64 @@ class _Light:
 
 
 _LIGHT_QUERY = (
-    select(Robot.id, Robot.is_offline, Robot.emergency_stop, Robot.maintenance_mode,
+    select(Robot.name, Robot.id, Robot.is_offline, Robot.emergency_stop, Robot.maintenance_mode,
            Robot.last_ping_at, Request.id, Request.status, Request.customer_id,
            Request.robot_returned)
     .select_from(Robot)
     .outerjoin(Request, Request.id == Robot.current_request_id)
-    .where(Robot.name == bindparam("name"))
 )
 
 
-async def _light_read(db: Database, name: str) -> _Light:
-    async with db.read_connection() as conn:
-        row = (await conn.execute(_LIGHT_QUERY, {"name": name})).first()
-    if row is None:
-        msg = f"robot {name!r} is not registered"
-        raise NotFound(msg)
+def _light(row: Any) -> _Light:
     rid, offline, estop, maintenance, ping, req_id, status, customer, returned = row
     return _Light(rid, offline, estop or maintenance, estop, maintenance,
                   ping, req_id, status or "", customer or 0, bool(returned))
+
+
+class RobotViews:
+    """What quiet reports need of every robot, read for all robots in one query and kept
+    until this process commits a serialized write or for ``ttl_s`` of loop time (changes made
+    by other server processes); and the pings of quiet reports, written in one batch by
+    ``flush_pings`` (about once a second)."""
+
+    def __init__(self, db: Database, ttl_s: float = 0.5) -> None:
+        self._db = db
+        self._snapshot = Cached(self._load, ttl_s)
+        self._generation = db.generation
+        self._pings: dict[int, dict[str, Any]] = {}
+
+    async def _load(self) -> dict[str, _Light]:
+        async with self._db.read_connection() as conn:
+            rows = (await conn.execute(_LIGHT_QUERY)).all()
+        return {str(row[0]): _light(row[1:]) for row in rows}
+
+    async def get(self, name: str) -> _Light:
+        if self._generation != self._db.generation:
+            self._generation = self._db.generation
+            self._snapshot.invalidate()
+        light = (await self._snapshot.get()).get(name)
+        if light is None:  # perhaps added by another server process since the snapshot
+            self._snapshot.invalidate()
+            light = (await self._snapshot.get()).get(name)
+        if light is None:
+            msg = f"robot {name!r} is not registered"
+            raise NotFound(msg)
+        return light
+
+    def note_ping(self, robot_id: int, now: datetime, report: Report) -> None:
+        self._pings[robot_id] = {
+            "id": robot_id, "last_ping_at": now, "weight_kg": report.weight_kg,
+            "ultrasonic_distance": report.ultrasonic_distance,
+            "is_in_target": report.is_in_target}
+
+    async def flush_pings(self) -> int:
+        """Write the pings noted since the last flush; returns how many robots."""
+        if not self._pings:
+            return 0
+        pings, self._pings = list(self._pings.values()), {}
+        async with self._db.write(serial=False) as session:
+            await session.execute(update(Robot), pings)
+        return len(pings)
 
 
 def _may_change(light: _Light, report: Report) -> bool:
@@ -95,16 +133,15 @@ def _may_change(light: _Light, report: Report) -> bool:
         Status.ARRIVED_AT_ROOM, Status.ARRIVED_FOR_DELIVERY)
 
 
-async def exchange(db: Database, clock: Clock, cache: SiteCache, report: Report) -> Reply:
+async def exchange(
+    db: Database, clock: Clock, cache: SiteCache, views: RobotViews, report: Report
+) -> Reply:
     """One data exchange. Raises NotFound for an unknown robot."""
-    light = await _light_read(db, report.robot_name)
-    cfg = await cache.settings(db)
-    site = await cache.site(db)
+    light = await views.get(report.robot_name)
+    cfg = await cache.settings()
+    site = await cache.site()
     if not _may_change(light, report):
-        now = clock()
-        if (light.last_ping_at is None
-                or now - light.last_ping_at >= timedelta(seconds=PING_WRITE_S)):
-            await _record_ping(db, light.robot_id, now, report)
+        views.note_ping(light.robot_id, clock(), report)
         request = light if light.request_id is not None else None
         nav = navigation(site, cfg, request, stopped=light.stopped)
         return Reply(nav, light.emergency_stop, light.maintenance_mode)
@@ -135,10 +172,3 @@ def _apply_report(robot: Robot, now: datetime, report: Report) -> None:
         robot.ultrasonic_distance = report.ultrasonic_distance
     if robot.is_in_target != report.is_in_target:
         robot.is_in_target = report.is_in_target
-
-
-async def _record_ping(db: Database, robot_id: int, now: datetime, report: Report) -> None:
-    async with db.write(serial=False) as session:
-        await session.execute(update(Robot).where(Robot.id == robot_id).values(
-            last_ping_at=now, weight_kg=report.weight_kg,
-            ultrasonic_distance=report.ultrasonic_distance, is_in_target=report.is_in_target))

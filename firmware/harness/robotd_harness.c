@@ -3,9 +3,12 @@
  * 16 MHz, paced to the wall clock, with UART0 on a pseudo-terminal and the board's pins on a
  * line-based control channel (stdin/stdout).
  *
- *   robotd_harness FIRMWARE.elf [--free-run]
+ *   robotd_harness FIRMWARE.elf [--link PATH] [--free-run]
  *
- * stdout (control channel): "UART <pty path>" then "READY", then replies and events:
+ * --link PATH keeps a symlink to the current pty at PATH (stable across UNPLUG/REPLUG, like a
+ * udev name); --free-run runs as fast as it can instead of at wall-clock speed.
+ *
+ * stdout (control channel): "UART <path>" then "READY", then replies and events:
  *   EV t_us=.. pwm_l=.. pwm_r=.. in_l=.. in_r=.. servo_us=.. leds=..   whenever a pin changes
  * stdin commands (one a line), each answered with one line:
  *   STATE             -> "STATE t_us=.. <pin fields as in EV>"
@@ -16,7 +19,7 @@
  *   LOOPRESET         -> "OK LOOPRESET"
  *   TIME              -> "TIME t_us=.. cycles=.. lag_us=.."
  *   CORRUPT <pct>     -> corrupt that % of UART bytes, both ways        -> "OK CORRUPT"
- *   UNPLUG / REPLUG   -> cut / restore the UART wires (bytes are lost)   -> "OK UNPLUG"
+ *   UNPLUG / REPLUG   -> the USB cable: the pty vanishes / comes back    -> "OK UNPLUG"
  *   RESET             -> reset the MCU (as the reset button or DTR)      -> "OK RESET"
  *   QUIT              -> exits (so does EOF on stdin)
  *
@@ -26,7 +29,10 @@
  * The UART bridge is our own, not simavr's uart_pty part: uart_pty feeds the AVR from a second
  * thread (avr_raise_irq is not thread-safe); here everything runs on the one emulator thread.
  * Pin readings come from the registers that drive the pins (OCR/COM bits for PWM, PORT for
- * GPIO, OCR1A/ICR1 for the servo pulse), sampled every 50 us of emulated time.
+ * GPIO, OCR1A/ICR1 for the servo pulse). They are sampled when the firmware marks its outputs
+ * consistent (a GPIOR2 write after each command and at the end of each loop), so a command is
+ * never seen half-applied (left motor set, right not yet), and every 5 ms when no mark came
+ * (a hung or resetting MCU).
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -48,7 +54,8 @@
 #include "sim_elf.h"
 
 #define F_CPU_HZ 16000000UL
-#define TICK_CYCLES 800            /* 50 us: pin sampling and encoder edge spacing */
+#define TICK_CYCLES 800            /* 50 us: encoder edge spacing */
+#define STALE_SAMPLE_CYCLES 80000  /* 5 ms: sample pins anyway when loop() has not ended */
 #define SERVICE_TICKS 20           /* serve the pty and stdin, check the wall clock: 1 ms */
 #define PTY_BACKLOG_MAX 1024       /* bytes unread by any client before we discard them */
 #define LOOP_HIST_US 20000
@@ -57,7 +64,7 @@
 /* ATmega328P data-space register addresses. */
 enum {
 	R_PINB = 0x23, R_PORTB = 0x25, R_PINC = 0x26, R_PORTC = 0x28, R_PIND = 0x29, R_PORTD = 0x2B,
-	R_GPIOR0 = 0x3E, R_GPIOR1 = 0x4A, R_TCCR0A = 0x44, R_OCR0A = 0x47, R_OCR0B = 0x48,
+	R_GPIOR0 = 0x3E, R_GPIOR1 = 0x4A, R_GPIOR2 = 0x4B, R_TCCR0A = 0x44, R_OCR0A = 0x47, R_OCR0B = 0x48,
 	R_TCCR1A = 0x80, R_TCCR1B = 0x81, R_ICR1L = 0x86, R_ICR1H = 0x87,
 	R_OCR1AL = 0x88, R_OCR1AH = 0x89, R_UCSR0B = 0xC1,
 };
@@ -79,6 +86,7 @@ static size_t rx_len, rx_done;
 static uint8_t tx_buf[4096];
 static size_t tx_len;
 static char cmd_buf[256];
+static char pty_name[128];
 static size_t cmd_len;
 static int quit;
 static int free_run;
@@ -92,12 +100,13 @@ typedef struct {
 	uint32_t hist[LOOP_HIST_US + 1];  /* by microsecond */
 } span_stats_t;
 static span_stats_t loop_period, loop_busy;
-static uint64_t loop_start_cycle;
+static uint64_t loop_start_cycle, last_sample_cycle;
 static uint64_t tick_count;
 static int64_t lag_us;
 static uint64_t cycle_base;        /* keeps emulated time monotonic across RESET */
 static double corrupt_pct;
-static int unplugged;
+static int unplugged, reset_pending;
+static const char *link_path;
 static uint32_t adc_mv[8];
 static int dock_level;
 
@@ -125,6 +134,17 @@ static pins_t read_pins(void) {
 	p.servo_period_us = ps ? (int)((icr + 1) * ps / 16) : 0;
 	p.leds = bit(R_PORTC, 3) | bit(R_PORTC, 4) << 1 | bit(R_PORTB, 5) << 2 | bit(R_PORTC, 5) << 3;
 	return p;
+}
+
+static void print_pins(const char *tag, const pins_t *p);
+
+static void sample_pins(void) {
+	pins_t p = read_pins();
+	last_sample_cycle = avr->cycle;
+	if (memcmp(&p, &last_pins, sizeof(p)) != 0) {
+		last_pins = p;
+		print_pins("EV", &p);
+	}
 }
 
 static void print_pins(const char *tag, const pins_t *p) {
@@ -155,6 +175,10 @@ static void uart_xoff_hook(avr_irq_t *irq, uint32_t value, void *param) {
 }
 
 static void flush_tx(void) {
+	if (pty_master < 0) {
+		tx_len = 0;
+		return;
+	}
 	if (tx_len) {
 		int queued = 0;
 		/* Nobody reading the pty: drop what piled up rather than block the UART. */
@@ -172,9 +196,10 @@ static void flush_tx(void) {
 
 static void pty_service(void) {
 	flush_tx();
+	if (pty_master < 0) return;
 	if (rx_done == rx_len) {
 		ssize_t r = read(pty_master, rx_buf, sizeof(rx_buf));
-		rx_len = r > 0 && !unplugged ? (size_t)r : 0;
+		rx_len = r > 0 ? (size_t)r : 0;
 		rx_done = 0;
 	}
 	/* Hold bytes until setup() has enabled the receiver (RXEN0), as a host waits for a boot. */
@@ -197,7 +222,23 @@ static void open_pty(void) {
 	tcsetattr(pty_slave, TCSANOW, &tio);
 	fcntl(pty_master, F_SETFL, fcntl(pty_master, F_GETFL) | O_NONBLOCK);
 	/* pty_slave stays open so the master never sees EIO between clients. */
-	fprintf(ctl, "UART %s\n", name);
+	if (link_path) {
+		unlink(link_path);
+		if (symlink(name, link_path) != 0) {
+			fprintf(stderr, "robotd_harness: symlink %s: %s\n", link_path, strerror(errno));
+			exit(1);
+		}
+	}
+	snprintf(pty_name, sizeof(pty_name), "%s", name);
+}
+
+/* Unplugging: the device node goes away and the client's reads fail, as with USB serial. */
+static void close_pty(void) {
+	if (link_path) unlink(link_path);
+	close(pty_master);
+	close(pty_slave);
+	pty_master = pty_slave = -1;
+	rx_len = rx_done = tx_len = 0;
 }
 
 static void connect_uart(void) {
@@ -245,8 +286,10 @@ static void loop_marker_write(avr_t *a, avr_io_addr_t addr, uint8_t v, void *par
 	if (addr == R_GPIOR0) {
 		if (loop_start_cycle) span_add(&loop_period, now - loop_start_cycle);
 		loop_start_cycle = now;
-	} else if (loop_start_cycle) {
-		span_add(&loop_busy, now - loop_start_cycle);
+	} else if (addr == R_GPIOR1) {
+		if (loop_start_cycle) span_add(&loop_busy, now - loop_start_cycle);
+	} else {
+		sample_pins();  /* GPIOR2: the firmware's outputs are consistent now */
 	}
 }
 
@@ -299,11 +342,16 @@ static void handle_command(char *line) {
 	} else if (sscanf(line, "CORRUPT %lf", &pct) == 1) {
 		corrupt_pct = pct;
 		fprintf(ctl, "OK CORRUPT\n");
-	} else if (strcmp(line, "UNPLUG") == 0 || strcmp(line, "REPLUG") == 0) {
-		unplugged = line[0] == 'U';
-		fprintf(ctl, "OK %s\n", line);
+	} else if (strcmp(line, "UNPLUG") == 0) {
+		if (!unplugged) close_pty();
+		unplugged = 1;
+		fprintf(ctl, "OK UNPLUG\n");
+	} else if (strcmp(line, "REPLUG") == 0) {
+		if (unplugged) open_pty();
+		unplugged = 0;
+		fprintf(ctl, "OK REPLUG\n");
 	} else if (strcmp(line, "RESET") == 0) {
-		reset_mcu();
+		reset_pending = 1;  /* not from inside a cycle timer: avr_reset frees them all */
 		fprintf(ctl, "OK RESET\n");
 	} else if (strcmp(line, "TIME") == 0) {
 		fprintf(ctl, "TIME t_us=%llu cycles=%llu lag_us=%lld\n", (unsigned long long)now_us(),
@@ -384,11 +432,7 @@ static void reset_mcu(void) {
 static avr_cycle_count_t tick(avr_t *a, avr_cycle_count_t when, void *param) {
 	(void)a; (void)param;
 	encoders_step();
-	pins_t p = read_pins();
-	if (memcmp(&p, &last_pins, sizeof(p)) != 0) {
-		last_pins = p;
-		print_pins("EV", &p);
-	}
+	if (avr->cycle - last_sample_cycle > STALE_SAMPLE_CYCLES) sample_pins();
 	if (++tick_count % SERVICE_TICKS == 0) {
 		service();
 		if (!free_run && pace()) service();
@@ -398,10 +442,17 @@ static avr_cycle_count_t tick(avr_t *a, avr_cycle_count_t when, void *param) {
 
 int main(int argc, char **argv) {
 	if (argc < 2) {
-		fprintf(stderr, "usage: %s FIRMWARE.elf [--free-run]\n", argv[0]);
+		fprintf(stderr, "usage: %s FIRMWARE.elf [--link PATH] [--free-run]\n", argv[0]);
 		return 2;
 	}
-	free_run = argc > 2 && strcmp(argv[2], "--free-run") == 0;
+	for (int i = 2; i < argc; i++) {
+		if (strcmp(argv[i], "--free-run") == 0) free_run = 1;
+		else if (strcmp(argv[i], "--link") == 0 && i + 1 < argc) link_path = argv[++i];
+		else {
+			fprintf(stderr, "robotd_harness: unknown option %s\n", argv[i]);
+			return 2;
+		}
+	}
 	/* Keep the real stdout for the control channel; anything libsimavr prints goes to stderr. */
 	ctl = fdopen(dup(1), "w");
 	dup2(2, 1);
@@ -440,18 +491,25 @@ int main(int argc, char **argv) {
 	avr->sleep = no_sleep;
 	avr_register_io_write(avr, R_GPIOR0, loop_marker_write, NULL);
 	avr_register_io_write(avr, R_GPIOR1, loop_marker_write, NULL);
+	avr_register_io_write(avr, R_GPIOR2, loop_marker_write, NULL);
 	open_pty();
+	fprintf(ctl, "UART %s\n", link_path ? link_path : pty_name);
 	avr_cycle_timer_register(avr, TICK_CYCLES, tick, NULL);
 
 	clock_gettime(CLOCK_MONOTONIC, &wall_start);
 	fprintf(ctl, "READY\n");
 	while (!quit) {
+		if (reset_pending) {
+			reset_pending = 0;
+			reset_mcu();
+		}
 		int state = avr_run(avr);
 		if (state == cpu_Done || state == cpu_Crashed) {
 			fprintf(ctl, "HALTED state=%d\n", state);
 			break;
 		}
 	}
+	if (link_path) unlink(link_path);
 	fflush(ctl);
 	return 0;
 }

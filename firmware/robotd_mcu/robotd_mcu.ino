@@ -35,7 +35,7 @@ const uint8_t PIN_LED_FAIL = A5;  // red status LED
 const uint8_t PROTOCOL_VERSION = 1;
 const uint32_t BAUD = 115200;
 const uint8_t LINE_MAX = 64;                // bytes per line including '\n' (contract)
-const uint16_t DEADMAN_MS = 500;            // motors stop this long after the last MOTOR/HB
+const uint32_t DEADMAN_US = 500000UL;      // motors stop this long after the last MOTOR/HB
 const uint16_t ENCODER_PERIOD_MS = 50;      // 20 Hz
 const uint16_t IR_PERIOD_MS = 200;          // 5 Hz
 const uint16_t BAT_PERIOD_MS = 200;         // 5 Hz
@@ -64,7 +64,7 @@ static Framing framing = FRAMING_CRC;  // framing of telemetry: that of the last
 static bool have_last = false;         // duplicate suppression: last executed SEQ and CRC
 static uint8_t last_seq = 0;
 static uint8_t last_crc = 0;
-static uint32_t last_drive_ms = 0;
+static uint32_t last_drive_us = 0;
 static bool motors_on = false;
 static Anim base_anim = ANIM_IDLE;     // animation to return to after a one-shot effect
 static Anim anim = ANIM_IDLE;
@@ -375,13 +375,19 @@ static uint8_t parse_command(const char *payload, Command *c) {
   return FIELD_PARSE;
 }
 
-static void feed_deadman(uint32_t now_ms) { last_drive_ms = now_ms; }
+// micros(), not millis(): millis() steps by 2 now and then, which would cut the 500 ms short.
+static void feed_deadman() { last_drive_us = micros(); }
+
+// GPIOR2 is written whenever the outputs are consistent (after a command, at the end of a
+// loop): the emulator samples the pins then, so it never sees a half-applied command.
+static inline void outputs_settled() { GPIOR2 = loop_marker; }
 
 static Reply execute(const Command *c, uint32_t now_ms) {
+  Reply reply = REPLY_ACK;
   switch (c->cmd) {
     case CMD_MOTOR:
       motors_set((uint8_t)c->args[0], (uint8_t)c->args[1], c->args[2] == 1, c->args[3] == 1);
-      feed_deadman(now_ms);
+      feed_deadman();
       break;
     case CMD_SERVO: servo_write((uint8_t)c->args[0]); break;
     case CMD_LED_IDLE: anim_start(ANIM_IDLE, now_ms); break;
@@ -390,10 +396,11 @@ static Reply execute(const Command *c, uint32_t now_ms) {
     case CMD_SUCCESS: anim_start(ANIM_SUCCESS, now_ms); break;
     case CMD_FAILURE: anim_start(ANIM_FAILURE, now_ms); break;
     case CMD_STOP: motors_stop(); break;
-    case CMD_HB: feed_deadman(now_ms); break;
-    case CMD_HELLO: return REPLY_HELLO;
+    case CMD_HB: feed_deadman(); break;
+    case CMD_HELLO: reply = REPLY_HELLO; break;
   }
-  return REPLY_ACK;
+  outputs_settled();
+  return reply;
 }
 
 static Reply reply_for(uint8_t status) {
@@ -443,7 +450,7 @@ static void handle_crc_line(char *s, uint8_t len, uint32_t now_ms) {
   }
   if (have_last && last_seq == (uint8_t)seq && last_crc == crc) {
     // A resend of the command executed last: acknowledge, do not execute again.
-    if (c.cmd == CMD_MOTOR || c.cmd == CMD_HB) feed_deadman(now_ms);
+    if (c.cmd == CMD_MOTOR || c.cmd == CMD_HB) feed_deadman();
     send_reply(FRAMING_CRC, seq, c.cmd == CMD_HELLO ? REPLY_HELLO : REPLY_ACK);
     return;
   }
@@ -535,10 +542,10 @@ void loop() {
   GPIOR0 = ++loop_marker;  // loop start and end markers: the emulator times the loop in cycles
   uint32_t now_ms = millis();
   serial_poll(now_ms);
-  // '>' not '>=': millis() steps unevenly (1.024 ms ticks), this keeps the stop >= 500 ms.
-  if (motors_on && now_ms - last_drive_ms > DEADMAN_MS) motors_stop();
+  if (motors_on && micros() - last_drive_us >= DEADMAN_US) motors_stop();
   leds_update(now_ms);
   send_telemetry(now_ms);
+  outputs_settled();
   GPIOR1 = loop_marker;
   idle_until_interrupt();
 }

@@ -16,6 +16,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import shutil
+import tempfile
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -44,6 +45,9 @@ SERVO_MAX_US = 2400
 _TOOLS = ("make", "avr-gcc", "avr-size", "cc", "pkg-config", "flock")
 _SIMAVR_HEADER = Path("/usr/include/simavr/sim_avr.h")
 _ARDUINO_MK = Path("/usr/share/arduino/Arduino.mk")
+
+
+_FAULT_REPLIES = [["OK", name] for name in ("CORRUPT", "UNPLUG", "REPLUG", "RESET")]
 
 
 class SimavrUnavailable(RuntimeError):
@@ -135,12 +139,15 @@ class SimavrMcu:
     """One emulated motor board: the firmware on simavr, its UART pty and its pins."""
 
     def __init__(self, proc: asyncio.subprocess.Process, uart_path: str,
-                 history: int = 10_000) -> None:
+                 history: int = 10_000, workdir: tempfile.TemporaryDirectory[str] | None = None,
+                 ) -> None:
         self._proc = proc
+        self._workdir = workdir
         self.uart_path = uart_path
         self.pins: McuPins | None = None
         self.events: deque[McuPins] = deque(maxlen=history)
         self._replies: asyncio.Queue[str] = asyncio.Queue()
+        self._listeners: list[Callable[[McuPins], None]] = []
         self._command_lock = asyncio.Lock()
         self._changed = asyncio.Event()
         self._reader = asyncio.get_running_loop().create_task(self._read_events())
@@ -155,8 +162,11 @@ class SimavrMcu:
         if elf is None or harness is None:
             built_elf, built_harness = await build_firmware()
             elf, harness = elf or built_elf, harness or built_harness
+        # A stable name for the pty (a symlink, like a udev rule), so unplug/replug keeps it.
+        workdir = tempfile.TemporaryDirectory(prefix="robotd-simavr-")
+        link = str(Path(workdir.name) / "ttyMCU")
         proc = await asyncio.create_subprocess_exec(
-            str(harness), str(elf), stdin=asyncio.subprocess.PIPE,
+            str(harness), str(elf), "--link", link, stdin=asyncio.subprocess.PIPE,
             stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.DEVNULL)
         assert proc.stdout is not None
         first = (await proc.stdout.readline()).decode().strip()
@@ -165,9 +175,10 @@ class SimavrMcu:
             with contextlib.suppress(ProcessLookupError):
                 proc.kill()
             await proc.wait()
+            workdir.cleanup()
             msg = f"simavr harness did not start: {first!r} {ready!r}"
             raise SimavrUnavailable(msg)
-        mcu = cls(proc, first.split(" ", 1)[1])
+        mcu = cls(proc, first.split(" ", 1)[1], workdir=workdir)
         log.info("simavr.started", uart=mcu.uart_path, pid=proc.pid)
         return mcu
 
@@ -185,6 +196,10 @@ class SimavrMcu:
                 self.pins = McuPins.parse(line)
                 self.events.append(self.pins)
                 self._changed.set()
+                for listener in self._listeners:
+                    listener(self.pins)
+            elif line.split()[:2] in _FAULT_REPLIES:
+                pass  # answers to the fire-and-forget fault switches
             else:
                 self._replies.put_nowait(line.strip())
         self._replies.put_nowait("")  # the harness exited: wake a waiting command
@@ -198,7 +213,10 @@ class SimavrMcu:
                 raise SimavrUnavailable(msg)
             self._proc.stdin.write(line.encode() + b"\n")
             await self._proc.stdin.drain()
-            reply = await asyncio.wait_for(self._replies.get(), timeout_s)
+            # asyncio.timeout, not wait_for: 3.11's wait_for can swallow a cancellation that
+            # races with the reply, and a cancelled SimavrBridge would then run on.
+            async with asyncio.timeout(timeout_s):
+                reply = await self._replies.get()
         if not reply or reply.startswith("ERR"):
             msg = f"harness command {line!r} failed: {reply or 'harness exited'}"
             raise SimavrUnavailable(msg)
@@ -234,6 +252,31 @@ class SimavrMcu:
             await self.command("LOOPRESET")
         return {k: float(v) for k, v in (f.split("=") for f in reply.split()[1:])}
 
+    def add_listener(self, listener: Callable[[McuPins], None]) -> None:
+        """Calls listener with every new pin sample, as soon as it is read."""
+        self._listeners.append(listener)
+
+    # Fault switches, like a technician's hands: they take effect within a millisecond and
+    # need no await, so a test can time them with loop.time().
+    def corrupt(self, pct: float) -> None:
+        """Corrupts pct % of the UART bytes, both directions."""
+        self._send_nowait(f"CORRUPT {pct}")
+
+    def unplug(self) -> None:
+        """Pulls the USB cable: the port vanishes (reads fail) until replug(); the MCU runs on."""
+        self._send_nowait("UNPLUG")
+
+    def replug(self) -> None:
+        self._send_nowait("REPLUG")
+
+    def reset(self) -> None:
+        """Resets the MCU, as its reset button (or a DTR pulse) does."""
+        self._send_nowait("RESET")
+
+    def _send_nowait(self, line: str) -> None:
+        assert self._proc.stdin is not None
+        self._proc.stdin.write(line.encode() + b"\n")
+
     async def wait_for(self, predicate: Callable[[McuPins], bool],
                        timeout_s: float = 5.0) -> McuPins:
         """Waits until the pins satisfy predicate (checks the current state first)."""
@@ -251,39 +294,50 @@ class SimavrMcu:
                 self._proc.stdin.write(b"QUIT\n")
                 await self._proc.stdin.drain()
             try:
-                await asyncio.wait_for(self._proc.wait(), 2.0)
+                async with asyncio.timeout(2.0):
+                    await self._proc.wait()
             except TimeoutError:
                 self._proc.kill()
                 await self._proc.wait()
         self._reader.cancel()
         with contextlib.suppress(asyncio.CancelledError):
             await self._reader
+        if self._workdir is not None:
+            self._workdir.cleanup()
         log.info("simavr.stopped", uart=self.uart_path)
 
 
 class SimavrBridge:
-    """Couples the emulated board to a simulated body (``MotorPlant``) at a fixed rate."""
+    """Couples the emulated board to a simulated body (``MotorPlant``).
+
+    Pin changes reach the plant as soon as the harness reports them; the plant's encoders,
+    range and battery are fed back every ``period_s``. The MCU's encoder counts start at 0
+    at boot, so the plant's full count is injected first.
+    """
 
     def __init__(self, mcu: SimavrMcu, plant: MotorPlant, period_s: float = 0.01) -> None:
         self.mcu = mcu
         self.plant = plant
         self.period_s = period_s
-        self._ticks = plant.encoder_ticks()
+        self._ticks = (0, 0)
         self._drive: tuple[int, int, bool, bool] | None = None
         self._servo_deg: int | None = None
         self._range_cm: float | None = None
         self._battery: tuple[float, bool] | None = None
+        mcu.add_listener(self._on_pins)
+        if mcu.pins is not None:
+            self._on_pins(mcu.pins)
+
+    def _on_pins(self, pins: McuPins) -> None:
+        if pins.drive != self._drive:
+            self._drive = pins.drive
+            self.plant.apply_pwm(*pins.drive)
+        if pins.servo_deg is not None and pins.servo_deg != self._servo_deg:
+            self._servo_deg = pins.servo_deg
+            self.plant.servo(pins.servo_deg)
 
     async def step(self) -> None:
-        """One exchange: PWM and servo to the plant; encoders, range, battery to the MCU."""
-        pins = self.mcu.pins
-        if pins is not None:
-            if pins.drive != self._drive:
-                self._drive = pins.drive
-                self.plant.apply_pwm(*pins.drive)
-            if pins.servo_deg is not None and pins.servo_deg != self._servo_deg:
-                self._servo_deg = pins.servo_deg
-                self.plant.servo(pins.servo_deg)
+        """Feeds the plant's encoders, range and battery to the MCU's inputs."""
         ticks = self.plant.encoder_ticks()
         delta = (ticks[0] - self._ticks[0], ticks[1] - self._ticks[1])
         if delta != (0, 0):
@@ -302,7 +356,7 @@ class SimavrBridge:
             await self.mcu.set_battery_v(voltage_v)
 
     async def run(self) -> None:
-        """Exchanges every ``period_s`` of loop time until cancelled."""
+        """Feeds the sensors every ``period_s`` of loop time until cancelled."""
         loop = asyncio.get_running_loop()
         next_t = loop.time()
         while True:

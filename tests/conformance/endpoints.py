@@ -19,6 +19,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Protocol
 
+from simavr_endpoint import SimavrEndpoint
+
 from drivers.arduino import ArduinoLink, LinkConfig
 from drivers.serial_port import open_serial
 from hal.ports import SerialOpener
@@ -180,6 +182,7 @@ class PtyEndpoint(_FakeMcuEndpoint):
 ENDPOINTS: dict[str, Callable[[], McuEndpoint]] = {
     "fake-pipe": PipeEndpoint,
     "fake-pty": PtyEndpoint,
+    "simavr": SimavrEndpoint,  # the real firmware in an emulated ATmega328P (firmware/)
 }
 
 Scenario = Callable[[McuEndpoint], Awaitable[None]]

@@ -136,7 +136,7 @@ class TestSiteFile:
          "beacons[0].rssi_threshold_dbm: must be int"),
     ])
     def test_bad_site_files_name_the_entry(self, text, message):
-        with pytest.raises(SiteError, match="site.toml") as info:
+        with pytest.raises(SiteError, match=r"site\.toml") as info:
             parse_site(text, "site.toml")
         assert message in str(info.value)
 

@@ -44,6 +44,17 @@ def crc8_bitwise(data: bytes) -> int:
     return crc
 
 
+# The bitwise algorithm tabulated once: the fake runs thousands of lines per simulated minute.
+_CRC_TABLE = tuple(crc8_bitwise(bytes([b])) for b in range(256))
+
+
+def crc8_fast(data: bytes) -> int:
+    crc = 0
+    for byte in data:
+        crc = _CRC_TABLE[crc ^ byte]
+    return crc
+
+
 @dataclass(frozen=True, slots=True)
 class Executed:
     """One command the MCU carried out (``seq`` None in plain framing)."""
@@ -255,7 +266,7 @@ class FakeMcu:
             return
         body, check = line[:-3], line[-2:]
         if len(line) < 3 or line[-3:-2] != b"*" or not _hex_ok(check) or int(
-                check, 16) != crc8_bitwise(body):
+                check, 16) != crc8_fast(body):
             self._reply(seq, "NAK:CRC")
             return
         self.crc_framing = True
@@ -339,27 +350,38 @@ class FakeMcu:
         self._send_line(body.encode("ascii"), crc=seq is not None)
 
     def _send_line(self, body: bytes, *, crc: bool) -> None:
+        self._send_lines([body], crc=crc)
+
+    def _send_lines(self, bodies: list[bytes], *, crc: bool) -> None:
+        """Frame lines and send them in one write (as a UART's buffer drains them)."""
         if self._streams is None:
             return
-        line = body + (f"*{crc8_bitwise(body):02X}".encode() if crc else b"") + b"\n"
-        line = corrupt_bytes(line, self.corrupt_fraction, self._rng)
+        data = b"".join(
+            body + (f"*{crc8_fast(body):02X}".encode() if crc else b"") + b"\n"
+            for body in bodies)
+        data = corrupt_bytes(data, self.corrupt_fraction, self._rng)
         loop = asyncio.get_running_loop()
-        self._out_pending.append((loop.time() + self.reply_delay_s, line))
+        if self.reply_delay_s <= 0 and not self._out_pending:
+            self._write(data)
+            return
+        self._out_pending.append((loop.time() + self.reply_delay_s, data))
         if self._out_timer is None:
-            self._flush()
+            self._out_timer = loop.call_at(self._out_pending[0][0], self._flush)
+
+    def _write(self, data: bytes) -> None:
+        if self._streams is None:
+            return
+        writer = self._streams[1]
+        # Nobody reading the port: a UART's bytes are simply gone.
+        if writer.transport.get_write_buffer_size() <= _TX_BACKLOG_BYTES:
+            with contextlib.suppress(OSError, RuntimeError):
+                writer.write(data)
 
     def _flush(self) -> None:
         self._out_timer = None
-        if self._streams is None:
-            return
         loop = asyncio.get_running_loop()
-        writer = self._streams[1]
         while self._out_pending and self._out_pending[0][0] <= loop.time():
-            line = self._out_pending.popleft()[1]
-            if writer.transport.get_write_buffer_size() > _TX_BACKLOG_BYTES:
-                continue  # nobody reads the port: a UART's bytes are simply gone
-            with contextlib.suppress(OSError, RuntimeError):
-                writer.write(line)
+            self._write(self._out_pending.popleft()[1])
         if self._out_pending:
             self._out_timer = loop.call_at(self._out_pending[0][0], self._flush)
 
@@ -367,10 +389,12 @@ class FakeMcu:
         loop = asyncio.get_running_loop()
         due = {name: loop.time() + period for name, period in self.periods_s.items()}
         while True:
-            name = min(due, key=due.__getitem__)
-            await asyncio.sleep(max(0.0, due[name] - loop.time()))
-            due[name] += self.periods_s[name]
-            self._send_line(self._telemetry_body(name), crc=self.crc_framing)
+            next_s = min(due.values())
+            await asyncio.sleep(max(0.0, next_s - loop.time()))
+            names = [n for n, t in due.items() if t <= next_s + 1e-9]
+            for name in names:
+                due[name] += self.periods_s[name]
+            self._send_lines([self._telemetry_body(n) for n in names], crc=self.crc_framing)
 
     def _telemetry_body(self, name: str) -> bytes:
         if name == "ENCODER":

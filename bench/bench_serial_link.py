@@ -26,6 +26,7 @@ import structlog
 
 from drivers.arduino import ArduinoLink, LinkConfig
 from drivers.serial_port import open_serial
+from hal.readings import MotorCommand
 from hal.sim.fake_mcu import FakeMcu
 from hal.sim.plant import RecordingPlant
 from hal.sim.pty_mcu import PtyMcu
@@ -82,6 +83,33 @@ async def over_pty_other_process(count: int) -> dict[str, Any]:
             await proc.wait()
 
 
+async def sim_cost(seconds: int) -> tuple[float, float]:
+    """CPU seconds per simulated second, and loop turns per simulated second, of a link fed
+    MOTOR at 13 Hz (the line follower's rate) in virtual time."""
+    mcu = FakeMcu(RecordingPlant())
+    ports = SimSerialPorts()
+    ports.attach("/dev/ttyACM0", mcu)
+    link = ArduinoLink(ports, LinkConfig(port="/dev/ttyACM0"))
+    await link.start()
+    loop = asyncio.get_running_loop()
+    turns = [0]
+    original = loop._run_once  # type: ignore[attr-defined]
+
+    def counted() -> None:
+        turns[0] += 1
+        original()
+
+    loop._run_once = counted  # type: ignore[attr-defined]
+    cpu0 = time.process_time()
+    for i in range(13 * seconds):
+        await link.drive(MotorCommand(i % 200, 100))
+        await asyncio.sleep(1 / 13)
+    cpu_s = time.process_time() - cpu0
+    await link.close()
+    await mcu.close()
+    return cpu_s / seconds, turns[0] / seconds
+
+
 def timed(label: str, run: Any) -> None:
     wall0 = time.perf_counter()
     report = run()
@@ -107,6 +135,9 @@ def main() -> int:
           lambda: asyncio.run(over_pty_other_process(n)))
     timed("pty 115200, 2 % bytes corrupted both ways",
           lambda: asyncio.run(over_pty_in_process(max(100, n // 4), corrupt_pct=2.0)))
+    cpu_per_s, turns_per_s = vclock.run(sim_cost(120))
+    print(f"simulator cost, MOTOR at 13 Hz: {cpu_per_s * 1000:.2f} ms CPU and "
+          f"{turns_per_s:.0f} loop turns per simulated second (link alone: x{1 / cpu_per_s:.0f})")
     print(json.dumps({"note": "RTT from first tries only (Karn); pty does not pace at baud"}))
     return 0
 

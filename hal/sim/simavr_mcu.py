@@ -363,3 +363,22 @@ class SimavrBridge:
             await self.step()
             next_t += self.period_s
             await asyncio.sleep(max(0.0, next_t - loop.time()))
+
+
+async def _serve() -> None:
+    async with await SimavrMcu.start() as mcu:
+        print(f"firmware running on simavr; UART at {mcu.uart_path} (Ctrl-C stops)", flush=True)
+        await asyncio.Event().wait()
+
+
+def main() -> None:
+    """``python -m hal.sim.simavr_mcu``: run the emulated board for a technician's tools."""
+    reason = missing_toolchain()
+    if reason is not None:
+        raise SystemExit(reason)
+    with contextlib.suppress(KeyboardInterrupt):
+        asyncio.run(_serve())
+
+
+if __name__ == "__main__":
+    main()

@@ -16,6 +16,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import shutil
+import signal
 import tempfile
 from collections import deque
 from collections.abc import Callable
@@ -366,9 +367,12 @@ class SimavrBridge:
 
 
 async def _serve() -> None:
+    stop = asyncio.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        asyncio.get_running_loop().add_signal_handler(sig, stop.set)
     async with await SimavrMcu.start() as mcu:
         print(f"firmware running on simavr; UART at {mcu.uart_path} (Ctrl-C stops)", flush=True)
-        await asyncio.Event().wait()
+        await stop.wait()
 
 
 def main() -> None:
@@ -376,8 +380,7 @@ def main() -> None:
     reason = missing_toolchain()
     if reason is not None:
         raise SystemExit(reason)
-    with contextlib.suppress(KeyboardInterrupt):
-        asyncio.run(_serve())
+    asyncio.run(_serve())
 
 
 if __name__ == "__main__":

@@ -141,6 +141,11 @@ def parse_line(raw: bytes, framing: Framing) -> Line:
         if crc8(body.encode("ascii")) != expected:
             return Garbled("CRC mismatch", raw)
         text = body
+    else:
+        # Until it hears a plain command, a dual-framing board still sends ``*CC``: drop it.
+        body, star, check = text.rpartition("*")
+        if star and len(check) == 2 and check == f"{crc8(body.encode('ascii')):02X}":
+            text = body
     return _parse_body(text, raw)
 
 

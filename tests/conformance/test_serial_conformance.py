@@ -10,7 +10,7 @@ from functools import partial
 import pytest
 from endpoints import ENDPOINTS, McuEndpoint, Scenario, run_scenario
 
-from drivers.arduino import Outcome
+from drivers.arduino import Framing, Outcome
 from drivers.arduino.framing import frame_body
 from hal.devices import LinkDown
 from hal.ports import StreamPair
@@ -136,6 +136,29 @@ class TestHandshakeAndCommands:
                 battery = await asyncio.wait_for(link.battery.next_reading(), 1.0)
                 assert battery.voltage_v == pytest.approx(11.9, abs=0.05)
                 assert battery.on_dock_contacts
+            finally:
+                await link.close()
+
+        run(scenario)
+
+
+class TestPlainFraming:
+    def test_the_driver_in_plain_framing_drives_the_board(self, run: Runner) -> None:
+        """serial.framing = plain: no HELLO, bare lines and ACKs; wheels and servo move and
+        telemetry still arrives."""
+
+        async def scenario(ep: McuEndpoint) -> None:
+            link = ep.link(framing=Framing.PLAIN)
+            await link.start()
+            try:
+                assert (await link.command("SERVO:21")).ok
+                await link.drive(MotorCommand(40, 41, True, False))
+                await settle()
+                assert last_pwm(ep) == (40, 41, True, False)
+                assert ep.servo_log()[-1] == 21
+                ticks = await asyncio.wait_for(link.encoders.next_reading(), 1.0)
+                assert ticks is not None
+                assert link.status()["bad_telemetry"] == 0
             finally:
                 await link.close()
 

@@ -79,6 +79,8 @@ class TestParseLine:
         """The seed's ``ACK`` and ``IR:35`` without SEQ or CRC."""
         assert parse_line(b"ACK", Framing.PLAIN) == Ack(None)
         assert parse_line(b"IR:35\r", Framing.PLAIN) == Telemetry("IR", ("35",))
+        crc_framed = frame_body(b"IR:35")[:-1]
+        assert parse_line(crc_framed, Framing.PLAIN) == Telemetry("IR", ("35",))
 
     @given(st.binary(max_size=100), st.sampled_from(list(Framing)))
     def test_garbage_never_raises(self, raw: bytes, framing: Framing) -> None:

@@ -183,6 +183,11 @@ class SimavrMcu:
         log.info("simavr.started", uart=mcu.uart_path, pid=proc.pid)
         return mcu
 
+    @property
+    def pid(self) -> int:
+        """The harness process (for CPU accounting)."""
+        return self._proc.pid
+
     async def __aenter__(self) -> SimavrMcu:
         return self
 

@@ -204,7 +204,8 @@ class ArduinoLink:
     def submit(self, payload: str) -> asyncio.Future[Delivery]:
         """Queue ``payload``; the future ends with its Delivery. LinkDown while down."""
         if not self._connected or self._session is None:
-            msg = f"{self.name} on {self.config.port}: link is down ({self.last_down_reason})"
+            why = self.last_down_reason or "not connected yet"
+            msg = f"{self.name} on {self.config.port}: link is down ({why})"
             raise LinkDown(msg)
         encode_command(payload, 0, self.config.framing)  # ValueError for a bad payload
         command = Command(payload, asyncio.get_running_loop().create_future())

@@ -261,7 +261,8 @@ class Session:
                     self._acked(inflight, event, timeouts + fast, now - first_s)
                     return
                 if isinstance(event, Nak) and event.reason != "CRC" and (
-                        refusals >= MAX_REFUSAL_RESENDS or not well_formed(command.payload)):
+                        refusals >= MAX_REFUSAL_RESENDS or not well_formed(command.payload)
+                        or self.framing is Framing.PLAIN):
                     command.settle(Outcome.NAK, seq=seq, resends=timeouts + fast,
                                    detail=f"NAK:{event.reason}")
                     log.warning("link.nak", seq=seq, payload=command.payload,

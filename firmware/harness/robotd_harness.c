@@ -19,6 +19,7 @@
  *   LOOPRESET         -> "OK LOOPRESET"
  *   TIME              -> "TIME t_us=.. cycles=.. lag_us=.."
  *   CORRUPT <pct>     -> corrupt that % of UART bytes, both ways        -> "OK CORRUPT"
+ *   DELAY <seconds>   -> hold every byte the MCU sends this long (wall)  -> "OK DELAY"
  *   UNPLUG / REPLUG   -> the USB cable: the pty vanishes / comes back    -> "OK UNPLUG"
  *   RESET             -> reset the MCU (as the reset button or DTR)      -> "OK RESET"
  *   QUIT              -> exits (so does EOF on stdin)
@@ -84,7 +85,9 @@ static int uart_xon = 1;
 static uint8_t rx_buf[256];
 static size_t rx_len, rx_done;
 static uint8_t tx_buf[4096];
+static int64_t tx_due_us[4096];    /* wall-clock time each byte may leave (DELAY) */
 static size_t tx_len;
+static int64_t delay_us;
 static char cmd_buf[256];
 static char pty_name[128];
 static size_t cmd_len;
@@ -111,6 +114,12 @@ static uint32_t adc_mv[8];
 static int dock_level;
 
 static uint64_t now_cycles(void) { return avr->cycle + cycle_base; }
+
+static int64_t wall_us(void) {
+	struct timespec now;
+	clock_gettime(CLOCK_MONOTONIC, &now);
+	return (now.tv_sec - wall_start.tv_sec) * 1000000LL + (now.tv_nsec - wall_start.tv_nsec) / 1000;
+}
 static uint64_t now_us(void) { return CPU_US(now_cycles()); }
 
 static int bit(uint8_t reg, int n) { return (avr->data[reg] >> n) & 1; }
@@ -164,7 +173,10 @@ static uint8_t maybe_corrupt(uint8_t byte) {
 
 static void uart_out_hook(avr_irq_t *irq, uint32_t value, void *param) {
 	(void)irq; (void)param;
-	if (!unplugged && tx_len < sizeof(tx_buf)) tx_buf[tx_len++] = maybe_corrupt((uint8_t)value);
+	if (!unplugged && tx_len < sizeof(tx_buf)) {
+		tx_due_us[tx_len] = wall_us() + delay_us;
+		tx_buf[tx_len++] = maybe_corrupt((uint8_t)value);
+	}
 	if (value == '\n') flush_tx();  /* a whole line goes out at once, not at the next service */
 }
 static void uart_xon_hook(avr_irq_t *irq, uint32_t value, void *param) {
@@ -184,9 +196,14 @@ static void flush_tx(void) {
 		/* Nobody reading the pty: drop what piled up rather than block the UART. */
 		if (ioctl(pty_slave, FIONREAD, &queued) == 0 && queued > PTY_BACKLOG_MAX)
 			tcflush(pty_slave, TCIFLUSH);
-		ssize_t w = write(pty_master, tx_buf, tx_len);
+		size_t due = 0;
+		int64_t now = delay_us ? wall_us() : INT64_MAX;
+		while (due < tx_len && tx_due_us[due] <= now) due++;
+		if (!due) return;
+		ssize_t w = write(pty_master, tx_buf, due);
 		if (w > 0) {
 			memmove(tx_buf, tx_buf + w, tx_len - (size_t)w);
+			memmove(tx_due_us, tx_due_us + w, (tx_len - (size_t)w) * sizeof(tx_due_us[0]));
 			tx_len -= (size_t)w;
 		} else if (w < 0 && errno == EAGAIN) {
 			tx_len = 0;
@@ -342,6 +359,9 @@ static void handle_command(char *line) {
 	} else if (sscanf(line, "CORRUPT %lf", &pct) == 1) {
 		corrupt_pct = pct;
 		fprintf(ctl, "OK CORRUPT\n");
+	} else if (sscanf(line, "DELAY %lf", &pct) == 1) {
+		delay_us = pct > 0 ? (int64_t)(pct * 1e6) : 0;
+		fprintf(ctl, "OK DELAY\n");
 	} else if (strcmp(line, "UNPLUG") == 0) {
 		if (!unplugged) close_pty();
 		unplugged = 1;
@@ -383,11 +403,7 @@ static void control_service(void) {
 /* Waits while the emulated clock is ahead of the wall clock; returns 1 when pty or stdin input
  * cut the wait short (the caller serves it at once). */
 static int pace(void) {
-	struct timespec now;
-	clock_gettime(CLOCK_MONOTONIC, &now);
-	int64_t wall_us = (now.tv_sec - wall_start.tv_sec) * 1000000LL +
-	                  (now.tv_nsec - wall_start.tv_nsec) / 1000;
-	int64_t ahead_us = (int64_t)now_us() - wall_us;
+	int64_t ahead_us = (int64_t)now_us() - wall_us();
 	lag_us = -ahead_us;
 	if (ahead_us > 100) {
 		struct pollfd pfd[2] = {{.fd = 0, .events = POLLIN},

@@ -48,7 +48,7 @@ _SIMAVR_HEADER = Path("/usr/include/simavr/sim_avr.h")
 _ARDUINO_MK = Path("/usr/share/arduino/Arduino.mk")
 
 
-_FAULT_REPLIES = [["OK", name] for name in ("CORRUPT", "UNPLUG", "REPLUG", "RESET")]
+_FAULT_REPLIES = [["OK", name] for name in ("CORRUPT", "DELAY", "UNPLUG", "REPLUG", "RESET")]
 
 
 class SimavrUnavailable(RuntimeError):
@@ -267,6 +267,10 @@ class SimavrMcu:
     def corrupt(self, pct: float) -> None:
         """Corrupts pct % of the UART bytes, both directions."""
         self._send_nowait(f"CORRUPT {pct}")
+
+    def delay(self, seconds: float) -> None:
+        """Holds every byte the MCU sends this long (a slow USB adapter or host)."""
+        self._send_nowait(f"DELAY {seconds}")
 
     def unplug(self) -> None:
         """Pulls the USB cable: the port vanishes (reads fail) until replug(); the MCU runs on."""

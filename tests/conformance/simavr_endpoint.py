@@ -39,7 +39,7 @@ class SimavrEndpoint:
 
     name = "simavr"
     virtual_time = False
-    faults = frozenset({"corrupt", "unplug", "reset"})
+    faults = frozenset({"corrupt", "unplug", "reset", "delay"})
     timing_slack_s = 0.15  # pin samples cross a pipe; the emulator may lag a loaded machine
 
     def __init__(self) -> None:
@@ -106,5 +106,4 @@ class SimavrEndpoint:
         self.mcu.reset()
 
     def delay(self, seconds: float) -> None:
-        msg = "the simavr endpoint cannot delay replies"
-        raise NotImplementedError(msg)
+        self.mcu.delay(seconds)

@@ -113,12 +113,15 @@ class FakeMcu:
         deadman_s: motors stop this long after the last MOTOR/HB (None: never, as old sketches).
         announce_boot: send ``BOOT:<fw>,<protocol>`` on reset (the driver keeps encoders
             continuous with it).
+        reset_on_open: restart whenever the port is opened, as an Arduino Uno does when DTR
+            toggles; ``boot_s`` is how long it then ignores the line (its bootloader).
     """
 
     def __init__(self, plant: MotorPlant, *, firmware: str = "fake-mcu-1.0", protocol: int = 1,
                  seed: int = 0, deadman_s: float | None = 0.5, encoder_period_s: float = 0.05,
                  ir_period_s: float = 0.2, battery_period_s: float = 0.2,
-                 announce_boot: bool = True, history: int = 100_000) -> None:
+                 announce_boot: bool = True, reset_on_open: bool = False,
+                 boot_s: float = 0.0, history: int = 100_000) -> None:
         self.plant = plant
         self.firmware = firmware
         self.protocol = protocol
@@ -126,6 +129,9 @@ class FakeMcu:
         self.periods_s = {"ENCODER": encoder_period_s, "IR": ir_period_s,
                           "BAT": battery_period_s}
         self.announce_boot = announce_boot
+        self.reset_on_open = reset_on_open
+        self.boot_s = boot_s
+        self._booting_until_s = float("-inf")
         self.executed: collections.deque[Executed] = collections.deque(maxlen=history)
         self.duplicates = 0
         self.naks: list[tuple[int | None, str]] = []
@@ -167,6 +173,8 @@ class FakeMcu:
         loop = asyncio.get_running_loop()
         self._tasks = [loop.create_task(self._serve(streams[0])),
                        loop.create_task(self._telemetry())]
+        if self.reset_on_open:
+            self.reset()
 
     def disconnect(self) -> None:
         for task in self._tasks:
@@ -221,8 +229,11 @@ class FakeMcu:
             self._deadman = None
         self._boot_state()
         log.info("fake_mcu.reset", boots=self.boots)
+        loop = asyncio.get_running_loop()
+        self._booting_until_s = loop.time() + self.boot_s
         if self.announce_boot:
-            self._send_line(f"BOOT:{self.firmware},{self.protocol}".encode(), crc=True)
+            loop.call_at(self._booting_until_s, self._send_line,
+                         f"BOOT:{self.firmware},{self.protocol}".encode(), True)
 
     # -- receiving ---------------------------------------------------------------------------
     async def _serve(self, reader: asyncio.StreamReader) -> None:
@@ -235,6 +246,8 @@ class FakeMcu:
                 return
             if not chunk:
                 return
+            if asyncio.get_running_loop().time() < self._booting_until_s:
+                continue  # the bootloader has the UART: the sketch never sees these bytes
             chunk = corrupt_bytes(chunk, self.corrupt_fraction, self._rng)
             for byte in chunk:
                 if byte == 0x0A:
@@ -349,7 +362,7 @@ class FakeMcu:
         body = f"#{seq} {text}" if seq is not None else text
         self._send_line(body.encode("ascii"), crc=seq is not None)
 
-    def _send_line(self, body: bytes, *, crc: bool) -> None:
+    def _send_line(self, body: bytes, crc: bool) -> None:
         self._send_lines([body], crc=crc)
 
     def _send_lines(self, bodies: list[bytes], *, crc: bool) -> None:
@@ -394,6 +407,8 @@ class FakeMcu:
             names = [n for n, t in due.items() if t <= next_s + 1e-9]
             for name in names:
                 due[name] += self.periods_s[name]
+            if loop.time() < self._booting_until_s:
+                continue
             self._send_lines([self._telemetry_body(n) for n in names], crc=self.crc_framing)
 
     def _telemetry_body(self, name: str) -> bytes:

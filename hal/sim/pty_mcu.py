@@ -111,7 +111,8 @@ def summary(mcu: FakeMcu) -> dict[str, Any]:
 
 
 async def _serve(args: argparse.Namespace) -> None:
-    mcu = FakeMcu(RecordingPlant(), seed=args.seed, firmware=args.firmware)
+    mcu = FakeMcu(RecordingPlant(), seed=args.seed, firmware=args.firmware,
+                  reset_on_open=args.boot_s > 0, boot_s=args.boot_s)
     mcu.corrupt(args.corrupt)
     mcu.delay(args.delay)
     server = PtyMcu(mcu, link=args.link)
@@ -133,6 +134,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--delay", type=float, default=0.0, help="reply delay in seconds")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--firmware", default="fake-mcu-1.0")
+    parser.add_argument("--boot-s", type=float, default=0.0,
+                        help="restart on every open and stay deaf this long, like an Uno")
     asyncio.run(_serve(parser.parse_args(argv)))
     return 0
 

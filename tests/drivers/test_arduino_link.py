@@ -129,6 +129,26 @@ class TestStartAndHandshake:
         vclock.run(main())
 
 
+    def test_a_board_that_resets_when_the_port_opens_is_waited_for(self) -> None:
+        """Like an Uno (DTR reset, 1.5 s bootloader that swallows the first HELLOs): the
+        handshake keeps asking and completes once the sketch runs."""
+
+        async def main() -> None:
+            mcu = FakeMcu(RecordingPlant(), reset_on_open=True, boot_s=1.5)
+            ports = SimSerialPorts()
+            ports.attach(PORT, mcu)
+            link = ArduinoLink(ports, LinkConfig(port=PORT))
+            loop = asyncio.get_running_loop()
+            start_s = loop.time()
+            await link.start()
+            assert 1.5 <= loop.time() - start_s < 2.5
+            assert link.firmware == "fake-mcu-1.0" and mcu.boots == 1
+            await link.close()
+            await mcu.close()
+
+        vclock.run(main())
+
+
 class TestCommands:
     def test_stop_goes_out_at_once_while_another_command_waits_for_its_ack(self) -> None:
         """Replies 300 ms late, a SERVO in flight: STOP is sent and executed without waiting

@@ -135,7 +135,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--firmware", default="fake-mcu-1.0")
     parser.add_argument("--boot-s", type=float, default=0.0,
-                        help="restart on every open and stay deaf this long, like an Uno")
+                        help="boot (deaf) this long at start and on replug, like an Uno")
     asyncio.run(_serve(parser.parse_args(argv)))
     return 0
 

@@ -60,6 +60,7 @@ enum Anim : uint8_t { ANIM_IDLE, ANIM_WAITING, ANIM_MOVING, ANIM_SUCCESS, ANIM_F
 static char line_buf[LINE_MAX];       // one line without '\n', NUL-terminated
 static uint8_t line_len = 0;
 static bool line_overlong = false;
+static bool line_binary = false;       // a control or non-ASCII byte: never a valid command
 static Framing framing = FRAMING_CRC;  // framing of telemetry: that of the last good command
 static bool have_last = false;         // duplicate suppression: last executed SEQ and CRC
 static uint8_t last_seq = 0;
@@ -443,7 +444,7 @@ static void handle_crc_line(char *s, uint8_t len, uint32_t now_ms) {
   s[body_len] = '\0';
   const char *payload = strchr(s, ' ') + 1;
   Command c;
-  uint8_t status = parse_command(payload, &c);
+  uint8_t status = line_binary ? (uint8_t)FIELD_PARSE : parse_command(payload, &c);
   if (status != FIELD_OK) {
     send_reply(FRAMING_CRC, seq, reply_for(status));
     return;
@@ -464,7 +465,7 @@ static void handle_crc_line(char *s, uint8_t len, uint32_t now_ms) {
 static void handle_plain_line(const char *s, uint32_t now_ms) {
   if (line_overlong) return;  // no SEQ to answer to
   Command c;
-  uint8_t status = parse_command(s, &c);
+  uint8_t status = line_binary ? (uint8_t)FIELD_PARSE : parse_command(s, &c);
   if (status != FIELD_OK) {
     send_reply(FRAMING_PLAIN, -1, reply_for(status));
     return;
@@ -482,6 +483,7 @@ static void handle_line(uint32_t now_ms) {
   }
   line_len = 0;
   line_overlong = false;
+  line_binary = false;
 }
 
 static void serial_poll(uint32_t now_ms) {
@@ -492,6 +494,7 @@ static void serial_poll(uint32_t now_ms) {
     } else if (ch == '\r') {
       // tolerated line ending
     } else if (line_len < LINE_MAX - 1) {
+      if ((uint8_t)ch < 0x20 || (uint8_t)ch > 0x7E) line_binary = true;
       line_buf[line_len++] = ch;
     } else {
       line_overlong = true;  // keep the start (for the SEQ), drop the rest until '\n'

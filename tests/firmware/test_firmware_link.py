@@ -56,6 +56,11 @@ class TestCrcFraming:
         assert await link.command(7, "SERVO:-1") == "#7 NAK:RANGE"
         assert await link.command(8, "SERVO:1234567") == "#8 NAK:RANGE"
 
+    async def test_control_bytes_in_a_payload_are_a_parse_error(self, link: PtyLink) -> None:
+        """A well-framed payload with a NUL or control byte is refused, not half-read."""
+        assert await link.command(15, "HB\x00junk") == "#15 NAK:PARSE"
+        assert await link.command(16, "STOP\x07") == "#16 NAK:PARSE"
+
     async def test_overlong_line_with_readable_seq_is_nakked(self, link: PtyLink) -> None:
         """A line over 64 bytes gets NAK:PARSE when its SEQ is readable; the link goes on."""
         body = "#9 MOTOR:" + "1" * 80

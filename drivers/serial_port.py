@@ -16,6 +16,5 @@ async def open_serial(port: str, baud: int) -> StreamPair:
             rtscts=False, xonxoff=False, dsrdtr=False, exclusive=True,
         )
     except serial.SerialException as exc:
-        # pyserial raises SerialException (an OSError) with errno lost; keep it an OSError.
-        msg = f"{port}: {exc}"
-        raise OSError(msg) from exc
+        # pyserial's SerialException is an OSError without errno; its text names the port.
+        raise OSError(str(exc)) from exc

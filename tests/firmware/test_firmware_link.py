@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import random
 
 from firmware_client import PtyLink, crc8, frame, unframe
 
@@ -131,3 +132,25 @@ class TestPlainFraming:
         start = len(link.telemetry)
         await link.telemetry_matching("ENCODER:")
         assert all(unframe(line) is not None for line in link.telemetry[start:])
+
+
+class TestRobustness:
+    async def test_random_garbage_never_wedges_the_link(
+            self, mcu: SimavrMcu, link: PtyLink) -> None:
+        """300 lines of random bytes (some frame-like) leave the board answering and idle."""
+        rng = random.Random(6)
+        alphabet = b"#0123456789 *:,ABCDEFHLMNOPRSTVW_\x00\xff\r"
+        for _ in range(300):
+            size = rng.randint(0, 90)
+            link.send(bytes(rng.choice(alphabet) for _ in range(size)) + b"\n")
+        link.send(frame("#42 HELLO"))
+        async with asyncio.timeout(10.0):
+            while True:  # the garbage is answered first (bare NAKs, NAK:CRC ...)
+                line = await link.reply()
+                if line.startswith("#"):
+                    assert unframe(line) is not None, line
+                if line.startswith("#42 "):
+                    break
+        assert unframe(line) == "#42 HELLO:robotd-mcu-1.0.0,1"
+        pins = await mcu.state()
+        assert pins.drive[:2] == (0, 0)

@@ -105,8 +105,7 @@ def build_devices(settings: Settings, profile_devices: Iterable[str]) -> Devices
         if isinstance(device, str):
             problems.append(f"{', '.join(slots)} ({name}): {device}")
             continue
-        for filled in HARDWARE[name].slots:
-            setattr(devices, filled, device)
+        fill_slots(devices, HARDWARE[name].slots, device)
     if problems:
         raise HardwareMissing(problems)
     return devices
@@ -126,3 +125,10 @@ def _construct(hardware: Hardware, settings: Settings) -> Any:
         return factory(settings)
     except Exception as exc:  # a driver refusing its settings: say so on one line
         return f"the driver refused its settings: {exc}"
+
+
+def fill_slots(devices: Devices, slots: tuple[str, ...], device: Any) -> None:
+    """Put ``device`` in its slots; a driver that fills several offers each as a facet of the
+    same name (the Arduino link's ``.encoders``, ``.front_range``, ``.battery``)."""
+    for slot in slots:
+        setattr(devices, slot, getattr(device, slot, device))

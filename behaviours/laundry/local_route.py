@@ -20,6 +20,8 @@ from behaviours.load_check import LoadCheck, LoadVerdict
 
 log = structlog.get_logger(__name__)
 
+_LOAD_POLL_S = 0.2
+
 
 class LocalRoute:
     def __init__(self, route: list[str], beacons: dict[str, Any], base_room: str,
@@ -78,10 +80,13 @@ class LocalRoute:
             await asyncio.sleep(self.period_s)
 
     async def _wait_for_load(self) -> str:
+        """Until the bin holds a steady load (LoadCheck is fed by the sensing task)."""
         assert self.load is not None
-        try:
-            verdict = await asyncio.wait_for(self.load.wait_for(LoadVerdict.LOADED),
-                                             self.load_wait_s)
-        except TimeoutError:
-            return "timeout"
-        return verdict.value
+        loop = asyncio.get_running_loop()
+        give_up = loop.time() + self.load_wait_s
+        while loop.time() < give_up:
+            verdict = self.load.check_load()
+            if verdict is LoadVerdict.LOADED:
+                return verdict.value
+            await asyncio.sleep(_LOAD_POLL_S)
+        return "timeout"

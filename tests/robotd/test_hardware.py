@@ -38,3 +38,21 @@ class TestBuildDevices:
             "camera (camera): camera /dev/videoNOPE does not exist (check camera.device and "
             "the cable; ls /dev/video*)",
         ]
+
+
+
+class TestFacets:
+    def test_the_arduino_link_fills_sensor_slots_with_its_facets(self) -> None:
+        """encoders/front_range/battery are the link's feeds, motors the link itself."""
+        from drivers.arduino.link import ArduinoLink
+        from hal.backend import Devices
+        from hal.sim.sim_serial import SimSerialPorts
+        from robotd.hardware import HARDWARE, fill_slots
+
+        link = ArduinoLink(SimSerialPorts())
+        devices = Devices()
+        fill_slots(devices, HARDWARE["arduino"].slots, link)
+        assert devices.motors is link and devices.servo is link and devices.leds is link
+        assert devices.encoders is link.encoders
+        assert devices.front_range is link.front_range
+        assert devices.battery is link.battery

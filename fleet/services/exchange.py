@@ -12,9 +12,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import datetime
-from typing import Any
+from typing import Any, cast
 
-from sqlalchemy import select, update
+from sqlalchemy import Table, bindparam, select, update
 
 from fleet.cache import Cached, SiteCache
 from fleet.clock import Clock
@@ -110,9 +110,8 @@ class RobotViews:
 
     def note_ping(self, robot_id: int, now: datetime, report: Report) -> None:
         self._pings[robot_id] = {
-            "id": robot_id, "last_ping_at": now, "weight_kg": report.weight_kg,
-            "ultrasonic_distance": report.ultrasonic_distance,
-            "is_in_target": report.is_in_target}
+            "rid": robot_id, "ping": now, "weight": report.weight_kg,
+            "distance": report.ultrasonic_distance, "in_target": report.is_in_target}
 
     async def flush_pings(self) -> int:
         """Write the pings noted since the last flush; returns how many robots."""
@@ -120,8 +119,20 @@ class RobotViews:
             return 0
         pings, self._pings = list(self._pings.values()), {}
         async with self._db.write(serial=False) as session:
-            await session.execute(update(Robot), pings)
+            conn = await session.connection()
+            for start in range(0, len(pings), _PING_CHUNK):
+                await conn.execute(_PING_UPDATE, pings[start:start + _PING_CHUNK])
         return len(pings)
+
+
+_robots = cast(Table, Robot.__table__)
+# A plain executemany: an ORM bulk update of hundreds of rows would hold the event loop.
+_PING_UPDATE = (
+    update(_robots).where(_robots.c.id == bindparam("rid")).values(
+        last_ping_at=bindparam("ping"), weight_kg=bindparam("weight"),
+        ultrasonic_distance=bindparam("distance"), is_in_target=bindparam("in_target"))
+)
+_PING_CHUNK = 200
 
 
 def _may_change(light: _Light, report: Report) -> bool:

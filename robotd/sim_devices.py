@@ -7,6 +7,7 @@ are added when the robot's profile uses those devices.
 
 from __future__ import annotations
 
+import asyncio
 import random
 from typing import Any
 
@@ -14,6 +15,7 @@ import structlog
 
 from drivers import ble_scanner, hx711
 from drivers.arduino.link import ArduinoLink
+from drivers.serial_port import open_serial
 from hal.backend import Devices
 from hal.sim.ble_model import BleAirParams, SimBleAir
 from hal.sim.body import DiffDriveBody
@@ -21,6 +23,7 @@ from hal.sim.camera_model import CameraMount, SimCamera
 from hal.sim.fake_mcu import FakeMcu
 from hal.sim.hx711_model import SimHx711Lines
 from hal.sim.sim_serial import SimSerialPorts
+from hal.sim.simavr_mcu import SimavrBridge, SimavrMcu, SimavrUnavailable, missing_toolchain
 from hal.sim.world import World
 from robotd.config.settings import Settings
 
@@ -36,9 +39,8 @@ class SimRig:
         self.body = body
         self.settings = settings
         self.mcu_kind = mcu
-        if mcu != "fake":
-            msg = f"--mcu {mcu}: only 'fake' runs in virtual time (simavr needs --realtime)"
-            raise ValueError(msg)
+        self.simavr: SimavrMcu | None = None
+        self.bridge: SimavrBridge | None = None
         self.mcu = FakeMcu(body, seed=seed * 1000 + index)
         self.ports = SimSerialPorts(seed=seed * 1000 + index)
         self.ports.attach(settings.get("serial.port"), self.mcu)
@@ -65,39 +67,88 @@ class SimRig:
             lines = SimHx711Lines.on_body(
                 body, rng=random.Random(f"{rng_key}:hx711"), sps=settings.get("hx711.sps"),
                 offset_counts=settings.get("hx711.tare_offset"),
-                counts_per_kg=settings.get("hx711.calibration_factor"))
+                counts_per_kg=settings.get("hx711.calibration_factor"),
+                clock=asyncio.get_running_loop().time)
             self.hx711_lines = lines
             self.devices.load_cell = hx711.from_settings(settings, lambda: lines)
         self._deadman_seen = 0
 
+    async def open_simavr(self) -> None:
+        """Put the real firmware, in an emulated ATmega328P, on the body instead of the fake.
+
+        The emulator runs in wall time, so this needs a wall-clock loop (``--realtime``).
+        The real Arduino driver opens the emulator's UART pseudo-terminal like /dev/ttyACM0.
+        """
+        self.simavr = await SimavrMcu.start()
+        self.bridge = SimavrBridge(self.simavr, self.body)
+        self.settings.set("serial.port", self.simavr.uart_path)
+        self.link = ArduinoLink.from_settings(open_serial, self.settings)
+        fill = {"motors": self.link, "encoders": self.link.encoders,
+                "front_range": self.link.front_range, "battery": self.link.battery,
+                "servo": self.link, "leds": self.link}
+        for slot, device in fill.items():
+            setattr(self.devices, slot, device)
+
     async def run(self) -> None:
-        """What the simulated hardware does on its own: beacons advertising."""
-        if self.air is not None:
-            await self.air.run()
+        """What the simulated hardware does on its own: beacons advertising, the emulator."""
+        async with asyncio.TaskGroup() as group:
+            if self.air is not None:
+                group.create_task(self.air.run())
+            if self.bridge is not None:
+                group.create_task(self.bridge.run())
 
     async def close(self) -> None:
         await self.mcu.close()
+        if self.simavr is not None:
+            await self.simavr.close()
+
+    @property
+    def board(self) -> FakeMcu | SimavrMcu:
+        """The motor board the bench switches act on."""
+        return self.simavr if self.simavr is not None else self.mcu
 
     def new_deadman_stops(self) -> list[tuple[float, float | None]]:
-        """Deadman stops since the last call: (time, when the last MOTOR/HB had arrived)."""
+        """Deadman stops since the last call: (time, when the last MOTOR/HB had arrived).
+
+        Only the fake board reports them; the emulated one shows them on its pins."""
+        if self.simavr is not None:
+            return []
         stops = self.mcu.deadman_stops[self._deadman_seen:]
         self._deadman_seen = len(self.mcu.deadman_stops)
         return [(t, self.mcu.last_drive_s) for t in stops]
 
     # -- bench switches for the scenario script -----------------------------------------------
     def unplug_mcu(self) -> None:
-        self.mcu.unplug()
+        self.board.unplug()
 
     def replug_mcu(self) -> None:
-        self.mcu.replug()
+        self.board.replug()
 
     def corrupt_mcu(self, pct: float) -> None:
-        self.mcu.corrupt(pct)
+        self.board.corrupt(pct)
 
     def reset_mcu(self) -> None:
-        self.mcu.reset()
+        self.board.reset()
 
 
-def build_sim_rig(world: World, body: DiffDriveBody, settings: Settings, *, seed: int,
-                  index: int, mcu: str = "fake", needs: tuple[str, ...] = ()) -> SimRig:
-    return SimRig(world, body, settings, seed=seed, index=index, mcu=mcu, needs=needs)
+async def open_sim_rig(world: World, body: DiffDriveBody, settings: Settings, *, seed: int,
+                       index: int, mcu: str = "fake", needs: tuple[str, ...] = ()) -> SimRig:
+    """One robot's simulated hardware; ``mcu="simavr"`` runs the real firmware (wall time)."""
+    if mcu not in ("fake", "simavr"):
+        msg = f"--mcu {mcu}: expected fake or simavr"
+        raise ValueError(msg)
+    rig = SimRig(world, body, settings, seed=seed, index=index, mcu=mcu, needs=needs)
+    if mcu == "simavr":
+        if getattr(asyncio.get_running_loop(), "virtual", False):
+            msg = "--mcu simavr: the emulator runs in wall time; add --realtime"
+            raise ValueError(msg)
+        why = missing_toolchain()
+        if why is not None:
+            msg = f"--mcu simavr: {why}"
+            raise ValueError(msg)
+        try:
+            await rig.open_simavr()
+        except SimavrUnavailable as exc:
+            msg = f"--mcu simavr: {exc}"
+            raise ValueError(msg) from exc
+    return rig

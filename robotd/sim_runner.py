@@ -41,7 +41,7 @@ from robotd.sim_checks import (
     summary_figures,
 )
 from robotd.sim_console import SimConsole
-from robotd.sim_devices import SimRig, build_sim_rig
+from robotd.sim_devices import SimRig, open_sim_rig
 from robotd.sim_fleet import FLEET_URL, Customer, CustomerPlan, InProcessFleet, Staff
 from robotd.sim_report import draw_trajectory, write_events
 from robotd.sim_script import ScriptPlayer
@@ -160,6 +160,7 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
                 player.state_changed()
         events.append(entry)
 
+    rigs: list[SimRig] = []
     fleet: InProcessFleet | None = None
     customers: list[Customer] = []
     staff: Staff | None = None
@@ -188,9 +189,10 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
                                  spec.body, rng=random.Random(f"{seed}:{spec.name}:body"),
                                  payload_kg=spec.payload_kg, clock=loop.time)
             profile = load_profile(settings.get("robot.profile"))
-            rig = build_sim_rig(scenario.world, body, settings, seed=seed, index=index,
-                                mcu=getattr(args, "mcu", "fake") or "fake",
-                                needs=tuple(profile.devices))
+            rig = await open_sim_rig(scenario.world, body, settings, seed=seed, index=index,
+                                     mcu=getattr(args, "mcu", "fake") or "fake",
+                                     needs=tuple(profile.devices))
+            rigs.append(rig)
             if fleet is not None:
                 rig.devices.network = fleet.transport
             socket_path = _socket_path(getattr(args, "socket", None), workdir, spec.name, index)
@@ -202,6 +204,8 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
                                     RobotRecord(spec.name, body), socket_path)
     except (ConfigError, ValueError, SiteError, ScenarioError) as exc:
         print(f"robotd sim: {exc}")
+        for rig in rigs:
+            await rig.close()
         if fleet is not None:
             await fleet.close()
         return 2

@@ -87,6 +87,6 @@ class LocalRoute:
         while loop.time() < give_up:
             verdict = self.load.check_load()
             if verdict is LoadVerdict.LOADED:
-                return verdict.value
+                return str(verdict.value)
             await asyncio.sleep(_LOAD_POLL_S)
         return "timeout"

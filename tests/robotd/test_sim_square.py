@@ -102,3 +102,12 @@ class TestSimCommandLine:
                                                             '[config.robot]\n'))
         assert main(["sim", str(scenario), "--quiet"]) == 2
         assert "drive.cruise_mps: expected a number" in capsys.readouterr().out
+
+
+class TestSimavrOption:
+    def test_the_emulated_firmware_needs_the_wall_clock(
+        self, capsys: pytest.CaptureFixture[str]
+    ) -> None:
+        """--mcu simavr in virtual time is refused with what to do, before anything starts."""
+        assert main(["sim", "square", "--mcu", "simavr", "--quiet"]) == 2
+        assert "add --realtime" in capsys.readouterr().out

@@ -16,7 +16,22 @@ from robotd.config.overrides import overrides_path
 from robotd.probes import PROBES
 
 DEFAULT_CONFIG = "/etc/robotd/robotd.toml"
-SCENARIO_HELP = "built-in scenario (laundry, docking, delivery, cabinet, square) or a TOML file"
+def _scenario_help() -> str:
+    from hal.sim.scenario import builtin_names
+
+    return f"built-in scenario ({', '.join(builtin_names())}; default laundry) or a TOML file"
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        msg = f"expected a number, got {text!r}"
+        raise argparse.ArgumentTypeError(msg) from None
+    if not value > 0:
+        msg = f"must be > 0, got {text}"
+        raise argparse.ArgumentTypeError(msg)
+    return value
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -27,14 +42,19 @@ def build_parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="run the robot (real hardware); the systemd service")
     run.add_argument("--config", help=f"config file (default $ROBOTD_CONFIG or {DEFAULT_CONFIG})")
 
-    sim = sub.add_parser("sim", help="run the daemon on the simulator")
+    sim = sub.add_parser(
+        "sim", help="run the daemon on the simulator",
+        epilog="exit status: 0 when the scenario's success conditions hold, 1 when one does not "
+               "(the reasons are printed), 2 for a scenario or option that cannot be used; "
+               "more robots than one get sockets PATH.NAME")
     sim.add_argument("scenario", nargs="?", default="laundry", metavar="SCENARIO",
-                     help=SCENARIO_HELP)
+                     help=_scenario_help())
     sim.add_argument("--config", help="robot config laid over the scenario's")
     sim.add_argument("--seed", type=int, help="random seed (same seed, same run)")
     pace = sim.add_mutually_exclusive_group()
     pace.add_argument("--realtime", action="store_true", help="run against the wall clock")
-    pace.add_argument("--speed", type=float, metavar="X", help="X times faster than real time")
+    pace.add_argument("--speed", type=_positive_float, metavar="X",
+                      help="X times faster than real time")
     sim.add_argument("--socket", help="control socket path (for robotctl)")
     sim.add_argument("--report", metavar="DIR", help="write events.jsonl and trajectory.png")
     sim.add_argument("--quiet", action="store_true", help="print only the result")

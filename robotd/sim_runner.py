@@ -79,6 +79,14 @@ def run_sim(args: argparse.Namespace) -> int:
         speed = 1.0
     elif getattr(args, "speed", None) is not None:
         speed = float(args.speed)
+    report_dir = getattr(args, "report", None)
+    if report_dir:
+        try:
+            Path(report_dir).mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            print(f"robotd sim: --report {report_dir}: cannot create the directory: "
+                  f"{exc.strerror or exc}")
+            return 2
     result = vclock.run(_run(args, scenario, console), speed=speed)
     if isinstance(result, int):
         return result
@@ -133,8 +141,12 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
     many = len(scenario.robots) > 1
     robots: dict[str, SimRobot] = {}
 
+    # Virtual runs use a fixed epoch so their reports repeat; wall-clock runs use real time.
+    origin = SIM_EPOCH if getattr(loop, "virtual", True) else \
+        datetime.now(UTC) - timedelta(seconds=loop.time())
+
     def wall_clock() -> datetime:
-        return SIM_EPOCH + timedelta(seconds=loop.time())
+        return origin + timedelta(seconds=loop.time())
 
     configure_logging("warning", mode="console" if console.tty else "json",
                       timestamper=lambda: wall_clock().isoformat())
@@ -175,7 +187,7 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
             site = parse_site(read_beside(scenario, str(fleet_table.get("site", ""))),
                               str(fleet_table.get("site")))
             fleet = InProcessFleet(workdir, site, dict(fleet_table.get("settings", {})),
-                                   SIM_EPOCH)
+                                   origin)
             plans = [CustomerPlan.from_table(t, f"fleet.customers[{i}]")
                      for i, t in enumerate(fleet_table.get("customers", []))]
             customers = [Customer(p, fleet.client, lambda ev: on_event("", ev), set_payload)
@@ -300,12 +312,15 @@ async def _run(args: argparse.Namespace, scenario: Scenario,
         await fleet.close()
 
     records = {n: r.record for n, r in robots.items()}
-    reasons = failures(scenario, records, elapsed, extra, events)
+    # Interrupted by hand: the unmet conditions say nothing, only that it was stopped.
+    reasons = ["interrupted"] if interrupted.is_set() else \
+        failures(scenario, records, elapsed, extra, events)
     ok = not reasons
     figures = summary_figures(records)
     events.append({"t": loop.time(), "kind": "result", "ok": ok, "reasons": reasons,
                    "figures": figures})
-    return SimResult(ok, reasons, elapsed, figures, events, recorder.tracks, seed)
+    return SimResult(ok, reasons, elapsed, figures, events, recorder.tracks, seed,
+                     interrupted.is_set())
 
 
 @dataclass
@@ -317,6 +332,7 @@ class SimResult:
     events: list[dict[str, Any]]
     tracks: dict[str, list[TrackPoint]]
     seed: int
+    interrupted: bool = False
 
 
 def _report(args: argparse.Namespace, scenario: Scenario, result: SimResult,
@@ -324,14 +340,15 @@ def _report(args: argparse.Namespace, scenario: Scenario, result: SimResult,
     report_dir = getattr(args, "report", None)
     if report_dir:
         out = Path(report_dir)
-        out.mkdir(parents=True, exist_ok=True)
         write_events(out / "events.jsonl", result.events)
         draw_trajectory(out / "trajectory.png", scenario.world, result.tracks, result.events,
                         f"{scenario.name} (seed {result.seed}): "
                         f"{'success' if result.ok else 'FAILED'}")
     console.summary(scenario=scenario.name, ok=result.ok, reasons=result.reasons,
                     sim_s=result.sim_s, figures=result.figures,
-                    report_dir=str(report_dir) if report_dir else None)
+                    report_dir=str(Path(report_dir)) if report_dir else None)
+    if result.interrupted:
+        return 130
     return 0 if result.ok else 1
 
 

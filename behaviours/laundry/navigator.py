@@ -136,7 +136,12 @@ class Navigator:
         self._schedule(trigger)
 
     def _schedule(self, trigger: str) -> None:
-        task = asyncio.get_running_loop().create_task(self.ctx.trigger(trigger))
+        async def fire() -> None:
+            # A directive may have brought the robot there first; fire only if still needed.
+            if self.ctx.state in FOLLOWING:
+                await self.ctx.trigger(trigger)
+
+        task = asyncio.get_running_loop().create_task(fire())
         task.add_done_callback(lambda t: t.exception() if not t.cancelled() else None)
 
     def status(self) -> dict[str, Any]:

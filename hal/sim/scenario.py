@@ -6,6 +6,7 @@ A scenario is TOML (see docs/scenarios.md). Built-in scenarios ship in ``hal/sim
 
 from __future__ import annotations
 
+import difflib
 import math
 import tomllib
 from dataclasses import dataclass, field
@@ -123,8 +124,32 @@ def parse_scenario(text: str, source: str) -> Scenario:
         raise ScenarioError(msg) from exc
 
 
+_TOP = ("scenario", "config", "world", "robot", "robots", "script", "success", "fleet")
+_SCENARIO = ("name", "description", "profile", "seed")
+_ROBOT = ("name", "x_m", "y_m", "heading_deg", "config", "body", "payload_kg")
+_SUCCESS = ("time_limit_s", "states_reached", "final_state", "final_poses", "no_estop",
+            "no_collisions", "max_cross_track_m", "arrivals", "requests", "final_rooms")
+_STEP = ("at_s", "action", "robot", "duration_s", "pct", "kg", "name", "x_m", "y_m", "key",
+         "value", "when_state", "delay_s")
+_FLEET = ("site", "settings", "customers", "washing_s")
+
+
+def check_keys(table: dict[str, Any], known: tuple[str, ...], where: str) -> None:
+    """ValueError naming the first key of ``table`` that is not in ``known``."""
+    for key in table:
+        if key not in known:
+            close = difflib.get_close_matches(key, known, n=1)
+            hint = f"did you mean {close[0]!r}?" if close else f"known: {', '.join(known)}"
+            msg = f"{where}{'.' if where else ''}{key}: unknown key ({hint})"
+            raise ValueError(msg)
+
+
 def _build(raw: dict[str, Any], source: str) -> Scenario:
+    check_keys(raw, _TOP, "")
     meta = _table(raw, "scenario")
+    check_keys(meta, _SCENARIO, "scenario")
+    if "fleet" in raw:
+        check_keys(_table(raw, "fleet"), _FLEET, "fleet")
     name = str(meta.get("name", Path(source).stem))
     profile = str(meta.get("profile", "square"))
     world = World.from_table(_table(raw, "world"))
@@ -169,6 +194,7 @@ def _robot(t: Any, index: int, count: int) -> RobotSpec:
     if not isinstance(t, dict):
         msg = f"{where}: expected a table"
         raise ValueError(msg)
+    check_keys(t, _ROBOT, where)
     body_raw = t.get("body", {})
     known = set(BodyParams.__dataclass_fields__)
     unknown = set(body_raw) - known
@@ -190,11 +216,13 @@ def _step(t: Any, index: int) -> ScriptStep:
     if not isinstance(t, dict) or "action" not in t:
         msg = f"{where}: expected a table with at_s and action"
         raise ValueError(msg)
+    check_keys(t, _STEP, where)
     args = {k: v for k, v in t.items() if k not in ("at_s", "action")}
     return ScriptStep(_num(t, "at_s", where), str(t["action"]), args)
 
 
 def _success(t: dict[str, Any], robots: tuple[RobotSpec, ...]) -> Success:
+    check_keys(t, _SUCCESS, "success")
     poses = []
     for i, p in enumerate(t.get("final_poses", [])):
         where = f"success.final_poses[{i}]"

@@ -6,6 +6,7 @@ the east, y to the north. Sensors models (camera, BLE, LiDAR, IR) read from here
 
 from __future__ import annotations
 
+import difflib
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -103,6 +104,8 @@ class World:
     zones: dict[str, Room] = field(default_factory=dict)
     floor_bgr: tuple[int, int, int] = (200, 205, 210)
     robots_see_each_other: bool = True
+    _segments_cache: tuple[tuple[PaintedLine, ...], FloatArray] | None = field(
+        default=None, init=False, repr=False, compare=False)
 
     def room_at(self, x_m: float, y_m: float) -> str | None:
         for room in self.rooms:
@@ -115,8 +118,15 @@ class World:
         return distance_to_segments(self.walls, x_m, y_m)
 
     def line_segments(self) -> FloatArray:
-        parts = [line.segments() for line in self.lines]
-        return np.concatenate(parts) if parts else segments_array([])
+        """All painted lines' segments (read-only; rebuilt when ``lines`` changes)."""
+        key = tuple(self.lines)
+        cached = self._segments_cache
+        if cached is None or cached[0] != key:
+            parts = [line.segments() for line in self.lines]
+            segments = np.concatenate(parts) if parts else segments_array([])
+            segments.flags.writeable = False
+            cached = self._segments_cache = (key, segments)
+        return cached[1]
 
     def cross_track_m(self, x_m: float, y_m: float) -> float:
         """Distance from a point to the nearest painted line's centre."""
@@ -133,6 +143,8 @@ class World:
     def from_table(cls, table: dict[str, Any], where: str = "world") -> World:
         """Build from a scenario's ``[world]`` table; WorldError names the bad key."""
         r = _Reader(table, where)
+        r.known("width_m", "height_m", "boundary", "walls", "rooms", "lines", "beacons", "dock",
+                "people", "zones", "floor_bgr", "robots_see_each_other")
         width, height = r.num("width_m"), r.num("height_m")
         walls: list[tuple[float, float, float, float]] = []
         if r.get("boundary", True):
@@ -140,11 +152,13 @@ class World:
                       (width, height, 0, height), (0, height, 0, 0)]
         for i, w in enumerate(r.tables("walls")):
             wr = _Reader(w, f"{where}.walls[{i}]")
+            wr.known("x1", "y1", "x2", "y2")
             walls.append((wr.num("x1"), wr.num("y1"), wr.num("x2"), wr.num("y2")))
         rooms = [_room(_Reader(t, f"{where}.rooms[{i}]")) for i, t in enumerate(r.tables("rooms"))]
         lines = []
         for i, t in enumerate(r.tables("lines")):
             lr = _Reader(t, f"{where}.lines[{i}]")
+            lr.known("name", "points", "colour", "width_m", "closed")
             colour = lr.text("colour", "black")
             if colour not in LINE_COLOURS_BGR:
                 msg = f"{lr.where}.colour: expected one of {sorted(LINE_COLOURS_BGR)}"
@@ -155,6 +169,8 @@ class World:
         beacons = []
         for i, t in enumerate(r.tables("beacons")):
             br = _Reader(t, f"{where}.beacons[{i}]")
+            br.known("mac", "uuid", "major", "minor", "x_m", "y_m", "tx_power_dbm", "room",
+                     "interval_s")
             beacons.append(SimBeacon(
                 br.text("mac"), br.text("uuid"), int(br.num("major")), int(br.num("minor")),
                 br.num("x_m"), br.num("y_m"), int(br.num("tx_power_dbm", -59)),
@@ -192,6 +208,14 @@ class _Reader:
 
     def get(self, key: str, default: Any = None) -> Any:
         return self.table.get(key, default)
+
+    def known(self, *keys: str) -> None:
+        for key in self.table:
+            if key not in keys:
+                close = difflib.get_close_matches(key, keys, n=1)
+                hint = f"did you mean {close[0]!r}?" if close else f"known: {', '.join(keys)}"
+                msg = f"{self.where}.{key}: unknown key ({hint})"
+                raise WorldError(msg)
 
     def num(self, key: str, default: float | None = None) -> float:
         value = self.table.get(key, default)

@@ -111,3 +111,16 @@ class TestSimavrOption:
         """--mcu simavr in virtual time is refused with what to do, before anything starts."""
         assert main(["sim", "square", "--mcu", "simavr", "--quiet"]) == 2
         assert "add --realtime" in capsys.readouterr().out
+
+
+class TestOptionsCheckedBeforeRunning:
+    def test_a_speed_that_is_not_positive_is_a_usage_error(self) -> None:
+        with pytest.raises(SystemExit) as info:
+            main(["sim", "square", "--speed", "-3"])
+        assert info.value.code == 2
+
+    def test_a_report_directory_that_cannot_be_made_is_refused_at_once(
+        self, capsys: pytest.CaptureFixture[str]
+    ) -> None:
+        assert main(["sim", "square", "--quiet", "--report", "/proc/nope"]) == 2
+        assert "--report /proc/nope: cannot create the directory" in capsys.readouterr().out

@@ -79,3 +79,25 @@ action = "a"
 [success]
 """
         assert [s.action for s in parse_scenario(text, "x.toml").script] == ["a", "b"]
+
+
+class TestUnknownKeys:
+    """A typo in a scenario is an error naming the key, never silently ignored."""
+
+    BASE = "[scenario]\n[world]\nwidth_m = 2\nheight_m = 2\n[robot]\nx_m = 1\ny_m = 1\n[success]\n"
+
+    @pytest.mark.parametrize(("text", "message"), [
+        (BASE + "time_limt_s = 3\n", r"success.time_limt_s: unknown key \(did you mean "
+                                     r"'time_limit_s'\?\)"),
+        (BASE.replace("[scenario]\n", "[scenario]\nsed = 3\n"), r"scenario.sed: unknown key"),
+        (BASE.replace("y_m = 1\n", "y_m = 1\nheding_deg = 3\n"),
+         r"robot.heding_deg: unknown key \(did you mean 'heading_deg'\?\)"),
+        (BASE.replace("height_m = 2\n", "height_m = 2\nwals = []\n"),
+         r"world.wals: unknown key \(did you mean 'walls'\?\)"),
+        (BASE + "[[script]]\nat_s = 1\naction = 'mcu.unplug'\nduraton_s = 1\n",
+         r"script\[0\].duraton_s: unknown key"),
+        ("[scenrio]\n" + BASE, r"scenrio: unknown key \(did you mean 'scenario'\?\)"),
+    ])
+    def test_is_an_error_naming_the_key(self, text: str, message: str) -> None:
+        with pytest.raises(ScenarioError, match=message):
+            parse_scenario(text, "typo.toml")

@@ -13,7 +13,9 @@ import argparse
 import resource
 import statistics
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 
 def main() -> int:
@@ -40,7 +42,8 @@ def main() -> int:
                                   report=None, quiet=True, socket=None, config=None, mcu="fake")
         console = SimConsole(quiet=True)
         w0, c0 = time.perf_counter(), time.process_time()
-        result = vclock.run(sim_runner._run(args, scenario, console))
+        with tempfile.TemporaryDirectory(prefix="bench-sim-") as workdir:
+            result = vclock.run(sim_runner._run(args, scenario, console, Path(workdir)))
         wall, cpu = time.perf_counter() - w0, time.process_time() - c0
         if isinstance(result, int):
             print(f"run {i + 1}: could not run (exit {result})")

@@ -87,7 +87,9 @@ def run_sim(args: argparse.Namespace) -> int:
             print(f"robotd sim: --report {report_dir}: cannot create the directory: "
                   f"{exc.strerror or exc}")
             return 2
-    result = vclock.run(_run(args, scenario, console), speed=speed)
+    # The robots' state stores, control sockets and the fleet database live here for the run.
+    with tempfile.TemporaryDirectory(prefix="robotd-sim-") as workdir:
+        result = vclock.run(_run(args, scenario, console, Path(workdir)), speed=speed)
     if isinstance(result, int):
         return result
     return _report(args, scenario, result, console)
@@ -128,14 +130,13 @@ def _apply(values: dict[str, dict[str, Any]], table: dict[str, Any], where: str,
                 problems.append(ConfigProblem(where, None, dotted, message))
 
 
-async def _run(args: argparse.Namespace, scenario: Scenario,
-               console: SimConsole) -> SimResult | int:
+async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole,
+               workdir: Path) -> SimResult | int:
     from robotd.daemon import Daemon
 
     loop = asyncio.get_running_loop()
     seed = int(args.seed) if getattr(args, "seed", None) is not None else \
         int(scenario.raw.get("scenario", {}).get("seed", 1))
-    workdir = Path(tempfile.mkdtemp(prefix="robotd-sim-"))
     events: list[dict[str, Any]] = []
     player: ScriptPlayer | None = None
     many = len(scenario.robots) > 1

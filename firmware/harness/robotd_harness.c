@@ -13,6 +13,8 @@
  * stdin commands (one a line), each answered with one line:
  *   STATE             -> "STATE t_us=.. <pin fields as in EV>"
  *   ENC <dl> <dr>     -> queue quadrature steps per wheel (signed ticks) -> "OK ENC"
+ *   ENCSTAT           -> "ENCSTAT queued_l=.. queued_r=.. played_l=.. played_r=..
+ *                         overridden_l=.. overridden_r=.." (signed totals since start)
  *   ADC <ch> <mV>     -> set analog input ch (0-7) in millivolts         -> "OK ADC"
  *   DOCK <0|1>        -> drive the dock contact pin (A2)                 -> "OK DOCK"
  *   LOOP              -> "LOOP n=.. period_p50_us=.. .. busy_p99_us=.. busy_max_us=.."
@@ -96,6 +98,8 @@ static int free_run;
 static struct timespec wall_start;
 static pins_t last_pins;
 static int64_t enc_pending[2];
+static int64_t enc_queued[2], enc_played[2];  /* signed totals: ENC asked, transitions made */
+static int64_t enc_overridden[2];              /* steps that found a pin not at our level */
 static int enc_phase[2];
 static avr_irq_t *enc_a[2], *enc_b[2], *dock_pin;
 typedef struct {
@@ -271,17 +275,44 @@ static void connect_uart(void) {
 	                        uart_xoff_hook, NULL);
 }
 
+/* ---- input pins driven from outside ---------------------------------------------------------
+ * The encoders and the dock contacts drive their pins like real sensors do. simavr models an
+ * input whose PORT bit is set (INPUT_PULLUP) as a floating pin that the pull-up holds high: on
+ * every DDR or PORT write to that port (analogWrite() calls pinMode() on D5/D6 at each MOTOR)
+ * it raises the pin to 1 again, unless the pin is declared externally driven. Without that,
+ * each MOTOR forced the encoder lines to AB = 11 behind the harness's back, and the next
+ * transitions were filtered as no-change or decoded from the wrong state: counts were lost. */
+static uint8_t ext_mask[2], ext_value[2];  /* port C, port D */
+
+static void drive_pin(char port, int pin, avr_irq_t *irq, int level) {
+	int i = port == 'D';
+	ext_mask[i] |= (uint8_t)(1u << pin);
+	ext_value[i] = (uint8_t)((ext_value[i] & ~(1u << pin)) | ((unsigned)level << pin));
+	avr_ioport_external_t ext = {.name = (unsigned char)port, .mask = ext_mask[i],
+	                             .value = ext_value[i]};
+	avr_ioctl(avr, AVR_IOCTL_IOPORT_SET_EXTERNAL(port), &ext);
+	avr_raise_irq(irq, (uint32_t)level);
+}
+
 /* ---- encoders: one quadrature transition per wheel per tick -------------------------------- */
+/* A leads B going forward: AB = 00, 10, 11, 01. */
+static const int ENC_A[4] = {0, 1, 1, 0}, ENC_B[4] = {0, 0, 1, 1};  /* by phase */
+
 static void encoders_step(void) {
-	/* A leads B going forward: AB = 00, 10, 11, 01. */
-	static const int A[4] = {0, 1, 1, 0}, B[4] = {0, 0, 1, 1};  /* by phase */
 	for (int side = 0; side < 2; side++) {
 		if (!enc_pending[side]) continue;
+		/* A pin level that is not the one we drove means the emulation moved it (see above). */
+		if ((int)enc_a[side]->value != ENC_A[enc_phase[side]] ||
+		    (int)enc_b[side]->value != ENC_B[enc_phase[side]])
+			enc_overridden[side]++;
 		int dir = enc_pending[side] > 0 ? 1 : -1;
 		enc_pending[side] -= dir;
+		enc_played[side] += dir;
 		int next = (enc_phase[side] + dir + 4) & 3;
-		if (A[next] != A[enc_phase[side]]) avr_raise_irq(enc_a[side], A[next]);
-		else avr_raise_irq(enc_b[side], B[next]);
+		if (ENC_A[next] != ENC_A[enc_phase[side]])
+			drive_pin('D', side ? 3 : 2, enc_a[side], ENC_A[next]);
+		else
+			drive_pin('D', side ? 7 : 4, enc_b[side], ENC_B[next]);
 		enc_phase[side] = next;
 	}
 }
@@ -338,14 +369,22 @@ static void handle_command(char *line) {
 	} else if (sscanf(line, "ENC %ld %ld", &a, &b) == 2) {
 		enc_pending[0] += a;
 		enc_pending[1] += b;
+		enc_queued[0] += a;
+		enc_queued[1] += b;
 		fprintf(ctl, "OK ENC\n");
+	} else if (strcmp(line, "ENCSTAT") == 0) {
+		fprintf(ctl, "ENCSTAT queued_l=%lld queued_r=%lld played_l=%lld played_r=%lld "
+		        "overridden_l=%lld overridden_r=%lld\n",
+		        (long long)enc_queued[0], (long long)enc_queued[1],
+		        (long long)enc_played[0], (long long)enc_played[1],
+		        (long long)enc_overridden[0], (long long)enc_overridden[1]);
 	} else if (sscanf(line, "ADC %ld %ld", &a, &b) == 2 && a >= 0 && a < 8) {
 		adc_mv[a] = (uint32_t)(b < 0 ? 0 : b);
 		avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + (int)a), adc_mv[a]);
 		fprintf(ctl, "OK ADC\n");
 	} else if (sscanf(line, "DOCK %ld", &a) == 1) {
 		dock_level = a ? 1 : 0;
-		avr_raise_irq(dock_pin, dock_level);
+		drive_pin('C', 2, dock_pin, dock_level);
 		fprintf(ctl, "OK DOCK\n");
 	} else if (strcmp(line, "LOOP") == 0) {
 		fprintf(ctl, "LOOP n=%llu", (unsigned long long)loop_period.n);
@@ -423,12 +462,11 @@ static void service(void) {
 static void no_sleep(avr_t *a, avr_cycle_count_t how_long) { (void)a; (void)how_long; }
 
 static void drive_inputs(void) {
-	static const int A[4] = {0, 1, 1, 0}, B[4] = {0, 0, 1, 1};
 	for (int side = 0; side < 2; side++) {
-		avr_raise_irq(enc_a[side], A[enc_phase[side]]);
-		avr_raise_irq(enc_b[side], B[enc_phase[side]]);
+		drive_pin('D', side ? 3 : 2, enc_a[side], ENC_A[enc_phase[side]]);
+		drive_pin('D', side ? 7 : 4, enc_b[side], ENC_B[enc_phase[side]]);
 	}
-	avr_raise_irq(dock_pin, dock_level);
+	drive_pin('C', 2, dock_pin, dock_level);
 	for (int ch = 0; ch < 8; ch++)
 		avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + ch), adc_mv[ch]);
 }

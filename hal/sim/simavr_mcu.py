@@ -239,6 +239,13 @@ class SimavrMcu:
         """Queues quadrature edges; the harness emits one transition per wheel every 50 us."""
         await self.command(f"ENC {left_ticks} {right_ticks}")
 
+    async def encoder_stats(self) -> dict[str, int]:
+        """The harness's signed encoder totals since start: ``queued_l/r`` (asked by ENC),
+        ``played_l/r`` (transitions made on the pins) and ``overridden_l/r`` (steps that found
+        a pin not at the level the harness drove: should stay 0)."""
+        reply = await self.command("ENCSTAT")
+        return {k: int(v) for k, v in (f.split("=") for f in reply.split()[1:])}
+
     async def set_adc_mv(self, channel: int, millivolts: int) -> None:
         await self.command(f"ADC {channel} {millivolts}")
 

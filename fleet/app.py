@@ -37,6 +37,7 @@ def create_app(
     settings: FleetSettings | dict[str, Any] | None = None,
     *,
     monitors: bool = True,
+    inline_sqlite: bool = False,
 ) -> FastAPI:
     """Args:
         db_url: ``sqlite:///PATH`` or ``postgresql://USER@HOST/DB`` (async drivers are chosen).
@@ -44,8 +45,11 @@ def create_app(
         clock: the wall clock (aware UTC datetimes); all server logic takes "now" from it.
         settings: settings written at start over the stored ones.
         monitors: whether the lifespan starts the timeout and offline monitors.
+        inline_sqlite: SQLite calls on the loop's thread, no aiosqlite worker threads (for
+            the simulator's in-process server; see ``fleet.sqlite_inline``).
     """
-    server = FleetServer(db_url, site=site, clock=clock, settings=settings)
+    server = FleetServer(db_url, site=site, clock=clock, settings=settings,
+                         inline_sqlite=inline_sqlite)
 
     @asynccontextmanager
     async def lifespan(_app: FastAPI) -> AsyncIterator[None]:

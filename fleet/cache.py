@@ -9,6 +9,8 @@ time: callers arriving while it runs wait for it rather than start their own.
 from __future__ import annotations
 
 import asyncio
+import functools
+import json
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from typing import Generic, TypeVar
@@ -32,6 +34,20 @@ class BeaconRow:
     floor_color: str | None
     rssi_threshold_dbm: int
     is_base: bool
+
+    def encoded(self, is_target: bool) -> bytes:
+        """This beacon as an ``ActiveBeacons`` entry of the data-exchange reply (JSON)."""
+        return self._json[is_target]
+
+    @functools.cached_property
+    def _json(self) -> tuple[bytes, bytes]:
+        def entry(target: bool) -> bytes:
+            return json.dumps({
+                "MacAddress": self.mac_address, "Name": self.name, "RoomName": self.room_name,
+                "RssiThreshold": self.rssi_threshold_dbm, "IsNavigationTarget": target,
+            }, separators=(",", ":")).encode()
+
+        return entry(False), entry(True)
 
 
 @dataclass(frozen=True)

@@ -27,6 +27,8 @@ from sqlalchemy.ext.asyncio import (
 )
 from sqlalchemy.pool import StaticPool
 
+from fleet.sqlite_inline import inline_connect
+
 log = structlog.get_logger(__name__)
 
 _ADVISORY_LOCK_KEY = 0x726F_626F  # "robo"
@@ -44,11 +46,16 @@ def normalize_url(url: str) -> str:
     raise ValueError(msg)
 
 
-def _sqlite_engine(url: str, begin: str | None) -> AsyncEngine:
+def _sqlite_engine(url: str, begin: str | None, *, inline: bool = False) -> AsyncEngine:
     """``begin``: the statement that opens a transaction; None for autocommit reads (each
-    statement its own snapshot, and no BEGIN/ROLLBACK round trips to aiosqlite's thread)."""
-    memory = make_url(url).database in (None, "", ":memory:")
+    statement its own snapshot, and no BEGIN/ROLLBACK round trips to aiosqlite's thread).
+    ``inline``: connections run their calls on the loop's thread (``fleet.sqlite_inline``)."""
+    database = make_url(url).database
+    memory = database in (None, "", ":memory:")
     kwargs: dict[str, Any] = {"poolclass": StaticPool} if memory else {}
+    if inline:
+        path = database or ":memory:"
+        kwargs["async_creator"] = lambda: inline_connect(path, timeout=30)
     if begin is None:
         kwargs["pool_reset_on_return"] = None
     if not memory:
@@ -79,9 +86,13 @@ def _sqlite_engine(url: str, begin: str | None) -> AsyncEngine:
 
 
 class Database:
-    """The engines and sessions of one database URL."""
+    """The engines and sessions of one database URL.
 
-    def __init__(self, url: str) -> None:
+    ``inline_sqlite``: SQLite calls run on the loop's thread instead of aiosqlite's worker
+    threads (for a server inside the simulator; see ``fleet.sqlite_inline``).
+    """
+
+    def __init__(self, url: str, *, inline_sqlite: bool = False) -> None:
         self.url = normalize_url(url)
         self.dialect = make_url(self.url).get_backend_name()
         self._write_lock = asyncio.Lock()
@@ -89,10 +100,12 @@ class Database:
         self.generation = 0
         if self.dialect == "sqlite":
             if make_url(self.url).database in (None, "", ":memory:"):
-                self.read_engine = self.write_engine = _sqlite_engine(self.url, "BEGIN")
+                self.read_engine = self.write_engine = _sqlite_engine(
+                    self.url, "BEGIN", inline=inline_sqlite)
             else:
-                self.read_engine = _sqlite_engine(self.url, None)
-                self.write_engine = _sqlite_engine(self.url, "BEGIN IMMEDIATE")
+                self.read_engine = _sqlite_engine(self.url, None, inline=inline_sqlite)
+                self.write_engine = _sqlite_engine(self.url, "BEGIN IMMEDIATE",
+                                                   inline=inline_sqlite)
         else:
             self.read_engine = create_async_engine(self.url, pool_size=10, max_overflow=20)
             self.write_engine = self.read_engine

@@ -40,6 +40,7 @@ class FleetServer:
         clock: returns aware UTC datetimes; the system clock by default.
         settings: values written to the database at start (``FleetSettings`` or a dict of
             PascalCase keys), over whatever it held.
+        inline_sqlite: run SQLite calls on the loop's thread (a server inside the simulator).
     """
 
     def __init__(
@@ -48,8 +49,10 @@ class FleetServer:
         site: Site | str | Path | None = None,
         clock: Clock | None = None,
         settings: FleetSettings | dict[str, Any] | None = None,
+        *,
+        inline_sqlite: bool = False,
     ) -> None:
-        self.db = Database(db_url)
+        self.db = Database(db_url, inline_sqlite=inline_sqlite)
         self.clock: Clock = clock or system_clock
         self._site = load_site(site) if isinstance(site, str | Path) else site
         if isinstance(settings, FleetSettings):
@@ -138,7 +141,8 @@ class FleetServer:
     ) -> None:
         while True:
             try:
-                cfg = await self.settings()
+                with hold_loop_time():
+                    cfg = await self.cache.settings()
             except Exception:
                 log.exception("fleet.monitor.failed", monitor=name)
                 cfg = FleetSettings.model_validate({})

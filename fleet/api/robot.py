@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import functools
 import json
 from typing import Annotated
 
@@ -14,7 +13,6 @@ from fleet.api.schemas import DataExchangeIn, DataExchangeOut
 from fleet.errors import Invalid
 from fleet.services.arrival import Sighting
 from fleet.services.exchange import Reply, Report, exchange
-from fleet.services.navigation import BeaconConfig
 
 router = APIRouter(prefix="/api/Robot", tags=["robot"])
 
@@ -45,18 +43,8 @@ def reply_json(reply: Reply) -> bytes:
     """The reply as JSON, from pre-encoded beacon entries (it is sent every second by every
     robot, and the beacon list is the bulk of it)."""
     nav = reply.navigation
-    beacons = b",".join(_beacon_json(b) for b in nav.beacons)
     tail = json.dumps({
         "IsLineFollowing": nav.is_line_following, "FollowColor": nav.follow_color,
         "EmergencyStop": reply.emergency_stop, "MaintenanceMode": reply.maintenance_mode,
     }, separators=(",", ":")).encode()
-    return b'{"ActiveBeacons":[' + beacons + b"]," + tail[1:]
-
-
-@functools.lru_cache(maxsize=4096)
-def _beacon_json(beacon: BeaconConfig) -> bytes:
-    return json.dumps({
-        "MacAddress": beacon.mac_address, "Name": beacon.name, "RoomName": beacon.room_name,
-        "RssiThreshold": beacon.rssi_threshold_dbm,
-        "IsNavigationTarget": beacon.is_navigation_target,
-    }, separators=(",", ":")).encode()
+    return b'{"ActiveBeacons":[' + nav.encoded_beacons() + b"]," + tail[1:]

@@ -32,9 +32,20 @@ class BeaconConfig:
 
 @dataclass(frozen=True)
 class Navigation:
-    beacons: list[BeaconConfig]
+    all_beacons: list[BeaconRow]
+    target_ids: frozenset[int]
     is_line_following: bool
     follow_color: str | None
+
+    @property
+    def beacons(self) -> list[BeaconConfig]:
+        return [BeaconConfig(b.mac_address, b.name, b.room_name, b.rssi_threshold_dbm,
+                             b.id in self.target_ids) for b in self.all_beacons]
+
+    def encoded_beacons(self) -> bytes:
+        """The ``ActiveBeacons`` entries as JSON, from each beacon's pre-encoded forms."""
+        targets = self.target_ids
+        return b",".join([b.encoded(b.id in targets) for b in self.all_beacons])
 
 
 def heads_to_base(request: RequestLike) -> bool:
@@ -66,8 +77,6 @@ def navigation(
         stopped: the robot is in emergency stop or maintenance mode.
     """
     targets = target_beacons(site, request)
-    target_ids = {b.id for b in targets}
-    beacons = [BeaconConfig(b.mac_address, b.name, b.room_name, b.rssi_threshold_dbm,
-                            b.id in target_ids) for b in site.beacons]
     follow_color = targets[0].floor_color if targets and cfg.use_floor_color else None
-    return Navigation(beacons, bool(targets) and not stopped, follow_color)
+    return Navigation(site.beacons, frozenset(b.id for b in targets),
+                      bool(targets) and not stopped, follow_color)

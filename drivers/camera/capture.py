@@ -169,3 +169,20 @@ class CaptureCamera:
         with contextlib.suppress(Exception):
             await asyncio.get_running_loop().run_in_executor(executor, self._close)
         executor.shutdown(wait=False)
+
+
+class OpenCvCapture(CaptureCamera):
+    """A source read through ``cv2.VideoCapture`` (a V4L2 device or a video file)."""
+
+    _cap: cv2.VideoCapture | None = None
+
+    def _grab(self) -> Image | None:
+        if self._cap is None:
+            return None
+        ok, image = self._cap.read()
+        return image if ok and image is not None else None
+
+    def _close(self) -> None:
+        cap, self._cap = self._cap, None
+        if cap is not None:
+            cap.release()

@@ -7,11 +7,11 @@ import re
 
 import cv2
 
-from drivers.camera.capture import CaptureCamera, Image
+from drivers.camera.capture import OpenCvCapture
 from hal.devices import DeviceUnavailable
 
 
-class UvcCamera(CaptureCamera):
+class UvcCamera(OpenCvCapture):
     """A V4L2 camera, e.g. ``/dev/video0`` (or its index, ``0``).
 
     Args:
@@ -44,17 +44,6 @@ class UvcCamera(CaptureCamera):
         # instead of one up to 4 frame periods old.
         cap.set(cv2.CAP_PROP_BUFFERSIZE, 1)
         self._cap = cap
-
-    def _grab(self) -> Image | None:
-        if self._cap is None:
-            return None
-        ok, image = self._cap.read()
-        return image if ok and image is not None else None
-
-    def _close(self) -> None:
-        cap, self._cap = self._cap, None
-        if cap is not None:
-            cap.release()
 
 
 def _v4l2_target(device: str) -> int | str:

@@ -8,13 +8,13 @@ from pathlib import Path
 import cv2
 import structlog
 
-from drivers.camera.capture import CaptureCamera, Image
+from drivers.camera.capture import OpenCvCapture
 from hal.devices import DeviceUnavailable
 
 log = structlog.get_logger(__name__)
 
 
-class VideoFileCamera(CaptureCamera):
+class VideoFileCamera(OpenCvCapture):
     """Frames from a video file (anything OpenCV's FFmpeg backend decodes).
 
     Args:
@@ -51,17 +51,6 @@ class VideoFileCamera(CaptureCamera):
         stored = cap.get(cv2.CAP_PROP_FPS)
         self.fps = self._fixed_fps or (stored if stored and stored > 0 else 30.0)
         self._cap = cap
-
-    def _grab(self) -> Image | None:
-        if self._cap is None:
-            return None
-        ok, image = self._cap.read()
-        return image if ok and image is not None else None
-
-    def _close(self) -> None:
-        cap, self._cap = self._cap, None
-        if cap is not None:
-            cap.release()
 
     def _rewind(self) -> None:
         if self._cap is not None:

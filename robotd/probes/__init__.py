@@ -6,6 +6,11 @@ CLI builds one sub-command per entry here and imports the module only when it is
 
 from __future__ import annotations
 
+import argparse
+import asyncio
+from collections.abc import Callable, Coroutine
+from typing import Any
+
 PROBES: dict[str, tuple[str, str]] = {
     "serial": ("robotd.probes.serial", "the Arduino motor board link: handshake, commands, RTT"),
     "lidar": ("robotd.probes.lidar", "the LD19 LiDAR: packets, scan rate, CRC errors"),
@@ -14,3 +19,24 @@ PROBES: dict[str, tuple[str, str]] = {
     "hx711": ("robotd.probes.hx711", "the HX711 load cell: raw counts, kg, noise"),
 }
 """Device name -> (module path, one-line description)."""
+
+
+def run_standalone(prog: str, doc: str | None,
+                   add_arguments: Callable[[argparse.ArgumentParser], None],
+                   run: Callable[[argparse.Namespace], Coroutine[Any, Any, int]],
+                   argv: list[str] | None = None) -> int:
+    """``python -m robotd.probes.NAME``: the same probe without the ``robotd`` command.
+
+    A probe with a ``--sim`` option runs on the virtual-time loop when it is given.
+    """
+    from robotd import vclock
+    from robotd.logs import configure_logging
+
+    parser = argparse.ArgumentParser(prog=prog, description=doc,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_arguments(parser)
+    args = parser.parse_args(argv)
+    configure_logging(level="warning")
+    if getattr(args, "sim", False):
+        return int(vclock.run(run(args)))
+    return asyncio.run(run(args))

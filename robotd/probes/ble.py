@@ -20,7 +20,7 @@ from behaviours.beacons import BeaconTracker
 from drivers.ble_scanner import BleBeaconScanner, ScannerFactory, bleak_scanner_factory
 from hal.devices import DeviceUnavailable
 from hal.readings import BeaconSighting
-from robotd.logs import configure_logging
+from robotd.probes import run_standalone
 
 SIM_UUID = "fda50693-a4e2-4fb1-afcf-c6eb07647825"
 
@@ -123,15 +123,7 @@ def _print_table(report: dict[str, Any]) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="robotd probe ble", description=__doc__)
-    add_arguments(parser)
-    args = parser.parse_args(argv)
-    configure_logging(level="warning")
-    if args.sim:
-        from robotd import vclock
-
-        return int(vclock.run(run(args)))
-    return asyncio.run(run(args))
+    return run_standalone("robotd probe ble", __doc__, add_arguments, run, argv)
 
 
 if __name__ == "__main__":

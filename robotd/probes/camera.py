@@ -27,6 +27,7 @@ from hal.devices import DeviceUnavailable
 from hal.readings import Frame
 from robotd.config.errors import ConfigError
 from robotd.config.loader import defaults, load_config
+from robotd.probes import run_standalone
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -170,18 +171,7 @@ def _print(report: dict[str, Any]) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="robotd probe camera", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_arguments(parser)
-    args = parser.parse_args(argv)
-    from robotd.logs import configure_logging
-
-    configure_logging(level="warning")
-    if args.sim:
-        from robotd import vclock
-
-        return int(vclock.run(run(args)))
-    return asyncio.run(run(args))
+    return run_standalone("robotd probe camera", __doc__, add_arguments, run, argv)
 
 
 if __name__ == "__main__":

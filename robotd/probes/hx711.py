@@ -24,7 +24,7 @@ from hal.devices import DeviceUnavailable
 from hal.ports import Hx711Lines
 from robotd.config.errors import ConfigError
 from robotd.config.loader import defaults, load_config
-from robotd.logs import configure_logging
+from robotd.probes import run_standalone
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -149,16 +149,7 @@ def _print(report: dict[str, Any], args: argparse.Namespace) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="robotd probe hx711", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_arguments(parser)
-    args = parser.parse_args(argv)
-    configure_logging(level="warning")
-    if args.sim:
-        from robotd import vclock
-
-        return int(vclock.run(run(args)))
-    return asyncio.run(run(args))
+    return run_standalone("robotd probe hx711", __doc__, add_arguments, run, argv)
 
 
 if __name__ == "__main__":

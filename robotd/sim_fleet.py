@@ -40,7 +40,8 @@ class InProcessFleet:
                  origin: datetime) -> None:
         loop = asyncio.get_running_loop()
         self.app = create_app(f"sqlite:///{workdir / 'fleet.db'}", site=site,
-                              clock=loop_clock(origin, loop.time), settings=settings)
+                              clock=loop_clock(origin, loop.time), settings=settings,
+                              inline_sqlite=True)
         self.transport = httpx.ASGITransport(app=self.app)
         self.client = httpx.AsyncClient(transport=self.transport, base_url=FLEET_URL)
 

@@ -99,7 +99,10 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
         finally:
             with self._holds_lock:
                 self._holds -= 1
-            self._write_to_self()  # type: ignore[attr-defined]
+            # Released by another thread: wake a select() that may be waiting on the hold.
+            # On the loop's own thread the loop is running this code, not waiting.
+            if threading.get_ident() != self._thread_id:  # type: ignore[attr-defined]
+                self._write_to_self()  # type: ignore[attr-defined]
 
     def run_in_executor(  # type: ignore[override]
         self, executor: Executor | None, func: Callable[..., T], *args: Any

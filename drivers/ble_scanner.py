@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import uuid as uuidlib
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
@@ -58,8 +59,13 @@ def parse_ibeacon(manufacturer_data: Mapping[int, bytes]) -> IBeaconFrame | None
     if data[1] != IBEACON_LENGTH or len(data) < IBEACON_PAYLOAD_BYTES:
         msg = f"iBeacon payload: expected 23 bytes with length byte 0x15, got {data.hex()}"
         raise MalformedAdvert(msg)
+    return _ibeacon_frame(bytes(data))
+
+
+@functools.lru_cache(maxsize=1024)  # a beacon repeats the same bytes about ten times a second
+def _ibeacon_frame(data: bytes) -> IBeaconFrame:
     return IBeaconFrame(
-        uuid=str(uuidlib.UUID(bytes=bytes(data[2:18]))),
+        uuid=str(uuidlib.UUID(bytes=data[2:18])),
         major=int.from_bytes(data[18:20], "big"),
         minor=int.from_bytes(data[20:22], "big"),
         tx_power_dbm=int.from_bytes(data[22:23], "big", signed=True),

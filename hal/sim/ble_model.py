@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import heapq
 import math
 import random
@@ -50,6 +51,7 @@ class BleAirParams:
     min_distance_m: float = 0.1
 
 
+@functools.lru_cache(maxsize=256)  # each beacon sends the same bytes ten times a second
 def ibeacon_payload(beacon: SimBeacon) -> bytes:
     """Apple manufacturer data of an iBeacon: 0x02 0x15, UUID, major, minor, power at 1 m."""
     return (bytes((0x02, 0x15)) + uuidlib.UUID(beacon.uuid).bytes

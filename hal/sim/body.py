@@ -11,10 +11,12 @@ import math
 import random
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
-from hal.sim.geometry import Pose, raycast, wrap_angle
+from hal.sim.geometry import Pose, raycast_one, wrap_angle
 from hal.sim.world import World
 
 
@@ -76,6 +78,14 @@ class DiffDriveBody:
         self._in_contact = False
         self._free_m = -1.0  # distance it can move before walls must be checked again
         self.others: list[DiffDriveBody] = []  # other robots, seen by the front sensor
+        self._consts_key: tuple[BodyParams, float] | None = None
+        self._blend = 0.0
+        self._per_tick_m = 1.0
+        self._targets_pwm: tuple[int, int, bool, bool] | None = None
+        self._targets = (0.0, 0.0)
+        self._dock_pose: Pose | None = None  # the pose ``_on_dock`` was computed for
+        self._on_dock = False
+        self._walls_list: tuple[npt.NDArray[np.float64], list[Any]] | None = None
 
     @property
     def pose(self) -> Pose:
@@ -111,8 +121,11 @@ class DiffDriveBody:
         self.sync()
         p = self.params
         x, y = self.pose.to_world(p.radius_m, 0.0)
-        hit_m = float(raycast(self.world.walls, x, y,
-                              np.array([self.pose.heading_rad]), p.range_max_cm / 100)[0])
+        walls = self.world.walls
+        if self._walls_list is None or self._walls_list[0] is not walls:
+            self._walls_list = (walls, walls.tolist())
+        hit_m = raycast_one(self._walls_list[1], x, y, self.pose.heading_rad,
+                            p.range_max_cm / 100)
         for person in self.world.people:
             if person.present:
                 hit_m = min(hit_m, _ray_circle(x, y, self.pose.heading_rad,
@@ -151,18 +164,32 @@ class DiffDriveBody:
         return duty * p.max_wheel_speed_mps * (1 if forward else -1)
 
     def step(self, dt_s: float) -> None:
+        # Called a hundred times per simulated second per robot: what depends only on the
+        # parameters, the PWM and dt is computed once (same expressions, same floats).
         p = self.params
         self.time_s += dt_s
-        targets = (self._target_mps(self.pwm[0], self.pwm[2]),
-                   self._target_mps(self.pwm[1], self.pwm[3]))
-        blend = 1 - math.exp(-dt_s / p.motor_tau_s)
+        if self._consts_key != (p, dt_s):
+            self._consts_key = (p, dt_s)
+            self._blend = 1 - math.exp(-dt_s / p.motor_tau_s)
+            self._per_tick_m = 2 * math.pi * p.wheel_radius_m / p.ticks_per_rev
+            self._targets_pwm = None
+        pwm = self.pwm
+        if self._targets_pwm != pwm:
+            self._targets_pwm = pwm
+            self._targets = (self._target_mps(pwm[0], pwm[2]), self._target_mps(pwm[1], pwm[3]))
+        targets = self._targets
+        wheel = self.wheel_mps
+        if wheel[0] == 0.0 and wheel[1] == 0.0 and targets[0] == 0 and targets[1] == 0:
+            self._drain(dt_s)  # standing still: nothing turns, nothing moves
+            return
+        blend = self._blend
         for i in (0, 1):
-            self.wheel_mps[i] += (targets[i] - self.wheel_mps[i]) * blend
-            if abs(self.wheel_mps[i]) < 1e-5 and targets[i] == 0:
-                self.wheel_mps[i] = 0.0
-        left_m = self.wheel_mps[0] * dt_s
-        right_m = self.wheel_mps[1] * dt_s
-        per_tick_m = 2 * math.pi * p.wheel_radius_m / p.ticks_per_rev
+            wheel[i] += (targets[i] - wheel[i]) * blend
+            if abs(wheel[i]) < 1e-5 and targets[i] == 0:
+                wheel[i] = 0.0
+        left_m = wheel[0] * dt_s
+        right_m = wheel[1] * dt_s
+        per_tick_m = self._per_tick_m
         self._ticks[0] += left_m / per_tick_m
         self._ticks[1] += right_m / per_tick_m
         if left_m or right_m:
@@ -201,7 +228,10 @@ class DiffDriveBody:
         p = self.params
         duty = (self.pwm[0] + self.pwm[1]) / 255
         watts = p.idle_w + p.motor_w * duty
-        if self.on_dock:
+        if self._pose is not self._dock_pose:  # poses are immutable: same object, same answer
+            self._dock_pose = self._pose
+            self._on_dock = self.on_dock
+        if self._on_dock:
             watts -= p.charge_w
         self.charge_pct -= watts * dt_s / 3600 / p.battery_wh * 100
         self.charge_pct = min(100.0, max(0.0, self.charge_pct))

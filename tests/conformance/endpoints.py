@@ -15,17 +15,16 @@ import asyncio
 import contextlib
 import tempfile
 from collections.abc import Awaitable, Callable
-from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Protocol
 
 from simavr_endpoint import SimavrEndpoint
 
-from drivers.arduino import ArduinoLink, LinkConfig
+from bench import PlantBench, TimedPlant
+from drivers.arduino import ArduinoLink
 from drivers.serial_port import open_serial
 from hal.ports import SerialOpener
 from hal.sim.fake_mcu import FakeMcu
-from hal.sim.plant import RecordingPlant
 from hal.sim.pty_mcu import PtyMcu
 from hal.sim.sim_serial import SimSerialPorts
 from robotd import vclock
@@ -74,20 +73,8 @@ class McuEndpoint(Protocol):
     def delay(self, seconds: float) -> None: ...
 
 
-@dataclass
-class TimedPlant(RecordingPlant):
-    """A RecordingPlant that also stamps each PWM setting with the loop time."""
 
-    timed_pwm: list[tuple[float, int, int, bool, bool]] = field(default_factory=list)
-
-    def apply_pwm(self, left_pwm: int, right_pwm: int, left_forward: bool,
-                  right_forward: bool) -> None:
-        super().apply_pwm(left_pwm, right_pwm, left_forward, right_forward)
-        t_s = asyncio.get_running_loop().time()
-        self.timed_pwm.append((t_s, left_pwm, right_pwm, left_forward, right_forward))
-
-
-class _FakeMcuEndpoint:
+class _FakeMcuEndpoint(PlantBench):
     """What both FakeMcu endpoints share: the plant, the records and the fault switches."""
 
     name = "fake"
@@ -106,43 +93,8 @@ class _FakeMcuEndpoint:
     async def close(self) -> None:
         await self.mcu.close()
 
-    def link(self, **config: Any) -> ArduinoLink:
-        return ArduinoLink(self.opener, replace(LinkConfig(port=self.port), **config))
-
-    def pwm_log(self) -> list[tuple[float, int, int, bool, bool]]:
-        return list(self.plant.timed_pwm)
-
-    def servo_log(self) -> list[int]:
-        return list(self.plant.servo_angles)
-
     def executed(self) -> list[tuple[int | None, str]] | None:
         return [(e.seq, e.payload) for e in self.mcu.executed]
-
-    def set_sensors(self, *, ticks: tuple[int, int] | None = None,
-                    range_cm: float | None = None,
-                    battery: tuple[float, float, bool] | None = None) -> None:
-        if ticks is not None:
-            self.plant.ticks = ticks
-        if range_cm is not None:
-            self.plant.range_cm = range_cm
-        if battery is not None:
-            self.plant.voltage_v, self.plant.charge_pct, self.plant.on_dock = battery
-
-    def corrupt(self, pct: float) -> None:
-        self.mcu.corrupt(pct)
-
-    def unplug(self) -> None:
-        self.mcu.unplug()
-
-    def replug(self) -> None:
-        self.mcu.replug()
-
-    def reset(self) -> None:
-        self.mcu.reset()
-
-    def delay(self, seconds: float) -> None:
-        self.mcu.delay(seconds)
-
 
 class PipeEndpoint(_FakeMcuEndpoint):
     """The FakeMcu behind ``SimSerialPorts`` (byte pipe at the wire's baud), virtual time."""

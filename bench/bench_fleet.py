@@ -160,13 +160,14 @@ def pct(values: list[float], q: float) -> float:
     return ordered[min(len(ordered) - 1, int(q * len(ordered)))] * 1000
 
 
-async def run_one(db_url: str, robots: int, seconds: float, port: int) -> dict[str, float]:
+async def run_one(db_url: str, robots: int, seconds: float, port: int,
+                  extra: tuple[str, ...] = ()) -> dict[str, float]:
     workdir = Path(tempfile.mkdtemp(prefix="bench-fleet-"))
     site = workdir / "site.toml"
     site.write_text(site_toml(robots))
     proc = subprocess.Popen(  # noqa: ASYNC220 - started once, before the measurement
         [str(ROOT / ".venv/bin/robotd-fleet"), "serve", "--db", db_url, "--site", str(site),
-         "--port", str(port), "--log-level", "warning"],
+         "--port", str(port), "--log-level", "warning", *extra],
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         await wait_ready(port, proc)
@@ -216,6 +217,9 @@ async def main() -> int:
             db = Path(tempfile.mkdtemp(prefix="bench-fleet-db-")) / "fleet.db"
             report("sqlite", robots, await run_one(f"sqlite:///{db}", robots, args.seconds,
                                                    port))
+            db = Path(tempfile.mkdtemp(prefix="bench-fleet-db-")) / "fleet.db"
+            report("sqlite-inl", robots, await run_one(
+                f"sqlite:///{db}", robots, args.seconds, port, ("--sqlite-inline",)))
     if args.backend in ("postgres", "both"):
         try:
             cluster = PgCluster.start()

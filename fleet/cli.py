@@ -26,6 +26,9 @@ def _parser() -> argparse.ArgumentParser:
                        help="site TOML file: rooms, beacons, customers, robots, settings")
     serve.add_argument("--host", default="127.0.0.1")
     serve.add_argument("--port", type=int, default=8080)
+    serve.add_argument("--sqlite-inline", action="store_true",
+                       help="run SQLite calls on the event loop's thread instead of aiosqlite's "
+                            "worker threads (one server process only)")
     serve.add_argument("--log-level", default="info",
                        choices=("debug", "info", "warning", "error"))
     return parser
@@ -36,7 +39,7 @@ def main(argv: list[str] | None = None) -> int:
     configure_logging(args.log_level)
     try:
         site = load_site(args.site) if args.site else None
-        app = create_app(args.db, site=site)
+        app = create_app(args.db, site=site, inline_sqlite=args.sqlite_inline)
     except (SiteError, ValueError) as exc:
         print(f"robotd-fleet: {exc}", file=sys.stderr)
         return 2

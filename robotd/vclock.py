@@ -26,6 +26,10 @@ T = TypeVar("T")
 
 # A blocked real select() while time is held wakes up this often to re-check the hold.
 _HOLD_POLL_S = 0.05
+# With callbacks ready (no time passes), real file descriptors are polled on every Nth turn
+# only: a simulation turns the loop ~1000 times per virtual second and a poll is a system call
+# plus the selector's Python. Real I/O still never waits for virtual time to move.
+_READY_POLL_EVERY = 8
 
 
 class _ClockSelector(selectors.BaseSelector):
@@ -69,6 +73,7 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
         self._virtual_origin = start_s
         self._holds = 0
         self._holds_lock = threading.Lock()
+        self._unpolled_turns = 0
         super().__init__(selector=_ClockSelector(self))
         self._clock_resolution = 1e-9
 
@@ -130,6 +135,11 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
         if self.speed is not None:
             real_timeout = None if timeout is None else timeout / self.speed
             return inner.select(real_timeout)
+        if timeout == 0:
+            self._unpolled_turns += 1
+            if self._unpolled_turns < _READY_POLL_EVERY:
+                return []
+        self._unpolled_turns = 0
         events = inner.select(0)
         if events or timeout == 0:
             return events

@@ -60,7 +60,10 @@ class DiffDriveBody:
                  payload_kg: float = 0.0, clock: Callable[[], float] | None = None,
                  dt_s: float = 0.01) -> None:
         self.world = world
-        self._pose = pose
+        # The pose as plain floats: the physics moves it 100 times a second, a Pose object is
+        # only built when somebody reads it.
+        self._xyh = (pose.x_m, pose.y_m, pose.heading_rad)
+        self._pose_obj: Pose | None = pose
         self.params = params or BodyParams()
         self.rng = rng or random.Random()
         self.charge_pct = charge_pct
@@ -83,19 +86,20 @@ class DiffDriveBody:
         self._per_tick_m = 1.0
         self._targets_pwm: tuple[int, int, bool, bool] | None = None
         self._targets = (0.0, 0.0)
-        self._dock_pose: Pose | None = None  # the pose ``_on_dock`` was computed for
+        self._dock_xyh: tuple[float, float, float] | None = None  # ``_on_dock`` is for this
         self._on_dock = False
         self._walls_list: tuple[npt.NDArray[np.float64], list[Any]] | None = None
 
     @property
     def pose(self) -> Pose:
         self.sync()
-        return self._pose
+        return self._pose_now()
 
     @pose.setter
     def pose(self, value: Pose) -> None:
         self.sync()
-        self._pose = value
+        self._xyh = (value.x_m, value.y_m, value.heading_rad)
+        self._pose_obj = value
         self._free_m = -1.0
 
     def sync(self) -> None:
@@ -118,21 +122,21 @@ class DiffDriveBody:
         return math.floor(self._ticks[0]), math.floor(self._ticks[1])
 
     def front_range_cm(self) -> float:
-        self.sync()
         p = self.params
-        x, y = self.pose.to_world(p.radius_m, 0.0)
+        pose = self.pose
+        x, y = pose.to_world(p.radius_m, 0.0)
         walls = self.world.walls
         if self._walls_list is None or self._walls_list[0] is not walls:
             self._walls_list = (walls, walls.tolist())
-        hit_m = raycast_one(self._walls_list[1], x, y, self.pose.heading_rad,
+        hit_m = raycast_one(self._walls_list[1], x, y, pose.heading_rad,
                             p.range_max_cm / 100)
         for person in self.world.people:
             if person.present:
-                hit_m = min(hit_m, _ray_circle(x, y, self.pose.heading_rad,
+                hit_m = min(hit_m, _ray_circle(x, y, pose.heading_rad,
                                                person.x_m, person.y_m, person.radius_m))
         for other in self.others:
             o = other.pose
-            hit_m = min(hit_m, _ray_circle(x, y, self.pose.heading_rad, o.x_m, o.y_m,
+            hit_m = min(hit_m, _ray_circle(x, y, pose.heading_rad, o.x_m, o.y_m,
                                            other.params.radius_m))
         cm = hit_m * 100 + self.rng.gauss(0, p.range_noise_cm)
         return float(min(p.range_max_cm, max(p.range_min_cm, cm)))
@@ -143,6 +147,11 @@ class DiffDriveBody:
         voltage = 9.6 + 3.0 * self.charge_pct / 100
         return voltage, self.charge_pct, self.on_dock
 
+    def _pose_now(self) -> Pose:
+        if self._pose_obj is None:
+            self._pose_obj = Pose(*self._xyh)
+        return self._pose_obj
+
     def servo(self, angle_deg: int) -> None:
         self.servo_deg = angle_deg
 
@@ -152,8 +161,9 @@ class DiffDriveBody:
         dock = self.world.dock
         if dock is None:
             return False
-        return (self._pose.distance_to(dock.x_m, dock.y_m) < 0.03
-                and abs(wrap_angle(self._pose.heading_rad - dock.heading_rad))
+        pose = self._pose_now()
+        return (pose.distance_to(dock.x_m, dock.y_m) < 0.03
+                and abs(wrap_angle(pose.heading_rad - dock.heading_rad))
                 < math.radians(10))
 
     def _target_mps(self, pwm: int, forward: bool) -> float:
@@ -201,35 +211,36 @@ class DiffDriveBody:
     def _move(self, left_m: float, right_m: float) -> None:
         if left_m == 0 and right_m == 0:
             return
-        pose = self._pose
+        x0, y0, heading0 = self._xyh
         d = (left_m + right_m) / 2
         dtheta = (right_m - left_m) / self.params.wheel_base_m
-        mid = pose.heading_rad + dtheta / 2
-        x = pose.x_m + d * math.cos(mid)
-        y = pose.y_m + d * math.sin(mid)
-        heading = wrap_angle(pose.heading_rad + dtheta)
+        mid = heading0 + dtheta / 2
+        x = x0 + d * math.cos(mid)
+        y = y0 + d * math.sin(mid)
+        heading = wrap_angle(heading0 + dtheta)
         self._free_m -= abs(d)
         if self._free_m <= 0:
             clearance = self.world.clearance_m(x, y)
             self._free_m = clearance - self.params.radius_m
-            if clearance < self.params.radius_m and clearance < self.world.clearance_m(
-                    pose.x_m, pose.y_m):
+            if clearance < self.params.radius_m and clearance < self.world.clearance_m(x0, y0):
                 if not self._in_contact:
                     self.collisions.append(Collision(self.time_s, x, y))
                 self._in_contact = True
                 self._free_m = -1.0
-                self._pose = Pose(pose.x_m, pose.y_m, heading)
+                self._xyh = (x0, y0, heading)
+                self._pose_obj = None
                 return
         self._in_contact = False
         self.distance_m += abs(d)
-        self._pose = Pose(x, y, heading)
+        self._xyh = (x, y, heading)
+        self._pose_obj = None
 
     def _drain(self, dt_s: float) -> None:
         p = self.params
         duty = (self.pwm[0] + self.pwm[1]) / 255
         watts = p.idle_w + p.motor_w * duty
-        if self._pose is not self._dock_pose:  # poses are immutable: same object, same answer
-            self._dock_pose = self._pose
+        if self._xyh is not self._dock_xyh:  # a new tuple whenever the body moved
+            self._dock_xyh = self._xyh
             self._on_dock = self.on_dock
         if self._on_dock:
             watts -= p.charge_w

@@ -56,7 +56,6 @@ class _Light:
     stopped: bool
     emergency_stop: bool
     maintenance_mode: bool
-    last_ping_at: datetime | None
     request_id: int | None
     status: str
     customer_id: int
@@ -65,17 +64,16 @@ class _Light:
 
 _LIGHT_QUERY = (
     select(Robot.name, Robot.id, Robot.is_offline, Robot.emergency_stop, Robot.maintenance_mode,
-           Robot.last_ping_at, Request.id, Request.status, Request.customer_id,
-           Request.robot_returned)
+           Request.id, Request.status, Request.customer_id, Request.robot_returned)
     .select_from(Robot)
     .outerjoin(Request, Request.id == Robot.current_request_id)
 )
 
 
 def _light(row: Any) -> _Light:
-    rid, offline, estop, maintenance, ping, req_id, status, customer, returned = row
+    rid, offline, estop, maintenance, req_id, status, customer, returned = row
     return _Light(rid, offline, estop or maintenance, estop, maintenance,
-                  ping, req_id, status or "", customer or 0, bool(returned))
+                  req_id, status or "", customer or 0, bool(returned))
 
 
 class RobotViews:
@@ -84,7 +82,7 @@ class RobotViews:
     by other server processes); and the pings of quiet reports, written in one batch by
     ``flush_pings`` (about once a second)."""
 
-    def __init__(self, db: Database, ttl_s: float = 0.5) -> None:
+    def __init__(self, db: Database, ttl_s: float = 1.0) -> None:
         self._db = db
         self._snapshot = Cached(self._load, ttl_s)
         self._generation = db.generation

@@ -17,12 +17,11 @@ import tempfile
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import structlog
 
 from behaviours.profile import load_profile
-from fleet.site import SiteError, parse_site
 from hal.sim.body import DiffDriveBody
 from hal.sim.geometry import Pose
 from hal.sim.scenario import RobotSpec, Scenario, ScenarioError, load_scenario, read_beside
@@ -42,9 +41,13 @@ from robotd.sim_checks import (
 )
 from robotd.sim_console import SimConsole
 from robotd.sim_devices import SimRig, open_sim_rig
-from robotd.sim_fleet import FLEET_URL, Customer, CustomerPlan, InProcessFleet, Staff
 from robotd.sim_report import draw_trajectory, write_events
 from robotd.sim_script import ScriptPlayer
+
+if TYPE_CHECKING:
+    # The fleet server (FastAPI, SQLAlchemy: seconds of imports) loads only for scenarios
+    # that have one.
+    from robotd.sim_fleet import Customer, InProcessFleet, Staff
 
 log = structlog.get_logger(__name__)
 
@@ -99,6 +102,8 @@ def _robot_settings(scenario: Scenario, spec: RobotSpec, config_path: str | None
     values = defaults()
     values["robot"]["profile"] = scenario.profile
     if "fleet" in scenario.raw:
+        from robotd.sim_fleet import FLEET_URL
+
         values["fleet"]["url"] = FLEET_URL
     problems: list[ConfigProblem] = []
     _apply(values, scenario.config, f"{scenario.source} [config]", problems)
@@ -185,6 +190,9 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
     try:
         fleet_table = scenario.raw.get("fleet")
         if isinstance(fleet_table, dict):
+            from fleet.site import parse_site
+            from robotd.sim_fleet import Customer, CustomerPlan, InProcessFleet, Staff
+
             site = parse_site(read_beside(scenario, str(fleet_table.get("site", ""))),
                               str(fleet_table.get("site")))
             fleet = InProcessFleet(workdir, site, dict(fleet_table.get("settings", {})),
@@ -215,7 +223,7 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
             daemon.add_event_listener(functools.partial(on_event, spec.name))
             robots[spec.name] = SimRobot(spec, settings, body, rig, daemon,
                                     RobotRecord(spec.name, body), socket_path)
-    except (ConfigError, ValueError, SiteError, ScenarioError) as exc:
+    except (ConfigError, ValueError, ScenarioError) as exc:  # fleet.site.SiteError too
         print(f"robotd sim: {exc}")
         for rig in rigs:
             await rig.close()

@@ -13,7 +13,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import functools
-import heapq
 import math
 import random
 import uuid as uuidlib
@@ -210,35 +209,49 @@ class SimBleAir:
                 backend.deliver(mac, adv)
 
     async def run(self) -> None:
-        """Advertise every world beacon at its interval on the loop's clock, until cancelled."""
+        """Advertise every world beacon at its interval on the loop's clock, until cancelled.
+
+        Each beacon's next advert is a timer whose callback sends it and sets the next one (one
+        loop turn per advert; a task sleeping between adverts would cost two). Beacons added to
+        the world start within 0.5 s; a removed one stops at its next advert.
+        """
         loop = asyncio.get_running_loop()
-        queue: list[tuple[float, str]] = []
-        scheduled: set[str] = set()
-        while True:
+        timers: dict[str, asyncio.TimerHandle] = {}
+
+        def schedule_new() -> None:
             now = loop.time()
             for beacon in self.body.world.beacons:
-                if beacon.mac not in scheduled:
-                    scheduled.add(beacon.mac)
-                    heapq.heappush(queue, (now + self.rng.uniform(0, beacon.interval_s),
-                                           beacon.mac))
-            while self._extra:
-                self._deliver(*self._extra.pop(0))
-            if not queue:
-                await asyncio.sleep(0.5)
-                continue
-            due_s, mac = queue[0]
-            if due_s > now:
-                await asyncio.sleep(min(due_s - now, 0.5))
-                continue
-            heapq.heappop(queue)
+                if beacon.mac not in timers:
+                    timers[beacon.mac] = loop.call_at(
+                        now + self.rng.uniform(0, beacon.interval_s), advert_due, beacon.mac)
+            self._deliver_extra()
+
+        def advert_due(mac: str) -> None:
+            due_s = timers[mac].when()
+            schedule_new()  # ``mac`` is still in ``timers``: only new beacons get a first time
             found = next((b for b in self.body.world.beacons if b.mac == mac), None)
             if found is None:
-                scheduled.discard(mac)
-                continue
-            if mac not in self._muted:
-                self.advertise(found)
-            heapq.heappush(queue, (due_s + found.interval_s
-                                   + self.rng.uniform(0, ADV_DELAY_MAX_S), mac))
+                del timers[mac]
+                return
+            try:
+                if mac not in self._muted:
+                    self.advertise(found)
+            finally:
+                timers[mac] = loop.call_at(due_s + found.interval_s
+                                           + self.rng.uniform(0, ADV_DELAY_MAX_S), advert_due, mac)
+
+        try:
+            schedule_new()
+            while True:
+                await asyncio.sleep(0.5)
+                schedule_new()
+        finally:
+            for timer in timers.values():
+                timer.cancel()
+
+    def _deliver_extra(self) -> None:
+        while self._extra:
+            self._deliver(*self._extra.pop(0))
 
     @contextlib.asynccontextmanager
     async def running(self) -> Any:

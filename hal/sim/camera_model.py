@@ -180,13 +180,30 @@ class SimCamera:
 
     # --- internals ----------------------------------------------------------------------------
     async def _run(self) -> None:
+        # Each capture is a timer callback that sets the next one: one loop turn a frame, where
+        # a task sleeping between frames would cost two (the simulator turns the loop a lot).
         loop = asyncio.get_running_loop()
         period_s = 1.0 / self.mount.fps
-        deadline = loop.time()
-        while True:
+        deadline = loop.time() + period_s
+        failed: asyncio.Future[None] = loop.create_future()
+        timer: asyncio.TimerHandle | None = None
+
+        def capture() -> None:
+            nonlocal deadline, timer
+            try:
+                self._capture()
+            except Exception as exc:  # ends the capture task with it, as a failing loop would
+                failed.set_exception(exc)
+                return
             deadline += period_s
-            await asyncio.sleep(max(0.0, deadline - loop.time()))
-            self._capture()
+            timer = loop.call_later(max(0.0, deadline - loop.time()), capture)
+
+        timer = loop.call_later(max(0.0, deadline - loop.time()), capture)
+        try:
+            await failed
+        finally:
+            if timer is not None:
+                timer.cancel()
 
     def _capture(self) -> None:
         loop = asyncio.get_running_loop()

@@ -248,6 +248,10 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
                               console, state_of=lambda n: robots[n].record.state)
     except ScenarioError as exc:
         print(f"robotd sim: {scenario.source}: {exc}")
+        for rig in rigs:
+            await rig.close()
+        if fleet is not None:
+            await fleet.close()
         return 2
     interrupted = asyncio.Event()
     with contextlib.suppress(NotImplementedError, RuntimeError):
@@ -272,20 +276,7 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
         await asyncio.sleep(_WATCH_PERIOD_S)
         now = loop.time() - start
         for n, r in robots.items():
-            moving = abs(r.body.wheel_mps[0] + r.body.wheel_mps[1]) / 2 > 0.05
-            if scenario.world.lines and moving and r.record.state.startswith("mission"):
-                r.record.cross_track_sum_m += scenario.world.cross_track_m(r.body.pose.x_m,
-                                                                           r.body.pose.y_m)
-                r.record.cross_track_samples += 1
-            for c in r.body.collisions[seen_collisions[n]:]:
-                on_event(n, {"t": c.t_s, "kind": "collision", "x_m": c.x_m, "y_m": c.y_m})
-                console.event(loop.time(), f"{n}: collision at ({c.x_m:.2f}, {c.y_m:.2f})")
-            seen_collisions[n] = len(r.body.collisions)
-            for t_stop, last_cmd in r.rig.new_deadman_stops():
-                pose = r.body.pose
-                on_event(n, {"t": t_stop, "kind": "deadman", "last_command_t": last_cmd,
-                             "x_m": pose.x_m, "y_m": pose.y_m})
-                console.event(t_stop, f"{n}: motor board deadman stopped the motors")
+            _observe(scenario, r, seen_collisions, functools.partial(on_event, n), console)
         console.progress(now, {n: r.record.state for n, r in robots.items()})
         dead = [n for n, t in daemon_tasks.items() if t.done()]
         if dead:
@@ -359,6 +350,27 @@ def _report(args: argparse.Namespace, scenario: Scenario, result: SimResult,
     if result.interrupted:
         return 130
     return 0 if result.ok else 1
+
+
+def _observe(scenario: Scenario, r: SimRobot, seen_collisions: dict[str, int],
+             record: Any, console: SimConsole) -> None:
+    """One watch tick for one robot: cross-track error, new collisions, deadman stops."""
+    name = r.spec.name
+    body = r.body
+    moving = abs(body.wheel_mps[0] + body.wheel_mps[1]) / 2 > 0.05
+    if scenario.world.lines and moving and r.record.state.startswith("mission"):
+        pose = body.pose
+        r.record.cross_track_sum_m += scenario.world.cross_track_m(pose.x_m, pose.y_m)
+        r.record.cross_track_samples += 1
+    for c in body.collisions[seen_collisions[name]:]:
+        record({"t": c.t_s, "kind": "collision", "x_m": c.x_m, "y_m": c.y_m})
+        console.event(c.t_s, f"{name}: collision at ({c.x_m:.2f}, {c.y_m:.2f})")
+    seen_collisions[name] = len(body.collisions)
+    for t_stop, last_cmd in r.rig.new_deadman_stops():
+        pose = body.pose
+        record({"t": t_stop, "kind": "deadman", "last_command_t": last_cmd,
+                "x_m": pose.x_m, "y_m": pose.y_m})
+        console.event(t_stop, f"{name}: motor board deadman stopped the motors")
 
 
 def _socket_path(given: str | None, workdir: Path, name: str, index: int) -> str:

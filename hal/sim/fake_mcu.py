@@ -399,17 +399,37 @@ class FakeMcu:
             self._out_timer = loop.call_at(self._out_pending[0][0], self._flush)
 
     async def _telemetry(self) -> None:
+        # Each telemetry moment is a timer callback that sets the next one: one loop turn where
+        # a task sleeping in between would cost two (the simulator turns the loop a lot).
         loop = asyncio.get_running_loop()
         due = {name: loop.time() + period for name, period in self.periods_s.items()}
-        while True:
+        failed: asyncio.Future[None] = loop.create_future()
+        timer: asyncio.TimerHandle | None = None
+        next_s = 0.0
+
+        def arm() -> None:
+            nonlocal next_s, timer
             next_s = min(due.values())
-            await asyncio.sleep(max(0.0, next_s - loop.time()))
-            names = [n for n, t in due.items() if t <= next_s + 1e-9]
-            for name in names:
-                due[name] += self.periods_s[name]
-            if loop.time() < self._booting_until_s:
-                continue
-            self._send_lines([self._telemetry_body(n) for n in names], crc=self.crc_framing)
+            timer = loop.call_later(max(0.0, next_s - loop.time()), send)
+
+        def send() -> None:
+            try:
+                names = [n for n, t in due.items() if t <= next_s + 1e-9]
+                for name in names:
+                    due[name] += self.periods_s[name]
+                if loop.time() >= self._booting_until_s:
+                    self._send_lines([self._telemetry_body(n) for n in names],
+                                     crc=self.crc_framing)
+                arm()
+            except Exception as exc:  # ends the telemetry task with it, as a failing loop would
+                failed.set_exception(exc)
+
+        arm()
+        try:
+            await failed
+        finally:
+            if timer is not None:
+                timer.cancel()
 
     def _telemetry_body(self, name: str) -> bytes:
         if name == "ENCODER":

@@ -32,12 +32,29 @@ class PathRecorder:
     tracks: dict[str, list[TrackPoint]] = field(default_factory=dict)
 
     async def run(self) -> None:
+        # Each sample is a timer callback that sets the next one: one loop turn where a task
+        # sleeping in between would cost two.
         loop = asyncio.get_running_loop()
         next_sample = loop.time()
-        while True:
-            self.sample(loop.time())
+        failed: asyncio.Future[None] = loop.create_future()
+        timer: asyncio.TimerHandle | None = None
+
+        def sample() -> None:
+            nonlocal next_sample, timer
+            try:
+                self.sample(loop.time())
+            except Exception as exc:  # ends the recorder task with it, as a failing loop would
+                failed.set_exception(exc)
+                return
             next_sample += self.sample_s
-            await asyncio.sleep(max(0.0, next_sample - loop.time()))
+            timer = loop.call_later(max(0.0, next_sample - loop.time()), sample)
+
+        sample()
+        try:
+            await failed
+        finally:
+            if timer is not None:
+                timer.cancel()
 
     def sample(self, t_s: float) -> None:
         for name, body in self.bodies.items():

@@ -7,7 +7,7 @@ without executing it again, drives a ``MotorPlant``, sends ``ENCODER``/``IR``/``
 telemetry at fixed rates, and stops the motors 500 ms after the last ``MOTOR``/``HB``.
 Lines starting with ``#`` are crc framing, others plain; telemetry follows the framing of the
 last good command. Fault switches: ``unplug()``, ``replug()``, ``corrupt(pct)``,
-``delay(s)``, ``reset()``. It keeps its own CRC code, apart from the driver's, on purpose.
+``delay(s)``, ``reset()``. Frame parsing is in ``hal.sim.mcu_frames``.
 """
 
 from __future__ import annotations
@@ -23,36 +23,19 @@ import structlog
 
 from hal.ports import StreamPair
 from hal.sim.byte_pipe import corrupt_bytes
+from hal.sim.mcu_frames import (
+    ParseError,
+    crc8_fast,
+    hex_ok,
+    parse_payload,
+    read_seq,
+)
 from hal.sim.plant import MotorPlant
 
 log = structlog.get_logger(__name__)
 
 LINE_MAX = 64  # bytes per line including '\n'
 _TX_BACKLOG_BYTES = 4096
-_WORDS = ("LED_IDLE", "LED_WAITING", "LED_MOVING", "SUCCESS_SCAN", "FAILURE_SCAN", "STOP",
-          "HB", "HELLO")
-_LIMITS = {"MOTOR:": ((0, 255), (0, 255), (0, 1), (0, 1)), "SERVO:": ((0, 180),)}
-
-
-def crc8_bitwise(data: bytes) -> int:
-    """CRC-8 poly 0x07 computed bit by bit, as the firmware does."""
-    crc = 0
-    for byte in data:
-        crc ^= byte
-        for _ in range(8):
-            crc = ((crc << 1) ^ 0x07) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
-    return crc
-
-
-# The bitwise algorithm tabulated once: the fake runs thousands of lines per simulated minute.
-_CRC_TABLE = tuple(crc8_bitwise(bytes([b])) for b in range(256))
-
-
-def crc8_fast(data: bytes) -> int:
-    crc = 0
-    for byte in data:
-        crc = _CRC_TABLE[crc ^ byte]
-    return crc
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,46 +45,6 @@ class Executed:
     t_s: float
     seq: int | None
     payload: str
-
-
-class ParseError(Exception):
-    def __init__(self, reason: str) -> None:
-        super().__init__(reason)
-        self.reason = reason
-
-
-def parse_payload(payload: str) -> tuple[str, tuple[int, ...]]:
-    """(command word, integer arguments); ParseError("PARSE" | "RANGE") when bad."""
-    if payload in _WORDS:
-        return payload, ()
-    for prefix, limits in _LIMITS.items():
-        if payload.startswith(prefix):
-            fields = payload[len(prefix):].split(",")
-            if len(fields) != len(limits) or not all(_is_int(f) for f in fields):
-                raise ParseError("PARSE")
-            values = tuple(int(f) for f in fields)
-            if any(not lo <= v <= hi for v, (lo, hi) in zip(values, limits, strict=True)):
-                raise ParseError("RANGE")
-            return prefix[:-1], values
-    raise ParseError("PARSE")
-
-
-def _is_int(text: str) -> bool:
-    digits = text[1:] if text.startswith("-") else text
-    return digits.isdigit() and digits.isascii()
-
-
-def read_seq(line: bytes) -> int | None:
-    """``#SEQ `` at the start: 1-3 digits, 0-255, then one space; None when unreadable."""
-    if len(line) < 2 or line[0:1] != b"#":
-        return None
-    i = 1
-    while i < len(line) and i <= 3 and 0x30 <= line[i] <= 0x39:
-        i += 1
-    if i == 1 or i >= len(line) or line[i:i + 1] != b" ":
-        return None
-    seq = int(line[1:i])
-    return seq if seq <= 255 else None
 
 
 class FakeMcu:
@@ -278,7 +221,7 @@ class FakeMcu:
             self._reply(seq, "NAK:PARSE")
             return
         body, check = line[:-3], line[-2:]
-        if len(line) < 3 or line[-3:-2] != b"*" or not _hex_ok(check) or int(
+        if len(line) < 3 or line[-3:-2] != b"*" or not hex_ok(check) or int(
                 check, 16) != crc8_fast(body):
             self._reply(seq, "NAK:CRC")
             return
@@ -441,7 +384,3 @@ class FakeMcu:
             voltage_v, percent, on_dock = self.plant.battery()
             text = f"BAT:{round(voltage_v * 1000)},{round(percent)},{int(on_dock)}"
         return text.encode("ascii")
-
-
-def _hex_ok(check: bytes) -> bool:
-    return len(check) == 2 and all(c in b"0123456789ABCDEFabcdef" for c in check)

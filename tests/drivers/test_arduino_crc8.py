@@ -6,7 +6,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from drivers.arduino.crc8 import crc8
-from hal.sim.fake_mcu import crc8_bitwise
+from hal.sim.mcu_frames import crc8_bitwise
 
 
 class TestCrc8:

@@ -9,7 +9,8 @@ import pytest
 
 from drivers.arduino.framing import frame_body
 from hal.ports import StreamPair
-from hal.sim.fake_mcu import FakeMcu, ParseError, parse_payload, read_seq
+from hal.sim.fake_mcu import FakeMcu
+from hal.sim.mcu_frames import ParseError, parse_payload, read_seq
 from hal.sim.plant import RecordingPlant
 from hal.sim.sim_serial import SimSerialPorts
 from robotd import vclock

@@ -1,0 +1,76 @@
+"""The MCU side of the serial protocol's frames: CRC, SEQ and payload parsing.
+
+Written apart from the driver's code on purpose (the fake checks the driver, not itself): the
+CRC is computed bit by bit as the firmware does, then tabulated once for speed.
+"""
+
+from __future__ import annotations
+
+_WORDS = ("LED_IDLE", "LED_WAITING", "LED_MOVING", "SUCCESS_SCAN", "FAILURE_SCAN", "STOP",
+          "HB", "HELLO")
+_LIMITS = {"MOTOR:": ((0, 255), (0, 255), (0, 1), (0, 1)), "SERVO:": ((0, 180),)}
+
+
+def crc8_bitwise(data: bytes) -> int:
+    """CRC-8 poly 0x07 computed bit by bit, as the firmware does."""
+    crc = 0
+    for byte in data:
+        crc ^= byte
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x07) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+    return crc
+
+
+# The bitwise algorithm tabulated once: the fake runs thousands of lines per simulated minute.
+_CRC_TABLE = tuple(crc8_bitwise(bytes([b])) for b in range(256))
+
+
+def crc8_fast(data: bytes) -> int:
+    crc = 0
+    for byte in data:
+        crc = _CRC_TABLE[crc ^ byte]
+    return crc
+
+
+class ParseError(Exception):
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
+
+
+def parse_payload(payload: str) -> tuple[str, tuple[int, ...]]:
+    """(command word, integer arguments); ParseError("PARSE" | "RANGE") when bad."""
+    if payload in _WORDS:
+        return payload, ()
+    for prefix, limits in _LIMITS.items():
+        if payload.startswith(prefix):
+            fields = payload[len(prefix):].split(",")
+            if len(fields) != len(limits) or not all(_is_int(f) for f in fields):
+                raise ParseError("PARSE")
+            values = tuple(int(f) for f in fields)
+            if any(not lo <= v <= hi for v, (lo, hi) in zip(values, limits, strict=True)):
+                raise ParseError("RANGE")
+            return prefix[:-1], values
+    raise ParseError("PARSE")
+
+
+def _is_int(text: str) -> bool:
+    digits = text[1:] if text.startswith("-") else text
+    return digits.isdigit() and digits.isascii()
+
+
+def read_seq(line: bytes) -> int | None:
+    """``#SEQ `` at the start: 1-3 digits, 0-255, then one space; None when unreadable."""
+    if len(line) < 2 or line[0:1] != b"#":
+        return None
+    i = 1
+    while i < len(line) and i <= 3 and 0x30 <= line[i] <= 0x39:
+        i += 1
+    if i == 1 or i >= len(line) or line[i:i + 1] != b" ":
+        return None
+    seq = int(line[1:i])
+    return seq if seq <= 255 else None
+
+
+def hex_ok(check: bytes) -> bool:
+    return len(check) == 2 and all(c in b"0123456789ABCDEFabcdef" for c in check)

@@ -19,7 +19,6 @@ import uuid as uuidlib
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
 from bleak import BleakScanner
 from bleak.backends.scanner import (
     AdvertisementData,
@@ -34,6 +33,7 @@ from bleak.exc import (
 )
 
 from hal.sim.body import DiffDriveBody
+from hal.sim.geometry import segments_crossed
 from hal.sim.world import SimBeacon
 
 APPLE_COMPANY_ID = 0x004C
@@ -169,24 +169,9 @@ class SimBleAir:
                                                       beacon.y_m - pose.y_m))
         rssi = beacon.tx_power_dbm - 10 * p.path_loss_exponent * math.log10(distance_m)
         if p.wall_loss_db:
-            rssi -= p.wall_loss_db * self._walls_between(pose.x_m, pose.y_m, beacon)
+            rssi -= p.wall_loss_db * segments_crossed(self.body.world.walls, pose.x_m,
+                                                      pose.y_m, beacon.x_m, beacon.y_m)
         return rssi
-
-    def _walls_between(self, x_m: float, y_m: float, beacon: SimBeacon) -> int:
-        walls = self.body.world.walls
-        if walls.shape[0] == 0:
-            return 0
-        dx, dy = beacon.x_m - x_m, beacon.y_m - y_m
-        x1, y1, x2, y2 = walls.T
-        ex, ey = x2 - x1, y2 - y1
-        denom = dx * ey - dy * ex
-        with np.errstate(divide="ignore", invalid="ignore"):
-            wx, wy = x1 - x_m, y1 - y_m
-            t = (wx * ey - wy * ex) / denom
-            u = (wx * dy - wy * dx) / denom
-        eps = 1e-6  # the beacon's own wall does not count
-        hit = (np.abs(denom) > 1e-12) & (t > eps) & (t < 1 - eps) & (u >= 0) & (u <= 1)
-        return int(np.count_nonzero(hit))
 
     def advertise(self, beacon: SimBeacon) -> None:
         """One advert from ``beacon`` through the air to every listening scanner."""

@@ -20,7 +20,7 @@ import numpy.typing as npt
 
 from hal.readings import Frame
 from hal.sim.body import DiffDriveBody
-from hal.sim.geometry import Pose
+from hal.sim.geometry import Pose, segment_distances
 from hal.sim.world import PaintedLine, World
 
 F32Array = npt.NDArray[Any]  # float32; cv2 returns loosely typed arrays
@@ -262,7 +262,7 @@ class SimCamera:
             segs = self._line_segments(line)
             if segs.shape[0] == 0:
                 continue
-            near = _segment_distances(segs, cx, cy) < reach_m + line.width_m
+            near = segment_distances(segs, cx, cy) < reach_m + line.width_m
             if not near.any():
                 continue
             pts = segs[near].reshape(-1, 2)
@@ -359,15 +359,3 @@ class SimCamera:
             return image
         out: U8Image = cv2.blur(image, (kx, ky))
         return out
-
-
-def _segment_distances(segs: npt.NDArray[np.float64], x_m: float, y_m: float
-                       ) -> npt.NDArray[np.float64]:
-    x1, y1, x2, y2 = segs.T
-    ex, ey = x2 - x1, y2 - y1
-    length2 = ex * ex + ey * ey
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.clip(((x_m - x1) * ex + (y_m - y1) * ey) / length2, 0.0, 1.0)
-    t = np.where(length2 > 0, t, 0.0)
-    out: npt.NDArray[np.float64] = np.hypot(x1 + t * ex - x_m, y1 + t * ey - y_m)
-    return out

@@ -5,6 +5,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -40,6 +41,23 @@ def segments_array(segments: list[tuple[float, float, float, float]]) -> FloatAr
     return np.asarray(segments, dtype=np.float64).reshape(-1, 4)
 
 
+def _crossings(segments: FloatArray, x_m: float, y_m: float, dx: Any, dy: Any
+               ) -> tuple[Any, Any, Any]:
+    """Where the line (x, y) + t (dx, dy) meets each segment: (t, u along the segment, valid).
+
+    ``dx``/``dy`` may be arrays of shape (rays, 1): the result is then (rays, segments).
+    """
+    x1, y1, x2, y2 = segments.T
+    ex, ey = x2 - x1, y2 - y1
+    denom = dx * ey - dy * ex
+    with np.errstate(divide="ignore", invalid="ignore"):
+        wx, wy = x1 - x_m, y1 - y_m
+        t = (wx * ey - wy * ex) / denom
+        u = (wx * dy - wy * dx) / denom
+    valid = (np.abs(denom) > 1e-12) & (u >= 0) & (u <= 1)
+    return t, u, valid
+
+
 def raycast(
     segments: FloatArray, x_m: float, y_m: float, angles_rad: FloatArray, max_range_m: float
 ) -> FloatArray:
@@ -48,20 +66,24 @@ def raycast(
     out = np.full(angles.shape, max_range_m, dtype=np.float64)
     if segments.shape[0] == 0:
         return out
-    dx = np.cos(angles)[:, None]
-    dy = np.sin(angles)[:, None]
-    x1, y1, x2, y2 = (segments[:, i][None, :] for i in range(4))
-    ex, ey = x2 - x1, y2 - y1
-    denom = dx * ey - dy * ex
-    with np.errstate(divide="ignore", invalid="ignore"):
-        wx, wy = x1 - x_m, y1 - y_m
-        t = (wx * ey - wy * ex) / denom
-        u = (wx * dy - wy * dx) / denom
-    hit = (np.abs(denom) > 1e-12) & (t >= 0) & (u >= 0) & (u <= 1)
-    t = np.where(hit, t, np.inf)
-    nearest = t.min(axis=1)
+    t, _u, valid = _crossings(segments, x_m, y_m, np.cos(angles)[:, None],
+                              np.sin(angles)[:, None])
+    nearest = np.where(valid & (t >= 0), t, np.inf).min(axis=1)
     result: FloatArray = np.minimum(out, nearest)
     return result
+
+
+def segments_crossed(segments: FloatArray, x_m: float, y_m: float, to_x_m: float,
+                     to_y_m: float, *, end_margin: float = 1e-6) -> int:
+    """How many segments the straight path from one point to another passes through.
+
+    A segment touching either end (within ``end_margin`` of the path) does not count: a
+    beacon on a wall is not behind that wall.
+    """
+    if segments.shape[0] == 0:
+        return 0
+    t, _u, valid = _crossings(segments, x_m, y_m, to_x_m - x_m, to_y_m - y_m)
+    return int(np.count_nonzero(valid & (t > end_margin) & (t < 1 - end_margin)))
 
 
 def raycast_one(segments: list[tuple[float, float, float, float]], x_m: float, y_m: float,
@@ -85,18 +107,23 @@ def raycast_one(segments: list[tuple[float, float, float, float]], x_m: float, y
     return nearest
 
 
-def distance_to_segments(segments: FloatArray, x_m: float, y_m: float) -> float:
-    """Shortest distance from a point to any segment (inf when there are none)."""
-    if segments.shape[0] == 0:
-        return math.inf
+def segment_distances(segments: FloatArray, x_m: float, y_m: float) -> FloatArray:
+    """Distance from a point to each segment."""
     x1, y1, x2, y2 = segments.T
     ex, ey = x2 - x1, y2 - y1
     length2 = ex * ex + ey * ey
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.clip(((x_m - x1) * ex + (y_m - y1) * ey) / length2, 0.0, 1.0)
     t = np.where(length2 > 0, t, 0.0)
-    px, py = x1 + t * ex, y1 + t * ey
-    return float(np.min(np.hypot(px - x_m, py - y_m)))
+    out: FloatArray = np.hypot(x1 + t * ex - x_m, y1 + t * ey - y_m)
+    return out
+
+
+def distance_to_segments(segments: FloatArray, x_m: float, y_m: float) -> float:
+    """Shortest distance from a point to any segment (inf when there are none)."""
+    if segments.shape[0] == 0:
+        return math.inf
+    return float(np.min(segment_distances(segments, x_m, y_m)))
 
 
 def polyline_segments(points: list[tuple[float, float]], closed: bool) -> FloatArray:

@@ -183,6 +183,12 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
     customers: list[Customer] = []
     staff: Staff | None = None
 
+    async def close_hardware() -> None:
+        for rig in rigs:
+            await rig.close()
+        if fleet is not None:
+            await fleet.close()
+
     def set_payload(robot: str, kg: float) -> None:
         if robot in robots:
             robots[robot].body.payload_kg = kg
@@ -225,10 +231,7 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
                                     RobotRecord(spec.name, body), socket_path)
     except (ConfigError, ValueError, ScenarioError) as exc:  # fleet.site.SiteError too
         print(f"robotd sim: {exc}")
-        for rig in rigs:
-            await rig.close()
-        if fleet is not None:
-            await fleet.close()
+        await close_hardware()
         return 2
     if scenario.world.robots_see_each_other:
         for r in robots.values():
@@ -248,10 +251,7 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
                               console, state_of=lambda n: robots[n].record.state)
     except ScenarioError as exc:
         print(f"robotd sim: {scenario.source}: {exc}")
-        for rig in rigs:
-            await rig.close()
-        if fleet is not None:
-            await fleet.close()
+        await close_hardware()
         return 2
     interrupted = asyncio.Event()
     with contextlib.suppress(NotImplementedError, RuntimeError):
@@ -302,14 +302,11 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
     for task in [*tasks, *people]:
         task.cancel()
     await asyncio.gather(*tasks, *people, return_exceptions=True)
-    for r in robots.values():
-        await r.rig.close()
     if staff is not None:
         extra += staff.double_assignments
     if customers:
         extra += request_failures(scenario, customers)
-    if fleet is not None:
-        await fleet.close()
+    await close_hardware()
 
     records = {n: r.record for n, r in robots.items()}
     # Interrupted by hand: the unmet conditions say nothing, only that it was stopped.

@@ -23,7 +23,8 @@ from hal.sim.camera_model import CameraMount, SimCamera
 from hal.sim.fake_mcu import FakeMcu
 from hal.sim.hx711_model import SimHx711Lines
 from hal.sim.sim_serial import SimSerialPorts
-from hal.sim.simavr_mcu import SimavrBridge, SimavrMcu, SimavrUnavailable, missing_toolchain
+from hal.sim.simavr_bridge import SimavrBridge
+from hal.sim.simavr_mcu import SimavrMcu, SimavrUnavailable, missing_toolchain
 from hal.sim.world import World
 from robotd.config.settings import Settings
 

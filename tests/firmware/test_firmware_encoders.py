@@ -14,7 +14,8 @@ from firmware_client import PtyLink
 
 from hal.sim.body import BodyParams, DiffDriveBody
 from hal.sim.geometry import Pose
-from hal.sim.simavr_mcu import SimavrBridge, SimavrMcu
+from hal.sim.simavr_bridge import SimavrBridge
+from hal.sim.simavr_mcu import SimavrMcu
 from hal.sim.world import World
 
 # (left, right) ticks per 10 ms message, and how many messages: about 600 transitions/s per

@@ -7,7 +7,8 @@ import asyncio
 from firmware_client import PtyLink
 
 from hal.sim.plant import RecordingPlant
-from hal.sim.simavr_mcu import SimavrBridge, SimavrMcu
+from hal.sim.simavr_bridge import SimavrBridge
+from hal.sim.simavr_mcu import SimavrMcu
 
 
 class TestMotors:

@@ -44,11 +44,11 @@ _THRESHOLD_SCALE = {"dark": 1.5, "light": 0.5, "chroma": 1.0}
 Plane = npt.NDArray[Any]  # float32 rows (cv2 returns loosely typed arrays)
 
 _TOO_DARK = 20.0  # floor brightness (grey levels) below which nothing can be seen
-_GREY_TINT = 24.0  # channel spread (grey levels) a grey surface shows from noise and light
+_GREY_TINT = 24  # channel spread (grey levels) a grey surface shows from noise and light
 _BACKGROUND_FRAC = 0.17  # background window, fraction of the width: wider than any line
 _GAP_PX = 3  # gaps this narrow inside a run are noise
 _PAD = 2  # zero columns either side of each row, so runs never cross rows
-_MAX_WORK_PX = 320  # wider frames are read every 2nd (3rd...) column: same answer, less work
+_MAX_WORK_PX = 640  # wider frames are averaged over 2 (3...) columns: same answer, less work
 
 
 @dataclass(frozen=True, slots=True)
@@ -187,7 +187,7 @@ class LineTracker:
 
     # --- internals ----------------------------------------------------------------------------
     def _strip(self, image: npt.NDArray[np.uint8]) -> tuple[list[Plane], int]:
-        """The scan rows as float planes (B, G, R), at most _MAX_WORK_PX wide, and the step."""
+        """The scan rows as uint8 planes (B, G, R), at most _MAX_WORK_PX wide, and the step."""
         h, w = image.shape[:2]
         if self._rows is None or self._rows[0] != h:
             p = self.params
@@ -201,28 +201,32 @@ class LineTracker:
         rows: Plane = image[self._rows[1]]
         if step > 1:  # mean of each column group: keeps sub-pixel detail, halves the noise
             rows = cv2.resize(rows, (w // step, rows.shape[0]), interpolation=cv2.INTER_AREA)
-        planes: list[Plane] = list(cv2.split(rows.astype(np.float32)))
-        return planes, step
+        return list(cv2.split(rows)), step
 
     def _find(self, planes: list[Plane], step: int, colour: _Colour,
               full_width: int) -> LineReading:
         centre = (full_width - 1) / 2
-        value = cv2.max(cv2.max(planes[0], planes[1]), planes[2])
-        low = cv2.min(cv2.min(planes[0], planes[1]), planes[2])
-        floor = _background(value, cv2.MORPH_CLOSE)
-        if float(cv2.mean(floor)[0]) < _TOO_DARK:
-            return self._lost(centre, colour, "too dark")
         if colour.kind in ("dark", "light"):
-            # Grey lines only: saturation beyond what noise gives counts against the pixel.
-            tint = np.maximum(value - low - _GREY_TINT, 0.0)
+            value = cv2.max(cv2.max(planes[0], planes[1]), planes[2])
+            floor = _background(value, cv2.MORPH_CLOSE)
+            if float(cv2.mean(floor)[0]) < _TOO_DARK:
+                return self._lost(centre, colour, "too dark")
+            # Grey lines only: saturation beyond what noise gives counts against the pixel
+            # (uint8 arithmetic saturates at 0: max(spread - tint, 0) in one call).
+            low = cv2.min(cv2.min(planes[0], planes[1]), planes[2])
+            tint = cv2.subtract(cv2.subtract(value, low), _GREY_TINT)
             if colour.kind == "dark":
-                raw = floor - value - tint
+                raw = floor - cv2.add(value, tint, dtype=cv2.CV_32F)
             else:
-                raw = value - _background(value, cv2.MORPH_OPEN) - tint
+                raw = (cv2.subtract(value, tint, dtype=cv2.CV_32F)
+                       - _background(value, cv2.MORPH_OPEN))
         else:
+            floor = _background(_reduce(cv2.max, planes), cv2.MORPH_CLOSE)
+            if float(cv2.mean(floor)[0]) < _TOO_DARK:
+                return self._lost(centre, colour, "too dark")
             wanted = _reduce(cv2.min, [planes[c] for c in colour.channels])
             others = _reduce(cv2.max, [planes[c] for c in (0, 1, 2) if c not in colour.channels])
-            raw = wanted - others
+            raw = cv2.subtract(wanted, others, dtype=cv2.CV_32F)
         score = cv2.divide(raw, floor)  # 0 where the floor is 0
         threshold = self.params.min_contrast * _THRESHOLD_SCALE[colour.kind]
         return self._pick(score, threshold, colour, step, full_width)
@@ -340,7 +344,7 @@ def _background(value: Plane, closing: int) -> Plane:
     """
     k, width = value.shape
     blocks = max(4, width // 8)
-    coarse = cv2.resize(value, (blocks, k), interpolation=cv2.INTER_AREA)
+    coarse = cv2.resize(value, (blocks, k), interpolation=cv2.INTER_AREA).astype(np.float32)
     kernel = _kernel(max(3, round(blocks * _BACKGROUND_FRAC)) | 1)
     smooth = cv2.blur(cv2.morphologyEx(coarse, closing, kernel), (3, 1))
     out: Plane = cv2.resize(smooth, (width, k), interpolation=cv2.INTER_LINEAR)

@@ -214,7 +214,8 @@ class LineTracker:
             # Grey lines only: saturation beyond what noise gives counts against the pixel
             # (uint8 arithmetic saturates at 0: max(spread - tint, 0) in one call).
             low = cv2.min(cv2.min(planes[0], planes[1]), planes[2])
-            tint = cv2.subtract(cv2.subtract(value, low), _GREY_TINT)
+            spread = cv2.subtract(value, low)
+            tint = cv2.subtract(spread, _GREY_TINT)  # type: ignore[call-overload]  # a scalar: cv2's stubs lack it
             if colour.kind == "dark":
                 raw = floor - cv2.add(value, tint, dtype=cv2.CV_32F)
             else:

@@ -3,8 +3,8 @@
 ``VirtualTimeLoop(speed=None)`` jumps its clock to the next timer whenever nothing is ready
 (no callbacks, no readable socket), so a 20-minute mission runs in seconds and runs the same
 way every time. ``speed=1.0`` runs against the wall clock (``--realtime``), ``speed=X`` X times
-faster. Real file descriptors (the control socket, a pseudo-terminal) are polled on every
-iteration in every mode, so ``robotctl`` works against a simulation.
+faster. Real file descriptors (the control socket, a pseudo-terminal) are polled before every
+jump of the clock and every few turns in between, so ``robotctl`` works against a simulation.
 
 Work that happens outside the loop (a thread answering through ``call_soon_threadsafe``) must
 hold the clock with ``loop.hold_time()`` while it runs, otherwise virtual time would run ahead
@@ -14,15 +14,21 @@ of it; ``run_in_executor`` does this by itself.
 from __future__ import annotations
 
 import asyncio
+import collections
 import contextlib
+import contextvars
+import heapq
+import itertools
 import selectors
 import threading
 import time
+from asyncio import events, format_helpers
 from collections.abc import Callable, Iterator
 from concurrent.futures import Executor
-from typing import Any, TypeVar
+from typing import Any, TypeVar, TypeVarTuple
 
 T = TypeVar("T")
+Ts = TypeVarTuple("Ts")
 
 # A blocked real select() while time is held wakes up this often to re-check the hold.
 _HOLD_POLL_S = 0.05
@@ -30,6 +36,10 @@ _HOLD_POLL_S = 0.05
 # only: a simulation turns the loop ~1000 times per virtual second and a poll is a system call
 # plus the selector's Python. Real I/O still never waits for virtual time to move.
 _READY_POLL_EVERY = 8
+# asyncio's policy for purging cancelled timers from the queue.
+_PURGE_MIN_TIMERS = 100
+_PURGE_CANCELLED_FRACTION = 0.5
+_MAX_SELECT_TIMEOUT_S = 24 * 3600.0
 
 
 class _ClockSelector(selectors.BaseSelector):
@@ -51,7 +61,7 @@ class _ClockSelector(selectors.BaseSelector):
     def select(
         self, timeout: float | None = None
     ) -> list[tuple[selectors.SelectorKey, int]]:
-        return self._loop._select(self._inner, timeout)
+        return self._loop._select_scaled(self._inner, timeout)
 
     def close(self) -> None:
         self._inner.close()
@@ -62,6 +72,19 @@ class _ClockSelector(selectors.BaseSelector):
 
 class VirtualTimeLoop(asyncio.SelectorEventLoop):
     """A selector event loop with a virtual (speed=None) or scaled wall clock."""
+
+    # asyncio's loop internals that this loop's turn works on (not in typeshed).
+    _ready: collections.deque[Any]
+    _scheduled: list[tuple[float, int, Any]]
+    _stopping: bool
+    _closed: bool
+    _debug: bool
+    _timer_cancelled_count: int
+    _current_handle: Any
+    _selector: selectors.BaseSelector
+    _process_events: Callable[[list[tuple[selectors.SelectorKey, int]]], None]
+    _check_thread: Callable[[], None]
+    _check_callback: Callable[[object, str], None]
 
     def __init__(self, speed: float | None = None, start_s: float = 0.0) -> None:
         if speed is not None and speed <= 0:
@@ -74,7 +97,14 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
         self._holds = 0
         self._holds_lock = threading.Lock()
         self._unpolled_turns = 0
-        super().__init__(selector=_ClockSelector(self))
+        self._timer_order = itertools.count()
+        selector = _ClockSelector(self)
+        self._inner_selector = selector._inner
+        # One system call says whether any real descriptor is ready (epoll and poll objects);
+        # only then does the selector's Python run.
+        raw = getattr(self._inner_selector, "_selector", None)
+        self._probe: Callable[[float], list[Any]] | None = getattr(raw, "poll", None)
+        super().__init__(selector=selector)
         self._clock_resolution = 1e-9
 
     @property
@@ -129,25 +159,167 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
         fut.add_done_callback(release)
         return fut
 
-    def _select(
+    # -- callbacks and timers ----------------------------------------------------------------
+    # The simulator schedules a few hundred callbacks per virtual second, so these are lean
+    # versions of asyncio's (same handles, same semantics): handles are filled in place
+    # instead of through three constructors, and timers queue as (when, order, handle) so
+    # the heap compares floats in C instead of calling TimerHandle.__lt__ in Python. Timers
+    # due at the same moment run in the order they were set. Debug mode uses asyncio's own.
+
+    def call_soon(self, callback: Callable[[*Ts], object], *args: *Ts,
+                  context: contextvars.Context | None = None) -> asyncio.Handle:
+        if self._debug:
+            return super().call_soon(callback, *args, context=context)
+        if self._closed:
+            msg = "Event loop is closed"
+            raise RuntimeError(msg)
+        handle: Any = _new_handle(events.Handle)
+        handle._context = context if context is not None else contextvars.copy_context()
+        handle._loop = self
+        handle._callback = callback
+        handle._args = args
+        self._ready.append(handle)
+        return handle  # type: ignore[no-any-return]
+
+    def call_later(self, delay: float, callback: Callable[[*Ts], object], *args: *Ts,
+                   context: contextvars.Context | None = None) -> asyncio.TimerHandle:
+        if self._debug or delay is None:
+            return super().call_later(delay, callback, *args, context=context)
+        return self.call_at(self.time() + delay, callback, *args, context=context)
+
+    def call_at(self, when: float, callback: Callable[[*Ts], object], *args: *Ts,
+                context: contextvars.Context | None = None) -> asyncio.TimerHandle:
+        if when is None:
+            msg = "when cannot be None"
+            raise TypeError(msg)
+        if self._closed:
+            msg = "Event loop is closed"
+            raise RuntimeError(msg)
+        timer: Any
+        if self._debug:
+            self._check_thread()
+            self._check_callback(callback, "call_at")
+            timer = events.TimerHandle(when, callback, args, self, context)
+        else:
+            timer = _new_handle(events.TimerHandle)
+            timer._context = context if context is not None else contextvars.copy_context()
+            timer._loop = self
+            timer._callback = callback
+            timer._args = args
+            timer._when = when
+        heapq.heappush(self._scheduled, (when, next(self._timer_order), timer))
+        timer._scheduled = True
+        return timer  # type: ignore[no-any-return]
+
+    def _run_once(self) -> None:
+        """One turn: purge cancelled timers, poll or move the clock, run what is due."""
+        scheduled = self._scheduled
+        count = len(scheduled)
+        if count > _PURGE_MIN_TIMERS and (
+                self._timer_cancelled_count / count > _PURGE_CANCELLED_FRACTION):
+            live = []
+            for entry in scheduled:
+                if entry[2]._cancelled:
+                    entry[2]._scheduled = False
+                else:
+                    live.append(entry)
+            heapq.heapify(live)
+            self._scheduled = scheduled = live
+            self._timer_cancelled_count = 0
+        else:
+            while scheduled and scheduled[0][2]._cancelled:
+                self._timer_cancelled_count -= 1
+                heapq.heappop(scheduled)[2]._scheduled = False
+
+        ready = self._ready
+        busy = bool(ready) or self._stopping
+        if self.speed is None:
+            self._wait_virtual(busy, scheduled)
+        else:
+            timeout = None
+            if busy:
+                timeout = 0.0
+            elif scheduled:
+                timeout = min(max(0.0, scheduled[0][0] - self.time()), _MAX_SELECT_TIMEOUT_S)
+            self._process_events(self._selector.select(timeout))
+
+        end_s = self.time() + self._clock_resolution
+        while scheduled and scheduled[0][0] < end_s:
+            timer = heapq.heappop(scheduled)[2]
+            timer._scheduled = False
+            ready.append(timer)
+
+        handle: Any = None
+        if self._debug:
+            for _ in range(len(ready)):
+                handle = ready.popleft()
+                if not handle._cancelled:
+                    self._current_handle = handle
+                    try:
+                        handle._run()
+                    finally:
+                        self._current_handle = None
+            return
+        # Handle._run, inlined: one Python frame less per callback.
+        for _ in range(len(ready)):
+            handle = ready.popleft()
+            if handle._cancelled:
+                continue
+            try:
+                handle._context.run(handle._callback, *handle._args)
+            except (SystemExit, KeyboardInterrupt):
+                raise
+            except BaseException as exc:
+                self._callback_failed(handle, exc)
+        handle = None  # breaks a cycle when a callback raised
+
+    def _callback_failed(self, handle: Any, exc: BaseException) -> None:
+        source = format_helpers._format_callback_source(handle._callback, handle._args)
+        context: dict[str, Any] = {"message": f"Exception in callback {source}",
+                                   "exception": exc, "handle": handle}
+        if handle._source_traceback:
+            context["source_traceback"] = handle._source_traceback
+        self.call_exception_handler(context)
+
+    def _wait_virtual(self, busy: bool, scheduled: list[Any]) -> None:
+        """Poll real I/O; move virtual time to the next timer when nothing else is to do."""
+        if busy:
+            self._unpolled_turns += 1
+            if self._unpolled_turns >= _READY_POLL_EVERY:
+                self._poll_real(0.0)
+            return
+        if self._poll_real(0.0):
+            return  # real I/O never waits for virtual time to move
+        if scheduled and self._holds <= 0:
+            self._virtual_s += min(max(0.0, scheduled[0][0] - self._virtual_s),
+                                   _MAX_SELECT_TIMEOUT_S)
+            return
+        # Something outside the loop is working, or no timer at all: wait for real I/O.
+        self._poll_real(_HOLD_POLL_S if self._holds > 0 else None)
+
+    def _poll_real(self, timeout_s: float | None) -> bool:
+        self._unpolled_turns = 0
+        if timeout_s == 0.0 and self._probe is not None and not self._probe(0):
+            return False
+        events = self._inner_selector.select(timeout_s)
+        if events:
+            self._process_events(events)
+        return bool(events)
+
+    def _select_scaled(
         self, inner: selectors.BaseSelector, timeout: float | None
     ) -> list[tuple[selectors.SelectorKey, int]]:
-        if self.speed is not None:
-            real_timeout = None if timeout is None else timeout / self.speed
-            return inner.select(real_timeout)
-        if timeout == 0:
-            self._unpolled_turns += 1
-            if self._unpolled_turns < _READY_POLL_EVERY:
-                return []
-        self._unpolled_turns = 0
-        events = inner.select(0)
-        if events or timeout == 0:
-            return events
-        if self._holds > 0 or timeout is None:
-            # Something outside the loop is working, or no timer at all: wait for real I/O.
-            return inner.select(_HOLD_POLL_S if self._holds > 0 else None)
-        self._virtual_s += timeout
-        return []
+        speed = self.speed or 1.0
+        return inner.select(None if timeout is None else timeout / speed)
+
+
+def _new_handle(cls: type[events.Handle]) -> Any:
+    """A handle with asyncio's defaults, its callback still to be filled in."""
+    handle: Any = cls.__new__(cls)
+    handle._cancelled = False
+    handle._repr = None
+    handle._source_traceback = None
+    return handle
 
 
 class VirtualTimePolicy(asyncio.DefaultEventLoopPolicy):

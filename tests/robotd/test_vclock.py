@@ -75,3 +75,64 @@ class TestVirtualTimeLoop:
             return line
 
         assert vclock.run(main()) == b"ping\n"
+
+    def test_timers_set_for_the_same_moment_run_in_the_order_they_were_set(self) -> None:
+        async def main() -> list[int]:
+            loop = asyncio.get_running_loop()
+            seen: list[int] = []
+            for i in range(50):
+                loop.call_at(1.0, seen.append, i)
+            await asyncio.sleep(2)
+            return seen
+
+        assert vclock.run(main()) == list(range(50))
+
+    def test_cancelled_timers_never_run_and_do_not_pile_up(self) -> None:
+        """Cancelling many timers (resend deadlines, deadmen) leaves a short queue."""
+
+        async def main() -> tuple[list[int], int]:
+            loop = asyncio.get_running_loop()
+            seen: list[int] = []
+            for i in range(1000):
+                loop.call_later(10.0 + i, seen.append, i).cancel()
+            loop.call_later(5.0, seen.append, -1)
+            await asyncio.sleep(1)
+            return seen, len(loop._scheduled)  # type: ignore[attr-defined]
+
+        seen, queued = vclock.run(main())
+        assert seen == []
+        assert queued < 10
+
+    def test_a_failing_callback_goes_to_the_exception_handler(self) -> None:
+        """The loop carries on; the handler hears which callback failed and why."""
+
+        async def main() -> list[dict[str, object]]:
+            loop = asyncio.get_running_loop()
+            heard: list[dict[str, object]] = []
+            loop.set_exception_handler(lambda _loop, context: heard.append(context))
+
+            def fail() -> None:
+                raise ValueError("boom")
+
+            loop.call_soon(fail)
+            loop.call_later(0.5, fail)
+            await asyncio.sleep(1)
+            return heard
+
+        heard = vclock.run(main())
+        assert len(heard) == 2
+        assert all(isinstance(h["exception"], ValueError) for h in heard)
+        assert "fail" in str(heard[0]["message"])
+
+    def test_debug_mode_runs_the_same_timers(self) -> None:
+        async def main() -> list[tuple[str, float]]:
+            loop = asyncio.get_running_loop()
+            loop.set_debug(True)
+            seen: list[tuple[str, float]] = []
+            loop.call_later(0.2, lambda: seen.append(("b", loop.time())))
+            loop.call_at(0.1, lambda: seen.append(("a", loop.time())))
+            loop.call_soon(lambda: seen.append(("now", loop.time())))
+            await asyncio.sleep(0.3)
+            return seen
+
+        assert vclock.run(main()) == [("now", 0.0), ("a", 0.1), ("b", 0.2)]

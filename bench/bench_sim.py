@@ -100,7 +100,7 @@ def _counting(enabled: bool) -> Iterator[collections.Counter[str]]:
     from robotd import vclock
 
     handle_run = asyncio.events.Handle._run
-    run_once: Callable[[Any], None] = vclock.VirtualTimeLoop._run_once  # type: ignore[attr-defined]
+    run_once: Callable[[Any], None] = vclock.VirtualTimeLoop._run_once
 
     def counted_run(handle: asyncio.Handle) -> None:
         callback = handle._callback  # type: ignore[attr-defined]
@@ -116,12 +116,14 @@ def _counting(enabled: bool) -> Iterator[collections.Counter[str]]:
         run_once(loop)
 
     asyncio.events.Handle._run = counted_run  # type: ignore[method-assign, assignment]
-    vclock.VirtualTimeLoop._run_once = counted_turn  # type: ignore[attr-defined]
+    vclock.VirtualTimeLoop._run_once = counted_turn  # type: ignore[method-assign, assignment]
+    vclock.VirtualTimeLoop.inline_callbacks = False
     try:
         yield counts
     finally:
         asyncio.events.Handle._run = handle_run  # type: ignore[method-assign]
-        vclock.VirtualTimeLoop._run_once = run_once  # type: ignore[attr-defined]
+        vclock.VirtualTimeLoop._run_once = run_once  # type: ignore[method-assign, assignment]
+        vclock.VirtualTimeLoop.inline_callbacks = True
 
 
 if __name__ == "__main__":

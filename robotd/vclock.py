@@ -85,6 +85,8 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
     _process_events: Callable[[list[tuple[selectors.SelectorKey, int]]], None]
     _check_thread: Callable[[], None]
     _check_callback: Callable[[object, str], None]
+    # False: every callback runs through Handle._run (bench/bench_sim.py --turns counts there).
+    inline_callbacks = True
 
     def __init__(self, speed: float | None = None, start_s: float = 0.0) -> None:
         if speed is not None and speed <= 0:
@@ -178,6 +180,9 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
         handle._loop = self
         handle._callback = callback
         handle._args = args
+        handle._cancelled = False
+        handle._repr = None
+        handle._source_traceback = None
         self._ready.append(handle)
         return handle  # type: ignore[no-any-return]
 
@@ -206,6 +211,9 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
             timer._loop = self
             timer._callback = callback
             timer._args = args
+            timer._cancelled = False
+            timer._repr = None
+            timer._source_traceback = None
             timer._when = when
         heapq.heappush(self._scheduled, (when, next(self._timer_order), timer))
         timer._scheduled = True
@@ -250,7 +258,7 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
             ready.append(timer)
 
         handle: Any = None
-        if self._debug:
+        if self._debug or not self.inline_callbacks:
             for _ in range(len(ready)):
                 handle = ready.popleft()
                 if not handle._cancelled:
@@ -313,13 +321,7 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
         return inner.select(None if timeout is None else timeout / speed)
 
 
-def _new_handle(cls: type[events.Handle]) -> Any:
-    """A handle with asyncio's defaults, its callback still to be filled in."""
-    handle: Any = cls.__new__(cls)
-    handle._cancelled = False
-    handle._repr = None
-    handle._source_traceback = None
-    return handle
+_new_handle: Callable[[type[events.Handle]], Any] = object.__new__
 
 
 class VirtualTimePolicy(asyncio.DefaultEventLoopPolicy):

@@ -21,6 +21,7 @@ from typing import Any
 import structlog
 
 from behaviours.line_tracker import LineReading, LineTracker, TrackerParams, parse_colour
+from hal.deadline import DeadlineSleeper
 from hal.devices import Camera, DeviceUnavailable, LinkDown, Motors
 from hal.readings import Frame, MotorCommand
 from robotd.config.settings import Settings
@@ -134,8 +135,10 @@ class LineFollower:
         loop = asyncio.get_running_loop()
         unwatch = self._settings.watch("line_follow", self._on_setting)
         self._begin()
+        sleeper = DeadlineSleeper(loop)
         next_tick = loop.time()
-        log.info("line_follow.start", fps=self._cfg.fps, colour=self.tracker.colour)
+        log.info("line_follow.start", fps=self._cfg.fps, colour=self.tracker.colour,
+                 precise_ticks=sleeper.precise)
         try:
             while True:
                 now = loop.time()
@@ -155,12 +158,13 @@ class LineFollower:
                     behind = now - next_tick
                     next_tick += math.floor(behind / self.period_s) * self.period_s
                     continue
-                await asyncio.sleep(next_tick - now)
+                await sleeper.sleep_until(next_tick)
         except LineLostError:
             self._state = "lost"
             raise
         finally:
             unwatch()
+            sleeper.close()
             await self._stop_wheels()
             if self._state != "lost":
                 self._state = "stopped"

@@ -15,11 +15,12 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import logging
 import random
 import statistics
 import time
-from collections.abc import Callable
+from collections.abc import AsyncIterator, Callable
 
 import structlog
 
@@ -83,34 +84,44 @@ def hx711_read_costs(n: int) -> list[float]:
     return out
 
 
-async def loop_jitter(seconds: float, loaded: bool) -> list[float]:
-    period_s = 1 / 13
-    air_task = None
-    hx = None
-    scanner = None
-    if loaded:
-        body = DiffDriveBody(_world(20), Pose(10.0, 5.0, 0.0))
-        air = SimBleAir(body, rng=random.Random(2))
-        scanner = BleBeaconScanner([UUID], scanner_factory=air.scanner_factory())
-        BeaconTracker(scanner)
-        await scanner.start()
-        air_task = asyncio.create_task(air.run())
-        lines = SimHx711Lines(weight_kg=lambda: 4.2, sps=80)
-        hx = Hx711(lambda: lines, sps=80)
-        await hx.start()
-    loop = asyncio.get_running_loop()
-    errors_ms = []
-    next_t = loop.time() + period_s
-    end = loop.time() + seconds
-    while loop.time() < end:
-        await asyncio.sleep(max(0.0, next_t - loop.time()))
-        errors_ms.append((loop.time() - next_t) * 1000)
-        next_t += period_s
-    if loaded:
-        assert air_task is not None and hx is not None and scanner is not None
+@contextlib.asynccontextmanager
+async def sensor_load(beacons: int = 20, sps: int = 80) -> AsyncIterator[dict[str, int]]:
+    """The real BLE scanner driver and beacon tracker fed by ``beacons`` simulated beacons
+    advertising at 10 Hz (20: 200 adverts/s), and the real HX711 driver reading the simulated
+    chip at ``sps`` - all on the running loop, as the daemon runs them. Yields counters."""
+    body = DiffDriveBody(_world(beacons), Pose(10.0, 5.0, 0.0))
+    air = SimBleAir(body, rng=random.Random(2))
+    scanner = BleBeaconScanner([UUID], scanner_factory=air.scanner_factory())
+    BeaconTracker(scanner)
+    await scanner.start()
+    air_task = asyncio.create_task(air.run())
+    lines = SimHx711Lines(weight_kg=lambda: 4.2, sps=sps)
+    hx = Hx711(lambda: lines, sps=sps)
+    await hx.start()
+    counts: dict[str, int] = {}
+    try:
+        yield counts
+    finally:
         air_task.cancel()
         await hx.close()
         await scanner.close()
+        counts["adverts"] = air.counts["delivered"]
+        counts["hx711_reads"] = lines.reads_completed
+
+
+async def loop_jitter(seconds: float, loaded: bool) -> list[float]:
+    period_s = 1 / 13
+    async with contextlib.AsyncExitStack() as stack:
+        if loaded:
+            await stack.enter_async_context(sensor_load())
+        loop = asyncio.get_running_loop()
+        errors_ms = []
+        next_t = loop.time() + period_s
+        end = loop.time() + seconds
+        while loop.time() < end:
+            await asyncio.sleep(max(0.0, next_t - loop.time()))
+            errors_ms.append((loop.time() - next_t) * 1000)
+            next_t += period_s
     return errors_ms
 
 

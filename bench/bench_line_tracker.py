@@ -1,6 +1,6 @@
 """Line tracker speed and accuracy, and the line-following loop's latency and jitter.
 
-    .venv/bin/python bench/bench_line_tracker.py [--frames N] [--seconds S]
+    .venv/bin/python bench/bench_line_tracker.py [--frames N] [--seconds S] [--part tracker|loop]
 
 1. Tracker time per frame at 320x240 and 640x480 on frames the simulated camera renders (line
    at random offsets and headings, uneven light, noise, motion blur), next to a naive
@@ -9,8 +9,9 @@
    Each frame's time is its best of ``--passes`` runs (the machine is shared).
    Targets: <= 0.5 ms at 640x480, >= 3x faster than the naive tracker, no less accurate.
 2. The control loop at 13 FPS on a real (wall-clock) asyncio loop, fed by a 30 FPS camera,
-   once alone and once with synthetic load: 200 BLE-advert callbacks/s and 80 HX711-like
-   readings/s (each read on a worker thread, as a bit-banging driver would). Prints
+   once alone and once with the real BLE scanner driver and beacon tracker taking 200 adverts/s
+   from 20 simulated beacons and the real HX711 driver bit-banging the simulated chip at 80 SPS
+   on the same loop (bench_ble_hx711.sensor_load). Prints
    frame-to-MOTOR-command latency and tick period jitter (p50/p99). Target jitter p99 <= 2 ms.
 """
 
@@ -18,22 +19,27 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import itertools
 import math
 import os
 import random
+import re
 import statistics
-import struct
+import subprocess
+import sys
 import time
-from collections import deque
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import cv2
 import numpy as np
+from bench_ble_hx711 import sensor_load  # bench/ is on sys.path when run as a script
 
 from behaviours.line_follow import LineFollower
 from behaviours.line_tracker import LineTracker
+from hal.deadline import DeadlineSleeper
 from hal.readings import Frame, LinkStats, MotorCommand
 from hal.sim.body import DiffDriveBody
 from hal.sim.camera_model import CameraMount, SimCamera
@@ -260,65 +266,21 @@ class TimedMotors:
         return {}
 
 
-async def ble_load(rate_hz: float, stop: asyncio.Event) -> int:
-    """Adverts as bleak delivers them: a callback on the loop that parses iBeacon bytes."""
-    loop = asyncio.get_running_loop()
-    tracked: dict[tuple[int, int], deque[int]] = {}
-    payload = bytes([0x02, 0x15]) + bytes(range(16)) + struct.pack(">HHb", 1, 7, -59)
-
-    def on_advert(rssi: int) -> None:
-        major, minor, tx = struct.unpack(">HHb", payload[18:23])
-        history = tracked.setdefault((major, minor), deque(maxlen=10))
-        history.append(rssi)
-        smoothed = sum(history) / len(history)
-        _ = 10 ** ((tx - smoothed) / 20)
-
-    count = 0
-    deadline = loop.time()
-    while not stop.is_set():
-        loop.call_soon(on_advert, -60 - count % 20)
-        count += 1
-        deadline += 1 / rate_hz
-        await asyncio.sleep(max(0.0, deadline - loop.time()))
-    return count
-
-
-async def hx711_load(rate_hz: float, stop: asyncio.Event) -> int:
-    """Readings as a bit-banging driver makes them: 24 clocked bits on a worker thread."""
-    loop = asyncio.get_running_loop()
-    window: deque[int] = deque(maxlen=5)
-
-    def read_bits() -> int:
-        value = 0
-        for bit in range(24):
-            value = (value << 1) | ((0x5A5A5A >> (23 - bit)) & 1)
-        return value - (1 << 24) if value & 0x800000 else value
-
-    count = 0
-    deadline = loop.time()
-    while not stop.is_set():
-        window.append(await loop.run_in_executor(None, read_bits))
-        _ = sorted(window)[len(window) // 2]
-        count += 1
-        deadline += 1 / rate_hz
-        await asyncio.sleep(max(0.0, deadline - loop.time()))
-    return count
-
-
 async def control_run(images: list[Any], seconds: float, loaded: bool) -> dict[str, Any]:
     camera = ReplayCamera(images, fps=30.0)
     motors = TimedMotors()
     follower = LineFollower(camera, motors, Settings(defaults()))
     await camera.start()
-    stop = asyncio.Event()
-    loads = [asyncio.create_task(ble_load(200, stop)),
-             asyncio.create_task(hx711_load(80, stop))] if loaded else []
-    await asyncio.sleep(0.2)
-    task = asyncio.create_task(follower.run())
-    await asyncio.sleep(seconds)
-    task.cancel()
-    stop.set()
-    counts = [await t for t in loads]
+    counts: dict[str, int] = {}
+    async with contextlib.AsyncExitStack() as stack:
+        if loaded:
+            counts = await stack.enter_async_context(sensor_load(beacons=20, sps=80))
+        await asyncio.sleep(0.2)
+        task = asyncio.create_task(follower.run())
+        await asyncio.sleep(seconds)
+        task.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await task
     await camera.close()
     ticks = follower.recent_ticks()
     period = follower.period_s
@@ -327,40 +289,94 @@ async def control_run(images: list[Any], seconds: float, loaded: bool) -> dict[s
     processing = [m - t for t, m in zip(ticks[-len(motors.sent):], motors.sent, strict=False)]
     return {"ticks": len(ticks), "jitter": jitter, "latency": latencies,
             "processing": processing, "overruns": follower.overruns, "load": counts,
-            "late_p99_ms": follower.status()["late_p99_ms"]}
+            "late_p99_ms": follower.status()["late_p99_ms"],
+            "precise": DeadlineSleeper(asyncio.get_running_loop()).precise}
+
+
+UNIT = Path(__file__).resolve().parent.parent / "systemd" / "robotd.service"
+POLICIES = {"rr": "SCHED_RR", "fifo": "SCHED_FIFO"}
+POLICY_NAMES = {os.SCHED_OTHER: "SCHED_OTHER", os.SCHED_RR: "SCHED_RR", os.SCHED_FIFO: "SCHED_FIFO"}
+
+
+def unit_scheduling() -> tuple[int, int] | None:
+    """(policy, priority) that systemd/robotd.service gives the daemon, None for the default."""
+    text = UNIT.read_text()
+    policy = re.search(r"^CPUSchedulingPolicy=(\w+)", text, re.MULTILINE)
+    priority = re.search(r"^CPUSchedulingPriority=(\d+)", text, re.MULTILINE)
+    if policy is None or policy.group(1) not in POLICIES:
+        return None
+    return getattr(os, POLICIES[policy.group(1)]), int(priority.group(1)) if priority else 1
 
 
 def bench_loop(seconds: float) -> None:
+    """Each scheduling in a child process that has it from its start, as systemd gives it to
+    the service: every thread inherits it (OpenCV's worker threads too)."""
+    service = unit_scheduling()
+    for sched in ("default", "service") if service is not None else ("default",):
+        def set_policy(sched: str = sched) -> None:
+            if sched == "service" and service is not None:
+                os.sched_setscheduler(0, service[0], os.sched_param(service[1]))
+        try:  # the scheduler is set in the child before it starts any thread
+            subprocess.run([sys.executable, __file__, "--part", "loop-child", "--sched", sched,
+                            "--seconds", str(seconds)], check=True, preexec_fn=set_policy)
+        except subprocess.CalledProcessError as exc:
+            if sched == "service":
+                print(f"\nscheduled as robotd.service runs it: could not be set here ({exc}; "
+                      "needs root or CAP_SYS_NICE)")
+            else:
+                raise
+
+
+def loop_child(seconds: float, sched: str) -> None:
     mount = CameraMount()
     images = [f for f, _ in render_frames(mount, 60, seed=99)]
+    policy = os.sched_getscheduler(0)
+    label = ("default scheduling (SCHED_OTHER)" if sched == "default" else
+             f"scheduled as {UNIT.name} runs it ({POLICY_NAMES.get(policy, policy)}, "
+             f"priority {os.sched_getparam(0).sched_priority})")
     for loaded in (False, True):
-        r = asyncio.run(control_run(images, seconds, loaded))
-        label = "with BLE 200/s + HX711 80/s" if loaded else "alone"
-        rates = (f" (load delivered: {r['load'][0] / seconds:.0f} adverts/s, "
-                 f"{r['load'][1] / seconds:.0f} readings/s)") if loaded else ""
-        print(f"\ncontrol loop at 13 FPS, {seconds:.0f} s wall clock, {label}{rates}")
-        print(f"  ticks {r['ticks']}, overruns {r['overruns']}")
-        print(f"  period jitter |dt - 76.9 ms|: p50 {pct(r['jitter'], 50) * 1e3:.3f} ms  "
-              f"p99 {pct(r['jitter'], 99) * 1e3:.3f} ms  max {max(r['jitter']) * 1e3:.3f} ms")
-        print(f"  tick start after its deadline: p99 {r['late_p99_ms']:.3f} ms")
-        print(f"  frame-to-MOTOR latency (incl. frame age, camera 30 FPS): "
-              f"p50 {pct(r['latency'], 50) * 1e3:.2f} ms  p99 {pct(r['latency'], 99) * 1e3:.2f} ms")
-        print(f"  tick-to-MOTOR (tracker + control): p50 {pct(r['processing'], 50) * 1e3:.3f} ms"
-              f"  p99 {pct(r['processing'], 99) * 1e3:.3f} ms")
+        print_loop_run(label, images, seconds, loaded)
+
+
+def print_loop_run(sched_label: str, images: list[Any], seconds: float, loaded: bool) -> None:
+    r = asyncio.run(control_run(images, seconds, loaded))
+    label = "with BLE 200/s + HX711 80/s" if loaded else "alone"
+    rates = (f" (real drivers on simulated radio and chip: "
+             f"{r['load']['adverts'] / seconds:.0f} adverts/s, "
+             f"{r['load']['hx711_reads'] / seconds:.0f} HX711 reads/s)") if loaded else ""
+    print(f"\ncontrol loop at 13 FPS, {seconds:.0f} s wall clock, {label}{rates}")
+    print(f"  {sched_label}; precise ticks (timerfd): {r['precise']}")
+    print(f"  ticks {r['ticks']}, overruns {r['overruns']}")
+    print(f"  period jitter |dt - 76.9 ms|: p50 {pct(r['jitter'], 50) * 1e3:.3f} ms  "
+          f"p99 {pct(r['jitter'], 99) * 1e3:.3f} ms  max {max(r['jitter']) * 1e3:.3f} ms")
+    print(f"  tick start after its deadline: p99 {r['late_p99_ms']:.3f} ms")
+    print(f"  frame-to-MOTOR latency (incl. frame age, camera 30 FPS): "
+          f"p50 {pct(r['latency'], 50) * 1e3:.2f} ms  p99 {pct(r['latency'], 99) * 1e3:.2f} ms")
+    print(f"  tick-to-MOTOR (tracker + control): p50 {pct(r['processing'], 50) * 1e3:.3f} ms"
+          f"  p99 {pct(r['processing'], 99) * 1e3:.3f} ms")
 
 
 def main() -> int:
-    print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs (shared machine)")
     parser = argparse.ArgumentParser()
     parser.add_argument("--frames", type=int, default=200)
     parser.add_argument("--passes", type=int, default=5)
     parser.add_argument("--seconds", type=float, default=15.0)
+    parser.add_argument("--part", choices=("all", "tracker", "loop", "loop-child"), default="all")
+    parser.add_argument("--sched", choices=("default", "service"), default="default",
+                        help=argparse.SUPPRESS)
     opts = parser.parse_args()
+    if opts.part == "loop-child":
+        loop_child(opts.seconds, opts.sched)
+        return 0
+    print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs (shared machine)")
     print(f"OpenCV {cv2.__version__}, numpy {np.__version__}, cv2 threads {cv2.getNumThreads()}")
-    for mount in (CameraMount(), CameraMount(width_px=640, height_px=480)):
-        bench_tracker(mount, opts.frames, opts.passes)
-    bench_hard_cases(min(opts.frames, 100))
-    bench_loop(opts.seconds)
+    if opts.part in ("all", "tracker"):
+        for mount in (CameraMount(), CameraMount(width_px=640, height_px=480)):
+            bench_tracker(mount, opts.frames, opts.passes)
+        bench_hard_cases(min(opts.frames, 100))
+    if opts.part in ("all", "loop"):
+        sys.stdout.flush()
+        bench_loop(opts.seconds)
     return 0
 
 

@@ -13,6 +13,7 @@ import asyncio
 import collections
 import errno
 import random
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -50,15 +51,19 @@ class _Direction:
         self.pending: collections.deque[tuple[float, bytes]] = collections.deque()
         self.timer: asyncio.TimerHandle | None = None
         self.target: asyncio.StreamReader | None = None
+        self.sink: Callable[[bytes], None] | None = None  # takes the bytes instead of target
         self.bytes_sent = 0
 
     def send(self, data: bytes) -> None:
         now = self.loop.time()
-        data = corrupt_bytes(data, self.faults.corrupt_fraction, self.rng)
+        faults = self.faults
+        if faults.corrupt_fraction > 0.0:
+            data = corrupt_bytes(data, faults.corrupt_fraction, self.rng)
         self.busy_until_s = max(now, self.busy_until_s) + len(data) * self.byte_s
-        self.pending.append((self.busy_until_s + self.faults.delay_s, data))
+        self.pending.append((self.busy_until_s + faults.delay_s, data))
         self.bytes_sent += len(data)
-        self._schedule()
+        if self.timer is None:
+            self.timer = self.loop.call_at(self.pending[0][0], self._deliver)
 
     def _schedule(self) -> None:
         if self.timer is None and self.pending:
@@ -69,7 +74,9 @@ class _Direction:
         now = self.loop.time()
         while self.pending and self.pending[0][0] <= now:
             _, data = self.pending.popleft()
-            if self.target is not None and not self.target.at_eof():
+            if self.sink is not None:
+                self.sink(data)
+            elif self.target is not None and not self.target.at_eof():
                 self.target.feed_data(data)
         self._schedule()
 
@@ -152,6 +159,14 @@ class BytePipe:
         protocol.connection_made(transport)
         self._transports.append(transport)
         return reader, asyncio.StreamWriter(transport, protocol, reader, loop)
+
+    def receive_at_b(self, sink: Callable[[bytes], None] | None) -> None:
+        """Hand the bytes arriving at ``b`` to ``sink`` at their arrival time, not to b's reader.
+
+        A simulated device served this way takes each write as one callback: no reader task
+        to wake. None gives them back to the reader.
+        """
+        self.a_to_b.sink = sink
 
     def close(self) -> None:
         """Hang up cleanly: both readers see end of file."""

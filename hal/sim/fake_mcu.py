@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import structlog
 
 from hal.ports import StreamPair
-from hal.sim.byte_pipe import corrupt_bytes
+from hal.sim.byte_pipe import BytePipe, corrupt_bytes
 from hal.sim.mcu_frames import (
     ParseError,
     crc8_fast,
@@ -90,9 +90,13 @@ class FakeMcu:
         self._rng = random.Random(seed)
         self._boot_state()
         self._streams: StreamPair | None = None
+        self._pipe: BytePipe | None = None
         self._hangup: Callable[[], None] | None = None
         self._tasks: list[asyncio.Task[None]] = []
         self._deadman: asyncio.TimerHandle | None = None
+        self._deadman_due_s = 0.0
+        self._line = bytearray()  # the line being received
+        self._overlong = False
         self._out_pending: collections.deque[tuple[float, bytes]] = collections.deque()
         self._out_timer: asyncio.TimerHandle | None = None
 
@@ -119,11 +123,31 @@ class FakeMcu:
         if self.reset_on_open:
             self.reset()
 
+    def connect_pipe(self, pipe: BytePipe) -> None:
+        """Serve the device end of an in-memory line, taking each write as it arrives.
+
+        The same board as ``connect(pipe.b)``, without a reader task to wake per frame (the
+        simulator sends tens of frames per simulated second).
+        """
+        self.disconnect()
+        self._streams = pipe.b
+        self._hangup = pipe.break_
+        self._pipe = pipe
+        pipe.receive_at_b(self._receive)
+        self._tasks = [asyncio.get_running_loop().create_task(self._telemetry())]
+        if self.reset_on_open:
+            self.reset()
+
     def disconnect(self) -> None:
         for task in self._tasks:
             task.cancel()
         self._tasks = []
         self._streams = None
+        if self._pipe is not None:
+            self._pipe.receive_at_b(None)
+            self._pipe = None
+        self._line.clear()
+        self._overlong = False
         self._out_pending.clear()
         if self._out_timer is not None:
             self._out_timer.cancel()
@@ -180,8 +204,6 @@ class FakeMcu:
 
     # -- receiving ---------------------------------------------------------------------------
     async def _serve(self, reader: asyncio.StreamReader) -> None:
-        line = bytearray()
-        overlong = False
         while True:
             try:
                 chunk = await reader.read(256)
@@ -189,20 +211,32 @@ class FakeMcu:
                 return
             if not chunk:
                 return
-            if asyncio.get_running_loop().time() < self._booting_until_s:
-                continue  # the bootloader has the UART: the sketch never sees these bytes
+            self._receive(chunk)
+
+    def _receive(self, chunk: bytes) -> None:
+        if asyncio.get_running_loop().time() < self._booting_until_s:
+            return  # the bootloader has the UART: the sketch never sees these bytes
+        if self.corrupt_fraction > 0.0:
             chunk = corrupt_bytes(chunk, self.corrupt_fraction, self._rng)
-            for byte in chunk:
-                if byte == 0x0A:
-                    self._handle_line(bytes(line), overlong)
-                    line.clear()
-                    overlong = False
-                elif byte == 0x0D:
-                    continue
-                elif len(line) < LINE_MAX - 1:
-                    line.append(byte)
-                else:
-                    overlong = True
+        start = 0
+        while (end := chunk.find(b"\n", start)) >= 0:
+            self._take(chunk[start:end])
+            line, overlong = bytes(self._line), self._overlong
+            self._line.clear()
+            self._overlong = False
+            self._handle_line(line, overlong)
+            start = end + 1
+        self._take(chunk[start:])
+
+    def _take(self, piece: bytes) -> None:
+        """Add bytes to the line as the firmware does: CR skipped, past 63 bytes dropped."""
+        if b"\r" in piece:
+            piece = piece.replace(b"\r", b"")
+        room = LINE_MAX - 1 - len(self._line)
+        if len(piece) > room:
+            piece = piece[:room]
+            self._overlong = True
+        self._line += piece
 
     def _handle_line(self, line: bytes, overlong: bool) -> None:
         if line.startswith(b"#"):
@@ -286,12 +320,20 @@ class FakeMcu:
         self.last_drive_s = loop.time()
         if self.deadman_s is None:
             return
-        if self._deadman is not None:
-            self._deadman.cancel()
-        self._deadman = loop.call_at(self.last_drive_s + self.deadman_s, self._deadman_fired)
+        # One timer per deadline that can expire: fed again meanwhile, it moves itself on
+        # when it fires (no timer set and cancelled for each of 20 MOTORs a second).
+        if self._deadman is None:
+            self._deadman_due_s = self.last_drive_s + self.deadman_s
+            self._deadman = loop.call_at(self._deadman_due_s, self._deadman_fired)
 
     def _deadman_fired(self) -> None:
         self._deadman = None
+        if self.deadman_s is not None and self.last_drive_s is not None:
+            due_s = self.last_drive_s + self.deadman_s
+            if due_s > self._deadman_due_s:
+                self._deadman_due_s = due_s
+                self._deadman = asyncio.get_running_loop().call_at(due_s, self._deadman_fired)
+                return
         if self.motors_on:
             self._motors_off()
             now = asyncio.get_running_loop().time()
@@ -312,10 +354,12 @@ class FakeMcu:
         """Frame lines and send them in one write (as a UART's buffer drains them)."""
         if self._streams is None:
             return
-        data = b"".join(
-            body + (f"*{crc8_fast(body):02X}".encode() if crc else b"") + b"\n"
-            for body in bodies)
-        data = corrupt_bytes(data, self.corrupt_fraction, self._rng)
+        if crc:
+            data = b"".join([b"%s*%02X\n" % (body, crc8_fast(body)) for body in bodies])
+        else:
+            data = b"".join([body + b"\n" for body in bodies])
+        if self.corrupt_fraction > 0.0:
+            data = corrupt_bytes(data, self.corrupt_fraction, self._rng)
         loop = asyncio.get_running_loop()
         if self.reply_delay_s <= 0 and not self._out_pending:
             self._write(data)

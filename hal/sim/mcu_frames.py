@@ -6,9 +6,15 @@ CRC is computed bit by bit as the firmware does, then tabulated once for speed.
 
 from __future__ import annotations
 
-_WORDS = ("LED_IDLE", "LED_WAITING", "LED_MOVING", "SUCCESS_SCAN", "FAILURE_SCAN", "STOP",
-          "HB", "HELLO")
+import re
+
+_WORDS = frozenset({"LED_IDLE", "LED_WAITING", "LED_MOVING", "SUCCESS_SCAN", "FAILURE_SCAN",
+                    "STOP", "HB", "HELLO"})
 _LIMITS = {"MOTOR:": ((0, 255), (0, 255), (0, 1), (0, 1)), "SERVO:": ((0, 180),)}
+# The firmware's atoi-with-checks: each field an optional minus and ASCII digits.
+_FIELDS = {prefix: re.compile(",".join([r"(-?[0-9]+)"] * len(limits)))
+           for prefix, limits in _LIMITS.items()}
+_HEX2 = re.compile(rb"[0-9A-Fa-f]{2}")
 
 
 def crc8_bitwise(data: bytes) -> int:
@@ -44,19 +50,15 @@ def parse_payload(payload: str) -> tuple[str, tuple[int, ...]]:
         return payload, ()
     for prefix, limits in _LIMITS.items():
         if payload.startswith(prefix):
-            fields = payload[len(prefix):].split(",")
-            if len(fields) != len(limits) or not all(_is_int(f) for f in fields):
+            fields = _FIELDS[prefix].fullmatch(payload, len(prefix))
+            if fields is None:
                 raise ParseError("PARSE")
-            values = tuple(int(f) for f in fields)
-            if any(not lo <= v <= hi for v, (lo, hi) in zip(values, limits, strict=True)):
-                raise ParseError("RANGE")
+            values = tuple(map(int, fields.groups()))
+            for value, (lo, hi) in zip(values, limits, strict=True):
+                if not lo <= value <= hi:
+                    raise ParseError("RANGE")
             return prefix[:-1], values
     raise ParseError("PARSE")
-
-
-def _is_int(text: str) -> bool:
-    digits = text[1:] if text.startswith("-") else text
-    return digits.isdigit() and digits.isascii()
 
 
 def read_seq(line: bytes) -> int | None:
@@ -73,4 +75,4 @@ def read_seq(line: bytes) -> int | None:
 
 
 def hex_ok(check: bytes) -> bool:
-    return len(check) == 2 and all(c in b"0123456789ABCDEFabcdef" for c in check)
+    return _HEX2.fullmatch(check) is not None

@@ -37,5 +37,5 @@ class SimSerialPorts:
         self.opens += 1
         pipe = BytePipe(baud=baud if self._wire_baud else None, seed=self._seed + self.opens)
         self.pipe = pipe
-        mcu.connect(pipe.b, hangup=pipe.break_)
+        mcu.connect_pipe(pipe)
         return pipe.a

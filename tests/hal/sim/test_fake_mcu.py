@@ -7,8 +7,10 @@ from collections.abc import Awaitable, Callable
 
 import pytest
 
+from drivers.arduino.crc8 import crc8
 from drivers.arduino.framing import frame_body
 from hal.ports import StreamPair
+from hal.sim.byte_pipe import BytePipe
 from hal.sim.fake_mcu import FakeMcu
 from hal.sim.mcu_frames import ParseError, parse_payload, read_seq
 from hal.sim.plant import RecordingPlant
@@ -196,3 +198,33 @@ class TestFakeMcu:
             assert any(line.startswith(b"ENCODER:") and b"*" not in line for line in lines)
 
         with_mcu(scenario)
+
+    def test_a_reader_task_and_a_direct_pipe_hear_the_same_lines(self) -> None:
+        """Split lines, CRs and an overlong line get the same replies either way of serving."""
+        writes = [frame_body(b"#1 MOTOR:10,20,1,0")[:7], frame_body(b"#1 MOTOR:10,20,1,0")[7:],
+                  b"\r" + frame_body(b"#2 HB").replace(b"*", b"\r*"),
+                  b"#3 " + b"X" * 80 + b"\n", frame_body(b"#4 SERVO:200"), b"LED_IDLE\r\n"]
+
+        async def serve(direct: bool) -> tuple[list[bytes], list[tuple[int | None, str]]]:
+            mcu = FakeMcu(RecordingPlant(), encoder_period_s=100.0, ir_period_s=100.0,
+                          battery_period_s=100.0)
+            pipe = BytePipe(baud=115200)
+            if direct:
+                mcu.connect_pipe(pipe)
+            else:
+                mcu.connect(pipe.b, hangup=pipe.break_)
+            for data in writes:
+                pipe.a[1].write(data)
+                await asyncio.sleep(0.01)
+            got = await lines_until(pipe.a, 5, 0.5)
+            await mcu.close()
+            return got, [(e.seq, e.payload) for e in mcu.executed]
+
+        async def main() -> None:
+            by_task, by_pipe = await serve(direct=False), await serve(direct=True)
+            assert by_task == by_pipe
+            assert by_pipe[0][:3] == [b"#1 ACK*" + b"%02X" % crc8(b"#1 ACK"),
+                                      b"#2 ACK*" + b"%02X" % crc8(b"#2 ACK"),
+                                      b"#3 NAK:PARSE*" + b"%02X" % crc8(b"#3 NAK:PARSE")]
+
+        vclock.run(main())

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import asyncio
 import os
 import sys
 
@@ -31,6 +30,9 @@ def _parser() -> argparse.ArgumentParser:
                             "worker threads (one server process only)")
     serve.add_argument("--log-level", default="info",
                        choices=("debug", "info", "warning", "error"))
+    serve.add_argument("--access-log", action="store_true",
+                       help="log every HTTP request (off by default: at 500 robots a second it "
+                            "would cost more than answering them)")
     return parser
 
 
@@ -43,11 +45,13 @@ def main(argv: list[str] | None = None) -> int:
     except (SiteError, ValueError) as exc:
         print(f"robotd-fleet: {exc}", file=sys.stderr)
         return 2
+    # loop="auto" and http="auto" pick uvloop and httptools (installed with the package);
+    # Server.run() is what installs the loop, asyncio.run(server.serve()) would not.
     config = uvicorn.Config(app, host=args.host, port=args.port, log_config=None,
-                            access_log=False, lifespan="on")
+                            access_log=args.access_log, lifespan="on", loop="auto", http="auto")
     server = uvicorn.Server(config)
     try:
-        asyncio.run(server.serve())
+        server.run()
     except KeyboardInterrupt:
         return 0
     return 0 if server.started else 1

@@ -38,6 +38,8 @@ class Navigator:
         self.directive = Directive.stand_still()
         self.target_room: str | None = None
         self.arrived_room: str | None = None
+        self._arrival_fired = False
+        self._leg: str | None = None  # the leg last asked of the machine (to_room, to_base)
         self.line_losses = 0  # in a row, since the last arrival
         self._last_loss_s = 0.0
         self._server_estop = False
@@ -94,18 +96,34 @@ class Navigator:
             self.target_room = room
             if state != want:
                 self.arrived_room = None
+                self._arrival_fired = False
+                self._leg = want
                 self.ctx.emit("laundry.go", room=room, follow_color=directive.follow_color)
                 await self.ctx.trigger("go_base" if to_base else "go_room")
+                if self.arrival.is_in_target:
+                    # Already at the new target (sent back to base while still beside it):
+                    # no change of the arrival will come, so take it now.
+                    self._on_arrival_change(True)
             return
         if state in FOLLOWING:
             if self.arrived_room is not None:
                 # Arrived a moment ago; its trigger may still be on its way.
-                await self.ctx.trigger("arrived_base" if state == TO_BASE else "arrived_room")
+                await self._fire_arrival(state)
             else:
                 await self.ctx.trigger("mission_done")
         elif state == AT_BASE or (state == AT_ROOM and room is None
                                   and self.arrived_room is None):
             await self.ctx.trigger("mission_done")
+
+    async def _fire_arrival(self, leg: str) -> None:
+        # The beacon and the server's directive may both report one arrival in the same
+        # moment: the machine takes it once. An arrival seen on one leg (to_room) means
+        # nothing once the server has sent the robot on another (to_base), even while that
+        # order still waits in the machine's queue.
+        if (self.ctx.state == leg and self._leg in (None, leg)
+                and not self._arrival_fired):
+            self._arrival_fired = True
+            await self.ctx.trigger("arrived_base" if leg == TO_BASE else "arrived_room")
 
     def line_lost(self) -> None:
         """The line follower gave up; the robot is stopped in ``recovery``."""
@@ -132,16 +150,10 @@ class Navigator:
         self.line_losses = 0
         self.ctx.emit("arrival", room=room, beacons=self.arrival.reached)
         log.info("laundry.arrived", room=room)
-        trigger = "arrived_base" if state == TO_BASE else "arrived_room"
-        self._schedule(trigger)
+        self._schedule(state)
 
-    def _schedule(self, trigger: str) -> None:
-        async def fire() -> None:
-            # A directive may have brought the robot there first; fire only if still needed.
-            if self.ctx.state in FOLLOWING:
-                await self.ctx.trigger(trigger)
-
-        task = asyncio.get_running_loop().create_task(fire())
+    def _schedule(self, leg: str) -> None:
+        task = asyncio.get_running_loop().create_task(self._fire_arrival(leg))
         task.add_done_callback(lambda t: t.exception() if not t.cancelled() else None)
 
     def status(self) -> dict[str, Any]:

@@ -21,6 +21,7 @@ from robotd.config.settings import Settings
 TABLE = {
     ("idle", "go_room"): "mission.to_room", ("idle", "go_base"): "mission.to_base",
     ("mission.at_room", "go_base"): "mission.to_base",
+    ("mission.to_room", "go_base"): "mission.to_base",
     ("mission.to_room", "arrived_room"): "mission.at_room",
     ("mission.to_base", "arrived_base"): "mission.at_base",
     ("mission.to_room", "mission_done"): "idle", ("mission.at_room", "mission_done"): "idle",
@@ -47,6 +48,25 @@ class TableMachine:
         return True
 
 
+class QueuedMachine(TableMachine):
+    """Like the daemon's machine: triggers wait in one queue a task works through, so the
+    state a behaviour reads may be about to change. Refused triggers are recorded."""
+
+    def __init__(self, state: str = "idle") -> None:
+        super().__init__(state)
+        self.refused: list[tuple[str, str]] = []
+        self._lock = asyncio.Lock()
+
+    async def trigger(self, name: str, **kw: Any) -> bool:
+        async with self._lock:
+            await asyncio.sleep(0.01)  # the transition's callbacks
+            before = self.state
+            done = await super().trigger(name, **kw)
+            if not done:
+                self.refused.append((before, name))
+            return done
+
+
 class _Store:
     def get(self, key: str, default: Any = None) -> Any:
         return default
@@ -56,11 +76,12 @@ class _Store:
     def delete(self, key: str) -> None: ...
 
 
-def _rig(state: str = "idle") -> tuple[Navigator, TableMachine, BeaconTracker, list[str]]:
+def _rig(state: str = "idle", machine: TableMachine | None = None
+         ) -> tuple[Navigator, TableMachine, BeaconTracker, list[str]]:
     colours: list[str] = []
     ctx = RobotContext(Devices(), Settings(defaults()), _Store(),
                        lambda: datetime(2026, 1, 1, tzinfo=UTC), lambda *_a, **_k: None)
-    machine = TableMachine(state)
+    machine = machine or TableMachine(state)
     ctx.attach(machine)
     tracker = BeaconTracker(smoothing_s=0)
     arrival = Arrival(tracker)
@@ -165,3 +186,25 @@ class TestNavigator:
             return colours
 
         assert vclock.run(main()) == ["blue"]
+
+    def test_an_arrival_seen_as_the_server_changes_the_leg_is_not_taken_for_the_old_leg(
+            self) -> None:
+        """On its way to a room, still beside the base, the robot is sent back to base (the
+        request was cancelled): the base beacon becomes the target and is already strong. The
+        machine must get go_base, not an arrived_room it would refuse from to_base, and then
+        arrived_base, as the robot is at base."""
+
+        async def main() -> tuple[list[str], list[tuple[str, str]], str]:
+            machine = QueuedMachine()
+            nav, _, tracker, _ = _rig(machine=machine)
+            await nav.apply(_to("101"))
+            _sight(tracker, "AA:00:00:00:00:01", -50)  # the base beacon, right beside it
+            await nav.apply(_to("base"))
+            await asyncio.sleep(1)
+            return machine.fired, machine.refused, machine.state
+
+        fired, refused, state = vclock.run(main())
+        assert refused == []
+        assert fired == ["go_room", "go_base", "arrived_base"]
+        assert state == "mission.at_base"
+

@@ -74,12 +74,25 @@ class Unparsed:
 Line = Ack | Nak | Hello | Telemetry | Garbled | Unparsed
 
 _SEQ_BODY = re.compile(r"#(\d{1,3}) (.*)", re.DOTALL)
+_FORBIDDEN = re.compile(r"[\n\r*#]")
 _TELEMETRY = re.compile(r"([A-Z][A-Z0-9_]*):(.*)", re.DOTALL)
+
+
+def check_payload(payload: str, framing: Framing) -> None:
+    """ValueError when ``payload`` cannot be framed (as ``encode_command`` would say)."""
+    if not payload or not payload.isascii() or _FORBIDDEN.search(payload) is not None:
+        msg = f"bad command payload {payload!r}: printable ASCII without '*', '#' or newlines"
+        raise ValueError(msg)
+    # The shortest framing: "#0 " before, "*CC\n" after (crc); "\n" after (plain).
+    framed = len(payload) + (1 if framing is Framing.PLAIN else 7)
+    if framed > MAX_LINE_BYTES:
+        msg = f"command {payload!r} is {framed} bytes framed, the link allows {MAX_LINE_BYTES}"
+        raise ValueError(msg)
 
 
 def encode_command(payload: str, seq: int | None, framing: Framing) -> bytes:
     """The bytes of one host command; ValueError when it would break the line rules."""
-    if not payload or not payload.isascii() or any(c in payload for c in "\n\r*#"):
+    if not payload or not payload.isascii() or _FORBIDDEN.search(payload) is not None:
         msg = f"bad command payload {payload!r}: printable ASCII without '*', '#' or newlines"
         raise ValueError(msg)
     if framing is Framing.PLAIN:
@@ -88,8 +101,8 @@ def encode_command(payload: str, seq: int | None, framing: Framing) -> bytes:
         if seq is None or not 0 <= seq < SEQ_MODULO:
             msg = f"SEQ must be 0-255 in crc framing, got {seq}"
             raise ValueError(msg)
-        body = f"#{seq} {payload}".encode("ascii")
-        line = body + f"*{crc8(body):02X}\n".encode("ascii")
+        body = b"#%d %s" % (seq, payload.encode("ascii"))
+        line = b"%s*%02X\n" % (body, crc8(body))
     if len(line) > MAX_LINE_BYTES:
         msg = f"command {payload!r} is {len(line)} bytes framed, the link allows {MAX_LINE_BYTES}"
         raise ValueError(msg)
@@ -122,7 +135,7 @@ def frame_body(body: bytes) -> bytes:
 
 
 def parse_line(raw: bytes, framing: Framing) -> Line:
-    """Interpret one received line (without its ``\\n``); never raises."""
+    """Interpret one received line (without its ``\n``); never raises."""
     raw = raw.rstrip(b"\r")
     try:
         text = raw.decode("ascii")
@@ -138,7 +151,7 @@ def parse_line(raw: bytes, framing: Framing) -> Line:
             expected = int(check, 16)
         except ValueError:
             return Garbled("CRC is not hex", raw)
-        if crc8(body.encode("ascii")) != expected:
+        if crc8(raw[:len(body)]) != expected:  # ASCII: the body's bytes are raw's first ones
             return Garbled("CRC mismatch", raw)
         text = body
     else:
@@ -151,7 +164,7 @@ def parse_line(raw: bytes, framing: Framing) -> Line:
 
 def _parse_body(text: str, raw: bytes) -> Line:
     seq: int | None = None
-    match = _SEQ_BODY.fullmatch(text)
+    match = _SEQ_BODY.fullmatch(text) if text.startswith("#") else None
     if match is not None:
         seq = int(match.group(1))
         if seq >= SEQ_MODULO:

@@ -17,7 +17,7 @@ from typing import Any, Generic, TypeVar
 import structlog
 
 from drivers.arduino.config import LinkConfig
-from drivers.arduino.framing import Framing, Telemetry, encode_command
+from drivers.arduino.framing import Framing, Telemetry, check_payload
 from drivers.arduino.outbox import Command, Delivery, Outbox, Outcome
 from drivers.arduino.session import LinkBroken, Session
 from drivers.arduino.stats import LinkCounters
@@ -207,7 +207,7 @@ class ArduinoLink:
             why = self.last_down_reason or "not connected yet"
             msg = f"{self.name} on {self.config.port}: link is down ({why})"
             raise LinkDown(msg)
-        encode_command(payload, 0, self.config.framing)  # ValueError for a bad payload
+        check_payload(payload, self.config.framing)
         command = Command(payload, asyncio.get_running_loop().create_future())
         self._outbox.put(command)
         if command.payload == "STOP":
@@ -346,8 +346,10 @@ class ArduinoLink:
         elif isinstance(reading, EncoderReading):
             self._last_raw_ticks = (reading.left_ticks, reading.right_ticks)
             base_left, base_right = self._encoder_base
-            self.encoders.publish(EncoderReading(reading.left_ticks + base_left,
-                                                 reading.right_ticks + base_right, now))
+            if base_left or base_right:  # the board restarted: continue from its old counts
+                reading = EncoderReading(reading.left_ticks + base_left,
+                                         reading.right_ticks + base_right, now)
+            self.encoders.publish(reading)
         elif isinstance(reading, RangeReading):
             self.front_range.publish(reading)
         elif isinstance(reading, BatteryReading):

@@ -198,7 +198,8 @@ class Session:
             self.counters.unparsed += 1
             log.info("link.unparsed", reason=line.reason, raw=line.raw)
         elif isinstance(line, Telemetry):
-            self._post(Evidence(definite=line.name == "BOOT", intact=True))
+            if self.inflight is not None:
+                self._post(Evidence(definite=line.name == "BOOT", intact=True))
             self.on_telemetry(line)
         else:
             self._on_reply(line)

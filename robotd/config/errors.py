@@ -13,7 +13,7 @@ class ConfigProblem:
     message: str
 
     def __str__(self) -> str:
-        where = f"{self.path}:{self.line}" if self.line is not None else f"{self.path}:?"
+        where = f"{self.path}:{self.line}" if self.line is not None else self.path
         return f"{where}: {self.key}: {self.message}"
 
 

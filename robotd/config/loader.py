@@ -98,7 +98,12 @@ def _parse_tolerant(lines: list[str], path: str, problems: list[ConfigProblem]) 
             match = _SYNTAX_LINE.search(str(exc))
             message = _SYNTAX_LINE.sub("", str(exc)).strip()
             if match is None:
-                problems.append(ConfigProblem(path, None, "toml", f"syntax error: {message}"))
+                # "at end of document": something opened (a list, a string) is never closed;
+                # the last line with text is where the reader ran out.
+                filled = [n for n, text in enumerate(work, start=1) if text.strip()]
+                line = filled[-1] if filled else None
+                key = _key_at(lines, line) if line is not None else "toml"
+                problems.append(ConfigProblem(path, line, key, f"TOML syntax error: {message}"))
                 return {}
             line_no = int(match.group(1))
             key = _key_at(lines, line_no)

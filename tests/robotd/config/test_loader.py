@@ -31,6 +31,15 @@ class TestLoadConfigText:
         ]
         assert lines[1].startswith("bad.toml:3: serial.colour: unknown key")
 
+    def test_something_never_closed_is_reported_on_the_last_line_with_text(self) -> None:
+        """A list never closed ends the document: the error names the line where the reader
+        ran out and its key, not an unknown place."""
+        text = '[serial]\nport = "/dev/ttyACM0"\nbaud = [9600,\n\n'
+        with pytest.raises(ConfigError) as info:
+            load_config_text(text, "open.toml")
+        assert str(info.value) == (
+            "open.toml:3: serial.baud: TOML syntax error: Invalid value (at end of document)")
+
     def test_unknown_section_suggests_the_close_one(self) -> None:
         """A misspelt section is named and the likely one suggested."""
         with pytest.raises(ConfigError, match=r"x.toml:1: serail: unknown section .*'serial'"):
@@ -56,7 +65,7 @@ class TestLoadConfigText:
 
 class TestLoadConfig:
     def test_missing_file_is_one_clear_problem(self, tmp_path: Path) -> None:
-        with pytest.raises(ConfigError, match=r"nope.toml:\?: file: cannot read"):
+        with pytest.raises(ConfigError, match=r"nope.toml: file: cannot read"):
             load_config(tmp_path / "nope.toml")
 
     def test_overrides_file_wins_over_the_main_file(self, tmp_path: Path) -> None:

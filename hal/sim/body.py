@@ -19,6 +19,8 @@ import numpy.typing as npt
 from hal.sim.geometry import Pose, raycast_one, wrap_angle
 from hal.sim.world import World
 
+_TWO_PI = 2 * math.pi
+
 
 @dataclass(frozen=True, slots=True)
 class BodyParams:
@@ -89,6 +91,8 @@ class DiffDriveBody:
         self._dock_xyh: tuple[float, float, float] | None = None  # ``_on_dock`` is for this
         self._on_dock = False
         self._walls_list: tuple[npt.NDArray[np.float64], list[Any]] | None = None
+        self._drain_key: tuple[object, ...] | None = None
+        self._drain_pct = 0.0
 
     @property
     def pose(self) -> Pose:
@@ -175,7 +179,8 @@ class DiffDriveBody:
 
     def step(self, dt_s: float) -> None:
         # Called a hundred times per simulated second per robot: what depends only on the
-        # parameters, the PWM and dt is computed once (same expressions, same floats).
+        # parameters, the PWM and dt is computed once, and the rest is written out in one
+        # function (same expressions in the same order, so the same floats).
         p = self.params
         self.time_s += dt_s
         if self._consts_key != (p, dt_s):
@@ -187,37 +192,43 @@ class DiffDriveBody:
         if self._targets_pwm != pwm:
             self._targets_pwm = pwm
             self._targets = (self._target_mps(pwm[0], pwm[2]), self._target_mps(pwm[1], pwm[3]))
-        targets = self._targets
+        target_left, target_right = self._targets
         wheel = self.wheel_mps
-        if wheel[0] == 0.0 and wheel[1] == 0.0 and targets[0] == 0 and targets[1] == 0:
+        left, right = wheel
+        if left == 0.0 and right == 0.0 and target_left == 0 and target_right == 0:
             self._drain(dt_s)  # standing still: nothing turns, nothing moves
             return
         blend = self._blend
-        for i in (0, 1):
-            wheel[i] += (targets[i] - wheel[i]) * blend
-            if abs(wheel[i]) < 1e-5 and targets[i] == 0:
-                wheel[i] = 0.0
-        left_m = wheel[0] * dt_s
-        right_m = wheel[1] * dt_s
+        left += (target_left - left) * blend
+        if abs(left) < 1e-5 and target_left == 0:
+            left = 0.0
+        right += (target_right - right) * blend
+        if abs(right) < 1e-5 and target_right == 0:
+            right = 0.0
+        wheel[0] = left
+        wheel[1] = right
+        left_m = left * dt_s
+        right_m = right * dt_s
         per_tick_m = self._per_tick_m
-        self._ticks[0] += left_m / per_tick_m
-        self._ticks[1] += right_m / per_tick_m
+        ticks = self._ticks
+        ticks[0] += left_m / per_tick_m
+        ticks[1] += right_m / per_tick_m
         if left_m or right_m:
-            left_m *= 1 + self.rng.gauss(0, p.slip_std)
-            right_m *= 1 + self.rng.gauss(0, p.slip_std)
-        self._move(left_m, right_m)
+            gauss = self.rng.gauss
+            left_m *= 1 + gauss(0, p.slip_std)
+            right_m *= 1 + gauss(0, p.slip_std)
+        if left_m != 0 or right_m != 0:
+            self._move(left_m, right_m)
         self._drain(dt_s)
 
     def _move(self, left_m: float, right_m: float) -> None:
-        if left_m == 0 and right_m == 0:
-            return
         x0, y0, heading0 = self._xyh
         d = (left_m + right_m) / 2
         dtheta = (right_m - left_m) / self.params.wheel_base_m
         mid = heading0 + dtheta / 2
         x = x0 + d * math.cos(mid)
         y = y0 + d * math.sin(mid)
-        heading = wrap_angle(heading0 + dtheta)
+        heading = (heading0 + dtheta + math.pi) % _TWO_PI - math.pi  # geometry.wrap_angle
         self._free_m -= abs(d)
         if self._free_m <= 0:
             clearance = self.world.clearance_m(x, y)
@@ -236,15 +247,19 @@ class DiffDriveBody:
         self._pose_obj = None
 
     def _drain(self, dt_s: float) -> None:
-        p = self.params
-        duty = (self.pwm[0] + self.pwm[1]) / 255
-        watts = p.idle_w + p.motor_w * duty
         if self._xyh is not self._dock_xyh:  # a new tuple whenever the body moved
             self._dock_xyh = self._xyh
-            self._on_dock = self.on_dock
-        if self._on_dock:
-            watts -= p.charge_w
-        self.charge_pct -= watts * dt_s / 3600 / p.battery_wh * 100
+            self._on_dock = self.world.dock is not None and self.on_dock
+        p = self.params
+        pwm = self.pwm
+        if self._drain_key != (p, pwm, self._on_dock, dt_s):
+            duty = (pwm[0] + pwm[1]) / 255
+            watts = p.idle_w + p.motor_w * duty
+            if self._on_dock:
+                watts -= p.charge_w
+            self._drain_key = (p, pwm, self._on_dock, dt_s)
+            self._drain_pct = watts * dt_s / 3600 / p.battery_wh * 100
+        self.charge_pct -= self._drain_pct
         self.charge_pct = min(100.0, max(0.0, self.charge_pct))
 
 

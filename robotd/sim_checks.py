@@ -39,7 +39,7 @@ def finished(scenario: Scenario, robots: dict[str, RobotRecord]) -> bool:
     if success.final_state is None:
         return False
     return all(
-        all(r.saw(s) for s in success.states_reached) and r.state == success.final_state
+        r.state == success.final_state and all(r.saw(s) for s in success.states_reached)
         for r in robots.values()
     )
 

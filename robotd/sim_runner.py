@@ -272,27 +272,50 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
     limit = scenario.success.time_limit_s
     extra: list[str] = []
     seen_collisions = {n: 0 for n in robots}
-    while True:
-        await asyncio.sleep(_WATCH_PERIOD_S)
+    records = {n: r.record for n, r in robots.items()}
+    observers = {n: functools.partial(on_event, n) for n in robots}
+    over: asyncio.Future[None] = loop.create_future()
+    watch_timer: asyncio.TimerHandle | None = None
+
+    def watch() -> bool:
+        """One watch tick; True when the run is over."""
         now = loop.time() - start
         for n, r in robots.items():
-            _observe(scenario, r, seen_collisions, functools.partial(on_event, n), console)
+            _observe(scenario, r, seen_collisions, observers[n], console)
         console.progress(now, {n: r.record.state for n, r in robots.items()})
         dead = [n for n, t in daemon_tasks.items() if t.done()]
         if dead:
             extra.append(f"daemon of {', '.join(dead)} stopped early: "
                          f"{_task_outcome(daemon_tasks[dead[0]])}")
-            break
-        if finished(scenario, robots_records := {n: r.record for n, r in robots.items()}) \
-                and player.done and all(t.done() for t in people):
-            break
+            return True
+        if player is not None and player.done and finished(scenario, records) \
+                and all(t.done() for t in people):
+            return True
         if now >= limit:
-            break
+            return True
         if interrupted.is_set():
             extra.append("interrupted")
-            break
+            return True
+        return False
+
+    def tick() -> None:
+        # A timer callback per tick: one loop turn where a task waking from sleep costs two.
+        nonlocal watch_timer
+        try:
+            if watch():
+                over.set_result(None)
+                return
+        except Exception as exc:
+            over.set_exception(exc)
+            return
+        watch_timer = loop.call_later(_WATCH_PERIOD_S, tick)
+
+    watch_timer = loop.call_later(_WATCH_PERIOD_S, tick)
+    try:
+        await over
+    finally:
+        watch_timer.cancel()
     elapsed = loop.time() - start
-    del robots_records
 
     for r in robots.values():
         r.daemon.request_stop()
@@ -308,7 +331,6 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
         extra += request_failures(scenario, customers)
     await close_hardware()
 
-    records = {n: r.record for n, r in robots.items()}
     # Interrupted by hand: the unmet conditions say nothing, only that it was stopped.
     reasons = ["interrupted"] if interrupted.is_set() else \
         failures(scenario, records, elapsed, extra, events)

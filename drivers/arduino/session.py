@@ -353,19 +353,35 @@ class Session:
 
     # -- keeping the link alive --------------------------------------------------------------
     async def _heartbeat_loop(self) -> None:
+        # Each look at the clock is a timer callback: one loop turn where a task waking from
+        # sleep costs two, and MOTOR traffic pushes the heartbeat back several times a second.
         period = self.config.heartbeat_s
-        while True:
-            due = self.last_drive_tx_s + period
-            now = self._loop.time()
-            if now < due - CLOCK_SLACK_S:
-                await asyncio.sleep(due - now)
-                continue
-            busy = self.inflight is not None and self.inflight.command.kind in (
-                Kind.MOTOR, Kind.HEARTBEAT)
-            if not busy and not self.outbox.has(Kind.MOTOR) and not self.outbox.has(
-                    Kind.HEARTBEAT):
-                self.outbox.put(Command("HB", self._loop.create_future()))
-            await asyncio.sleep(period)
+        failed: asyncio.Future[None] = self._loop.create_future()
+        timer: asyncio.TimerHandle | None = None
+
+        def check() -> None:
+            nonlocal timer
+            try:
+                due = self.last_drive_tx_s + period
+                now = self._loop.time()
+                if now < due - CLOCK_SLACK_S:
+                    timer = self._loop.call_later(due - now, check)
+                    return
+                busy = self.inflight is not None and self.inflight.command.kind in (
+                    Kind.MOTOR, Kind.HEARTBEAT)
+                if not busy and not self.outbox.has(Kind.MOTOR) and not self.outbox.has(
+                        Kind.HEARTBEAT):
+                    self.outbox.put(Command("HB", self._loop.create_future()))
+                timer = self._loop.call_later(period, check)
+            except Exception as exc:  # ends the heartbeat task with it, as a failing loop would
+                failed.set_exception(exc)
+
+        check()
+        try:
+            await failed
+        finally:
+            if timer is not None:
+                timer.cancel()
 
     async def _watchdog_loop(self) -> None:
         limit = self.config.silence_s

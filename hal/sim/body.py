@@ -91,8 +91,6 @@ class DiffDriveBody:
         self._dock_xyh: tuple[float, float, float] | None = None  # ``_on_dock`` is for this
         self._on_dock = False
         self._walls_list: tuple[npt.NDArray[np.float64], list[Any]] | None = None
-        self._drain_key: tuple[object, ...] | None = None
-        self._drain_pct = 0.0
 
     @property
     def pose(self) -> Pose:
@@ -111,9 +109,8 @@ class DiffDriveBody:
         if self._clock is None:
             return
         now = self._clock()
-        while now - self._synced_s >= self.dt_s:
-            self._synced_s += self.dt_s
-            self.step(self.dt_s)
+        if now - self._synced_s >= self.dt_s:
+            self._integrate(self.dt_s, now)
 
     # --- MotorPlant -------------------------------------------------------------------------
     def apply_pwm(self, left_pwm: int, right_pwm: int, left_forward: bool,
@@ -162,13 +159,14 @@ class DiffDriveBody:
     # --- physics ----------------------------------------------------------------------------
     @property
     def on_dock(self) -> bool:
+        return self._docked(*self._xyh)
+
+    def _docked(self, x_m: float, y_m: float, heading_rad: float) -> bool:
         dock = self.world.dock
         if dock is None:
             return False
-        pose = self._pose_now()
-        return (pose.distance_to(dock.x_m, dock.y_m) < 0.03
-                and abs(wrap_angle(pose.heading_rad - dock.heading_rad))
-                < math.radians(10))
+        return (math.hypot(x_m - dock.x_m, y_m - dock.y_m) < 0.03
+                and abs(wrap_angle(heading_rad - dock.heading_rad)) < math.radians(10))
 
     def _target_mps(self, pwm: int, forward: bool) -> float:
         p = self.params
@@ -178,11 +176,17 @@ class DiffDriveBody:
         return duty * p.max_wheel_speed_mps * (1 if forward else -1)
 
     def step(self, dt_s: float) -> None:
-        # Called a hundred times per simulated second per robot: what depends only on the
-        # parameters, the PWM and dt is computed once, and the rest is written out in one
-        # function (same expressions in the same order, so the same floats).
+        """Advance the physics by one step of ``dt_s`` (bodies without a clock)."""
+        self._integrate(dt_s, None)
+
+    def _integrate(self, dt_s: float, until_s: float | None) -> None:
+        """Steps of ``dt_s``: one (``until_s`` None), or as many as the clock is ahead.
+
+        A hundred steps per simulated second per robot: the state lives in local variables
+        while it runs, and what depends only on the parameters, the PWM and dt is computed
+        once (same expressions in the same order as a step at a time, so the same floats).
+        """
         p = self.params
-        self.time_s += dt_s
         if self._consts_key != (p, dt_s):
             self._consts_key = (p, dt_s)
             self._blend = 1 - math.exp(-dt_s / p.motor_tau_s)
@@ -193,74 +197,115 @@ class DiffDriveBody:
             self._targets_pwm = pwm
             self._targets = (self._target_mps(pwm[0], pwm[2]), self._target_mps(pwm[1], pwm[3]))
         target_left, target_right = self._targets
-        wheel = self.wheel_mps
-        left, right = wheel
-        if left == 0.0 and right == 0.0 and target_left == 0 and target_right == 0:
-            self._drain(dt_s)  # standing still: nothing turns, nothing moves
-            return
         blend = self._blend
-        left += (target_left - left) * blend
-        if abs(left) < 1e-5 and target_left == 0:
-            left = 0.0
-        right += (target_right - right) * blend
-        if abs(right) < 1e-5 and target_right == 0:
-            right = 0.0
-        wheel[0] = left
-        wheel[1] = right
-        left_m = left * dt_s
-        right_m = right * dt_s
         per_tick_m = self._per_tick_m
-        ticks = self._ticks
-        ticks[0] += left_m / per_tick_m
-        ticks[1] += right_m / per_tick_m
-        if left_m or right_m:
-            gauss = self.rng.gauss
-            left_m *= 1 + gauss(0, p.slip_std)
-            right_m *= 1 + gauss(0, p.slip_std)
-        if left_m != 0 or right_m != 0:
-            self._move(left_m, right_m)
-        self._drain(dt_s)
+        slip_std = p.slip_std
+        wheel_base_m = p.wheel_base_m
+        radius_m = p.radius_m
+        gauss = self.rng.gauss
+        has_dock = self.world.dock is not None
+        left, right = self.wheel_mps
+        ticks_left, ticks_right = self._ticks
+        x, y, heading = self._xyh
+        moved = False
+        time_s = self.time_s
+        synced_s = self._synced_s
+        charge = self.charge_pct
+        free_m = self._free_m
+        in_contact = self._in_contact
+        distance_m = self.distance_m
+        on_dock = self._on_dock if self._xyh is self._dock_xyh else (
+            has_dock and self._docked(x, y, heading))
+        drain_pct = self._drain_for(pwm, on_dock, dt_s)
+        stepped = False
+        while True:
+            if until_s is None:
+                if stepped:
+                    break
+                stepped = True
+            elif until_s - synced_s >= dt_s:
+                synced_s += dt_s
+            else:
+                break
+            time_s += dt_s
+            if left == 0.0 and right == 0.0 and target_left == 0 and target_right == 0:
+                charge -= drain_pct  # standing still: nothing turns, nothing moves
+                if charge < 0.0:
+                    charge = 0.0
+                elif charge > 100.0:
+                    charge = 100.0
+                continue
+            left += (target_left - left) * blend
+            if -1e-5 < left < 1e-5 and target_left == 0:
+                left = 0.0
+            right += (target_right - right) * blend
+            if -1e-5 < right < 1e-5 and target_right == 0:
+                right = 0.0
+            left_m = left * dt_s
+            right_m = right * dt_s
+            ticks_left += left_m / per_tick_m
+            ticks_right += right_m / per_tick_m
+            if left_m or right_m:
+                left_m *= 1 + gauss(0, slip_std)
+                right_m *= 1 + gauss(0, slip_std)
+            if left_m != 0 or right_m != 0:
+                moved = True
+                d = (left_m + right_m) / 2
+                dtheta = (right_m - left_m) / wheel_base_m
+                mid = heading + dtheta / 2
+                new_x = x + d * math.cos(mid)
+                new_y = y + d * math.sin(mid)
+                heading = (heading + dtheta + math.pi) % _TWO_PI - math.pi  # wrap_angle
+                free_m -= abs(d)
+                blocked = False
+                if free_m <= 0:
+                    clearance = self.world.clearance_m(new_x, new_y)
+                    free_m = clearance - radius_m
+                    if clearance < radius_m and clearance < self.world.clearance_m(x, y):
+                        if not in_contact:
+                            self.collisions.append(Collision(time_s, new_x, new_y))
+                        in_contact = True
+                        free_m = -1.0
+                        blocked = True
+                if not blocked:
+                    in_contact = False
+                    distance_m += abs(d)
+                    x, y = new_x, new_y
+                if has_dock:
+                    docked = self._docked(x, y, heading)
+                    if docked != on_dock:
+                        on_dock = docked
+                        drain_pct = self._drain_for(pwm, on_dock, dt_s)
+            charge -= drain_pct
+            if charge < 0.0:
+                charge = 0.0
+            elif charge > 100.0:
+                charge = 100.0
+        self.wheel_mps[0] = left
+        self.wheel_mps[1] = right
+        self._ticks[0] = ticks_left
+        self._ticks[1] = ticks_right
+        self.time_s = time_s
+        self._synced_s = synced_s
+        self.charge_pct = charge
+        self._free_m = free_m
+        self._in_contact = in_contact
+        self.distance_m = distance_m
+        if moved:
+            self._xyh = (x, y, heading)
+            self._pose_obj = None
+        self._dock_xyh = self._xyh
+        self._on_dock = on_dock
 
-    def _move(self, left_m: float, right_m: float) -> None:
-        x0, y0, heading0 = self._xyh
-        d = (left_m + right_m) / 2
-        dtheta = (right_m - left_m) / self.params.wheel_base_m
-        mid = heading0 + dtheta / 2
-        x = x0 + d * math.cos(mid)
-        y = y0 + d * math.sin(mid)
-        heading = (heading0 + dtheta + math.pi) % _TWO_PI - math.pi  # geometry.wrap_angle
-        self._free_m -= abs(d)
-        if self._free_m <= 0:
-            clearance = self.world.clearance_m(x, y)
-            self._free_m = clearance - self.params.radius_m
-            if clearance < self.params.radius_m and clearance < self.world.clearance_m(x0, y0):
-                if not self._in_contact:
-                    self.collisions.append(Collision(self.time_s, x, y))
-                self._in_contact = True
-                self._free_m = -1.0
-                self._xyh = (x0, y0, heading)
-                self._pose_obj = None
-                return
-        self._in_contact = False
-        self.distance_m += abs(d)
-        self._xyh = (x, y, heading)
-        self._pose_obj = None
-
-    def _drain(self, dt_s: float) -> None:
-        if self._xyh is not self._dock_xyh:  # a new tuple whenever the body moved
-            self._dock_xyh = self._xyh
-            self._on_dock = self.world.dock is not None and self.on_dock
+    def _drain_for(self, pwm: tuple[int, int, bool, bool], on_dock: bool,
+                   dt_s: float) -> float:
+        """Battery percent used per step (negative on the dock)."""
         p = self.params
-        pwm = self.pwm
-        if self._drain_key != (p, pwm, self._on_dock, dt_s):
-            duty = (pwm[0] + pwm[1]) / 255
-            watts = p.idle_w + p.motor_w * duty
-            if self._on_dock:
-                watts -= p.charge_w
-            self._drain_key = (p, pwm, self._on_dock, dt_s)
-            self._drain_pct = watts * dt_s / 3600 / p.battery_wh * 100
-        self.charge_pct -= self._drain_pct
-        self.charge_pct = min(100.0, max(0.0, self.charge_pct))
+        duty = (pwm[0] + pwm[1]) / 255
+        watts = p.idle_w + p.motor_w * duty
+        if on_dock:
+            watts -= p.charge_w
+        return watts * dt_s / 3600 / p.battery_wh * 100
 
 
 def _ray_circle(x: float, y: float, heading: float, cx: float, cy: float, r: float) -> float:

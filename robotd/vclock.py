@@ -32,10 +32,12 @@ Ts = TypeVarTuple("Ts")
 
 # A blocked real select() while time is held wakes up this often to re-check the hold.
 _HOLD_POLL_S = 0.05
-# With callbacks ready (no time passes), real file descriptors are polled on every Nth turn
-# only: a simulation turns the loop ~1000 times per virtual second and a poll is a system call
-# plus the selector's Python. Real I/O still never waits for virtual time to move.
+# Real file descriptors are polled on every Nth loop turn, and before every jump of the clock
+# of at least _POLL_BEFORE_JUMP_S: a simulation turns the loop a few hundred times per virtual
+# second, mostly for short jumps, and a poll is a system call. Real I/O so waits at most a few
+# turns (well under a millisecond of wall time) and never sees a timeout it could have beaten.
 _READY_POLL_EVERY = 8
+_POLL_BEFORE_JUMP_S = 0.02
 # asyncio's policy for purging cancelled timers from the queue.
 _PURGE_MIN_TIMERS = 100
 _PURGE_CANCELLED_FRACTION = 0.5
@@ -291,16 +293,19 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
 
     def _wait_virtual(self, busy: bool, scheduled: list[Any]) -> None:
         """Poll real I/O; move virtual time to the next timer when nothing else is to do."""
+        self._unpolled_turns += 1
         if busy:
-            self._unpolled_turns += 1
             if self._unpolled_turns >= _READY_POLL_EVERY:
                 self._poll_real(0.0)
             return
-        if self._poll_real(0.0):
-            return  # real I/O never waits for virtual time to move
         if scheduled and self._holds <= 0:
-            self._virtual_s += min(max(0.0, scheduled[0][0] - self._virtual_s),
-                                   _MAX_SELECT_TIMEOUT_S)
+            jump_s = min(max(0.0, scheduled[0][0] - self._virtual_s), _MAX_SELECT_TIMEOUT_S)
+            if (jump_s >= _POLL_BEFORE_JUMP_S or self._unpolled_turns >= _READY_POLL_EVERY) \
+                    and self._poll_real(0.0):
+                return  # real I/O first: time moves once it is served
+            self._virtual_s += jump_s
+            return
+        if self._poll_real(0.0):
             return
         # Something outside the loop is working, or no timer at all: wait for real I/O.
         self._poll_real(_HOLD_POLL_S if self._holds > 0 else None)

@@ -18,8 +18,10 @@ from fastapi import FastAPI
 from fastapi import Request as HttpRequest
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+from starlette.types import Receive, Scope, Send
 
 from fleet.api import admin, requests, robot
+from fleet.api.exchange_fast import ExchangeFastPath
 from fleet.clock import Clock
 from fleet.errors import FleetError
 from fleet.server import FleetServer
@@ -28,6 +30,18 @@ from fleet.site import Site
 from fleet.timehold import HoldTimeMiddleware
 
 log = structlog.get_logger(__name__)
+
+
+class FleetApp(FastAPI):
+    """The FastAPI app with the robots' data exchange answered before its middleware and
+    routing (``fleet.api.exchange_fast``): every robot posts once a second."""
+
+    def __init__(self, server: FleetServer, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self._exchange = ExchangeFastPath(super().__call__, server)
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        await self._exchange(scope, receive, send)
 
 
 def create_app(
@@ -60,7 +74,8 @@ def create_app(
         finally:
             await server.stop()
 
-    app = FastAPI(
+    app = FleetApp(
+        server,
         title="robotd fleet server",
         version="1",
         summary="Laundry robot fleet: requests, assignment, data exchange, monitors.",

@@ -10,7 +10,8 @@ from fastapi import Request as HttpRequest
 
 from fleet.api.deps import ERRORS, server_of
 from fleet.api.schemas import DataExchangeIn, DataExchangeOut
-from fleet.errors import Invalid
+from fleet.errors import FleetError, Invalid
+from fleet.server import FleetServer
 from fleet.services.arrival import Sighting
 from fleet.services.exchange import Reply, Report, exchange
 
@@ -25,18 +26,29 @@ async def data_exchange(
 ) -> Response:
     """The robot reports beacons, arrival, weight and distance; the server answers with the
     beacon configuration, navigation targets and orders."""
-    if body.RobotName is not None and body.RobotName != RobotName:
-        msg = f"RobotName {body.RobotName!r} in the body does not match {RobotName!r} in the URL"
+    reply = await answer(server_of(http), RobotName, body)
+    return Response(content=reply, media_type="application/json")
+
+
+async def answer(server: FleetServer, robot_name: str, body: DataExchangeIn) -> bytes:
+    """One exchange, answered as JSON (the route and ``exchange_fast`` both call this).
+    Raises FleetError for a request the server refuses."""
+    if body.RobotName is not None and body.RobotName != robot_name:
+        msg = f"RobotName {body.RobotName!r} in the body does not match {robot_name!r} in the URL"
         raise Invalid(msg)
-    server = server_of(http)
     report = Report(
-        robot_name=RobotName,
+        robot_name=robot_name,
         sightings=[Sighting(b.MacAddress, b.Rssi) for b in body.DetectedBeacons],
         is_in_target=body.IsInTarget, weight_kg=body.WeightKg,
         ultrasonic_distance=body.UltrasonicDistance,
     )
-    reply = await exchange(server.db, server.clock, server.cache, server.views, report)
-    return Response(content=reply_json(reply), media_type="application/json")
+    return reply_json(await exchange(server.db, server.clock, server.cache, server.views, report))
+
+
+def encoded_error(exc: FleetError) -> bytes:
+    """The body the app's FleetError handler sends (as starlette's JSONResponse encodes it)."""
+    return json.dumps({"detail": exc.message}, ensure_ascii=False,
+                      separators=(",", ":")).encode()
 
 
 def reply_json(reply: Reply) -> bytes:

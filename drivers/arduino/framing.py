@@ -73,7 +73,6 @@ class Unparsed:
 
 Line = Ack | Nak | Hello | Telemetry | Garbled | Unparsed
 
-_SEQ_BODY = re.compile(r"#(\d{1,3}) (.*)", re.DOTALL)
 _FORBIDDEN = re.compile(r"[\n\r*#]")
 _TELEMETRY = re.compile(r"([A-Z][A-Z0-9_]*):(.*)", re.DOTALL)
 
@@ -164,12 +163,15 @@ def parse_line(raw: bytes, framing: Framing) -> Line:
 
 def _parse_body(text: str, raw: bytes) -> Line:
     seq: int | None = None
-    match = _SEQ_BODY.fullmatch(text) if text.startswith("#") else None
-    if match is not None:
-        seq = int(match.group(1))
-        if seq >= SEQ_MODULO:
-            return Unparsed(f"SEQ {seq} out of range", raw)
-        text = match.group(2)
+    if text.startswith("#"):
+        # ``#SEQ REST``: 1-3 digits, then one space.
+        space = text.find(" ")
+        digits = text[1:space]
+        if 0 < space <= 4 and digits.isdigit():
+            seq = int(digits)
+            if seq >= SEQ_MODULO:
+                return Unparsed(f"SEQ {seq} out of range", raw)
+            text = text[space + 1:]
     if text == "ACK":
         return Ack(seq)
     if text.startswith("NAK:"):

@@ -125,17 +125,34 @@ class Outbox:
             old.settle(Outcome.SUPERSEDED, detail=detail)
 
     def has(self, kind: Kind) -> bool:
-        slot = {Kind.STOP: self._stop, Kind.HELLO: self._hello, Kind.MOTOR: self._motor,
-                Kind.HEARTBEAT: self._heartbeat}.get(kind)
-        return slot is not None if kind is not Kind.NORMAL else bool(self._normal)
+        if kind is Kind.NORMAL:
+            return bool(self._normal)
+        if kind is Kind.MOTOR:
+            return self._motor is not None
+        if kind is Kind.HEARTBEAT:
+            return self._heartbeat is not None
+        if kind is Kind.STOP:
+            return self._stop is not None
+        return self._hello is not None
 
     def pop(self) -> Command | None:
         """The most urgent command, or None when empty."""
-        for name in ("_stop", "_hello", "_motor", "_heartbeat"):
-            command: Command | None = getattr(self, name)
-            if command is not None:
-                setattr(self, name, None)
-                return command
+        command = self._stop
+        if command is not None:
+            self._stop = None
+            return command
+        command = self._hello
+        if command is not None:
+            self._hello = None
+            return command
+        command = self._motor
+        if command is not None:
+            self._motor = None
+            return command
+        command = self._heartbeat
+        if command is not None:
+            self._heartbeat = None
+            return command
         if self._normal:
             return self._normal.popleft()
         self._ready.clear()

@@ -330,7 +330,8 @@ class Session:
                 timer.cancel()
                 self._waiter = None
         events, self._events = self._events, []
-        events.sort(key=_rank)
+        if len(events) > 1:
+            events.sort(key=_rank)
         return events[0]
 
     def _acked(self, inflight: InFlight, reply: Ack | Hello, resends: int,

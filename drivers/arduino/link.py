@@ -169,7 +169,7 @@ class ArduinoLink:
         """
         payload = (f"MOTOR:{command.left_pwm},{command.right_pwm},"
                    f"{int(command.left_forward)},{int(command.right_forward)}")
-        self.submit(payload)
+        self._queue(payload, None)
 
     async def stop(self) -> None:
         """Stop the wheels now, ahead of everything queued; never raises.
@@ -203,16 +203,20 @@ class ArduinoLink:
     # -- any command -------------------------------------------------------------------------
     def submit(self, payload: str) -> asyncio.Future[Delivery]:
         """Queue ``payload``; the future ends with its Delivery. LinkDown while down."""
+        future: asyncio.Future[Delivery] = asyncio.get_running_loop().create_future()
+        self._queue(payload, future)
+        return future
+
+    def _queue(self, payload: str, future: asyncio.Future[Delivery] | None) -> None:
         if not self._connected or self._session is None:
             why = self.last_down_reason or "not connected yet"
             msg = f"{self.name} on {self.config.port}: link is down ({why})"
             raise LinkDown(msg)
         check_payload(payload, self.config.framing)
-        command = Command(payload, asyncio.get_running_loop().create_future())
+        command = Command(payload, future)
         self._outbox.put(command)
         if command.payload == "STOP":
             self._session.preempt()
-        return command.future
 
     async def command(self, payload: str) -> Delivery:
         """Send ``payload`` and wait for how it ended (for probes and tests)."""
@@ -298,9 +302,9 @@ class ArduinoLink:
         loop = asyncio.get_running_loop()
         deadline_s = loop.time() + self.config.handshake_timeout_s
         while loop.time() < deadline_s:
-            command = Command("HELLO", loop.create_future())
-            self._outbox.put(command)
-            delivery = await asyncio.wait_for(session.race(command.future),
+            hello: asyncio.Future[Delivery] = loop.create_future()
+            self._outbox.put(Command("HELLO", hello))
+            delivery = await asyncio.wait_for(session.race(hello),
                                               max(0.0, deadline_s - loop.time()))
             if delivery.ok and delivery.detail:
                 firmware, _, protocol = delivery.detail.rpartition(",")

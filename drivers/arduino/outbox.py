@@ -62,17 +62,21 @@ def kind_of(payload: str) -> Kind:
 
 
 class Command:
-    """One command on its way: payload, priority and the future its sender may await."""
+    """One command on its way: payload, priority and the future its sender may await.
+
+    ``future`` None: nobody waits for how it ends (wheel commands and heartbeats, twenty or
+    more a second), so no Delivery is made for it.
+    """
 
     __slots__ = ("future", "kind", "payload")
 
-    def __init__(self, payload: str, future: asyncio.Future[Delivery]) -> None:
+    def __init__(self, payload: str, future: asyncio.Future[Delivery] | None) -> None:
         self.payload = payload
         self.kind = kind_of(payload)
         self.future = future
 
     def settle(self, outcome: Outcome, **details: object) -> None:
-        if not self.future.done():
+        if self.future is not None and not self.future.done():
             self.future.set_result(Delivery(self.payload, outcome, **details))  # type: ignore[arg-type]
 
 

@@ -372,7 +372,7 @@ class Session:
                     Kind.MOTOR, Kind.HEARTBEAT)
                 if not busy and not self.outbox.has(Kind.MOTOR) and not self.outbox.has(
                         Kind.HEARTBEAT):
-                    self.outbox.put(Command("HB", self._loop.create_future()))
+                    self.outbox.put(Command("HB", None))
                 timer = self._loop.call_later(period, check)
             except Exception as exc:  # ends the heartbeat task with it, as a failing loop would
                 failed.set_exception(exc)

@@ -13,7 +13,13 @@ def command(payload: str) -> Command:
 
 
 def outcome(cmd: Command) -> Outcome | None:
+    assert cmd.future is not None
     return cmd.future.result().outcome if cmd.future.done() else None
+
+
+def delivery(cmd: Command) -> Delivery:
+    assert cmd.future is not None
+    return cmd.future.result()
 
 
 class TestOutbox:
@@ -102,8 +108,22 @@ class TestOutbox:
             for c in cmds:
                 box.put(c)
             box.clear(Outcome.LINK_DOWN)
-            results: list[Delivery] = [c.future.result() for c in cmds]
+            results = [delivery(c) for c in cmds]
             assert {r.outcome for r in results} == {Outcome.LINK_DOWN}
             assert len(box) == 0
+
+        vclock.run(main())
+
+    def test_a_command_nobody_waits_for_settles_without_a_delivery(self) -> None:
+        """Wheel commands and heartbeats have no future: replacing them just drops them."""
+
+        async def main() -> None:
+            box = Outbox(limit=10)
+            box.put(Command("MOTOR:1,1,1,1", None))
+            newer = command("MOTOR:2,2,1,1")
+            box.put(newer)
+            box.put(Command("HB", None))
+            assert box.superseded == 1
+            assert box.pop() is newer and box.pop() is None
 
         vclock.run(main())

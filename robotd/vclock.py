@@ -208,7 +208,7 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
             self._check_callback(callback, "call_at")
             timer = events.TimerHandle(when, callback, args, self, context)
         else:
-            timer = _new_handle(events.TimerHandle)
+            timer = _new_handle(_Timer)
             timer._context = context if context is not None else contextvars.copy_context()
             timer._loop = self
             timer._callback = callback
@@ -341,6 +341,20 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
 
 
 _new_handle: Callable[[type[events.Handle]], Any] = object.__new__
+
+
+class _Timer(events.TimerHandle):
+    """A TimerHandle whose cancel() is one call (asyncio.sleep cancels every timer it set)."""
+
+    __slots__ = ()
+
+    def cancel(self) -> None:
+        if not self._cancelled:
+            if self._scheduled:  # type: ignore[attr-defined]
+                self._loop._timer_cancelled_count += 1  # type: ignore[attr-defined]
+            self._cancelled = True
+            self._callback = None
+            self._args = None  # type: ignore[assignment]
 
 
 class VirtualTimePolicy(asyncio.DefaultEventLoopPolicy):

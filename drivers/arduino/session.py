@@ -166,6 +166,9 @@ class Session:
             if not chunk:
                 msg = "port closed (end of file)"
                 raise LinkBroken(msg)
+            if not buffer and not discarding and chunk.find(b"\n") == len(chunk) - 1:
+                self._on_line(chunk[:-1])  # the usual chunk: exactly one whole line
+                continue
             buffer += chunk
             while True:
                 end = buffer.find(b"\n")

@@ -11,6 +11,7 @@ import re
 _WORDS = frozenset({"LED_IDLE", "LED_WAITING", "LED_MOVING", "SUCCESS_SCAN", "FAILURE_SCAN",
                     "STOP", "HB", "HELLO"})
 _LIMITS = {"MOTOR:": ((0, 255), (0, 255), (0, 1), (0, 1)), "SERVO:": ((0, 180),)}
+_PREFIX_CHARS = 6  # every prefix above: "MOTOR:", "SERVO:"
 # The firmware's atoi-with-checks: each field an optional minus and ASCII digits.
 _FIELDS = {prefix: re.compile(",".join([r"(-?[0-9]+)"] * len(limits)))
            for prefix, limits in _LIMITS.items()}
@@ -48,17 +49,18 @@ def parse_payload(payload: str) -> tuple[str, tuple[int, ...]]:
     """(command word, integer arguments); ParseError("PARSE" | "RANGE") when bad."""
     if payload in _WORDS:
         return payload, ()
-    for prefix, limits in _LIMITS.items():
-        if payload.startswith(prefix):
-            fields = _FIELDS[prefix].fullmatch(payload, len(prefix))
-            if fields is None:
-                raise ParseError("PARSE")
-            values = tuple(map(int, fields.groups()))
-            for value, (lo, hi) in zip(values, limits, strict=True):
-                if not lo <= value <= hi:
-                    raise ParseError("RANGE")
-            return prefix[:-1], values
-    raise ParseError("PARSE")
+    prefix = payload[:_PREFIX_CHARS]
+    limits = _LIMITS.get(prefix)
+    if limits is None:
+        raise ParseError("PARSE")
+    fields = _FIELDS[prefix].fullmatch(payload, _PREFIX_CHARS)
+    if fields is None:
+        raise ParseError("PARSE")
+    values = tuple(map(int, fields.groups()))
+    for value, (lo, hi) in zip(values, limits, strict=True):
+        if not lo <= value <= hi:
+            raise ParseError("RANGE")
+    return prefix[:-1], values
 
 
 def read_seq(line: bytes) -> int | None:

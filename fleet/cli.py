@@ -9,6 +9,7 @@ import sys
 import uvicorn
 
 from fleet.app import create_app
+from fleet.http_protocol import CoalescingHttpToolsProtocol
 from fleet.site import SiteError, load_site
 from robotd.logs import configure_logging
 
@@ -45,10 +46,11 @@ def main(argv: list[str] | None = None) -> int:
     except (SiteError, ValueError) as exc:
         print(f"robotd-fleet: {exc}", file=sys.stderr)
         return 2
-    # loop="auto" and http="auto" pick uvloop and httptools (installed with the package);
-    # Server.run() is what installs the loop, asyncio.run(server.serve()) would not.
+    # loop="auto" picks uvloop (installed with the package); Server.run() is what installs
+    # the loop, asyncio.run(server.serve()) would not.
     config = uvicorn.Config(app, host=args.host, port=args.port, log_config=None,
-                            access_log=args.access_log, lifespan="on", loop="auto", http="auto")
+                            access_log=args.access_log, lifespan="on", loop="auto",
+                            http=CoalescingHttpToolsProtocol)
     server = uvicorn.Server(config)
     try:
         server.run()

@@ -12,7 +12,7 @@ import asyncio
 import functools
 import json
 from collections.abc import Awaitable, Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Generic, TypeVar
 
 from sqlalchemy import select
@@ -55,6 +55,17 @@ class SiteView:
     beacons: list[BeaconRow]
     # customer id -> the room of the customer's assigned beacon (None: no beacon)
     customer_rooms: dict[int, int | None]
+    _encoded: dict[frozenset[int], bytes] = field(default_factory=dict, compare=False,
+                                                  repr=False)
+
+    def encoded_beacons(self, target_ids: frozenset[int]) -> bytes:
+        """The ``ActiveBeacons`` entries as JSON with these beacons as targets; kept per target
+        set (a site has a few: one per customer room, the base, none)."""
+        encoded = self._encoded.get(target_ids)
+        if encoded is None:
+            encoded = b",".join([b.encoded(b.id in target_ids) for b in self.beacons])
+            self._encoded[target_ids] = encoded
+        return encoded
 
 
 class Cached(Generic[T]):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 from typing import Annotated
 
@@ -52,11 +53,17 @@ def encoded_error(exc: FleetError) -> bytes:
 
 
 def reply_json(reply: Reply) -> bytes:
-    """The reply as JSON, from pre-encoded beacon entries (it is sent every second by every
-    robot, and the beacon list is the bulk of it)."""
+    """The reply as JSON, from pre-encoded parts (it is sent every second by every robot)."""
     nav = reply.navigation
-    tail = json.dumps({
-        "IsLineFollowing": nav.is_line_following, "FollowColor": nav.follow_color,
-        "EmergencyStop": reply.emergency_stop, "MaintenanceMode": reply.maintenance_mode,
-    }, separators=(",", ":")).encode()
-    return b'{"ActiveBeacons":[' + nav.encoded_beacons() + b"]," + tail[1:]
+    return (b'{"ActiveBeacons":[' + nav.encoded_beacons() + b"]," + _encoded_orders(
+        nav.is_line_following, nav.follow_color, reply.emergency_stop, reply.maintenance_mode))
+
+
+@functools.lru_cache(maxsize=256)
+def _encoded_orders(line_following: bool, follow_color: str | None, emergency_stop: bool,
+                    maintenance_mode: bool) -> bytes:
+    """The reply's fields after ``ActiveBeacons`` and the closing brace."""
+    return json.dumps({
+        "IsLineFollowing": line_following, "FollowColor": follow_color,
+        "EmergencyStop": emergency_stop, "MaintenanceMode": maintenance_mode,
+    }, separators=(",", ":")).encode()[1:]

@@ -32,7 +32,7 @@ class BeaconConfig:
 
 @dataclass(frozen=True)
 class Navigation:
-    all_beacons: list[BeaconRow]
+    site: SiteView
     target_ids: frozenset[int]
     is_line_following: bool
     follow_color: str | None
@@ -40,12 +40,11 @@ class Navigation:
     @property
     def beacons(self) -> list[BeaconConfig]:
         return [BeaconConfig(b.mac_address, b.name, b.room_name, b.rssi_threshold_dbm,
-                             b.id in self.target_ids) for b in self.all_beacons]
+                             b.id in self.target_ids) for b in self.site.beacons]
 
     def encoded_beacons(self) -> bytes:
-        """The ``ActiveBeacons`` entries as JSON, from each beacon's pre-encoded forms."""
-        targets = self.target_ids
-        return b",".join([b.encoded(b.id in targets) for b in self.all_beacons])
+        """The ``ActiveBeacons`` entries as JSON (pre-encoded per site view and target set)."""
+        return self.site.encoded_beacons(self.target_ids)
 
 
 def heads_to_base(request: RequestLike) -> bool:
@@ -78,5 +77,5 @@ def navigation(
     """
     targets = target_beacons(site, request)
     follow_color = targets[0].floor_color if targets and cfg.use_floor_color else None
-    return Navigation(site.beacons, frozenset(b.id for b in targets),
+    return Navigation(site, frozenset(b.id for b in targets),
                       bool(targets) and not stopped, follow_color)

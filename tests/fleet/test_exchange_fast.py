@@ -72,7 +72,23 @@ class TestSameAnswersAsTheRoute:
         ("a quiet report", report()),
         ("an arrival", report(IsInTarget=True)),
         ("another robot's name", report(RobotName="robot-2")),
-    ], ids=["quiet", "arrival", "name-mismatch"])
+        # Where pydantic's JSON parser and json.loads + the model might disagree:
+        ("an integer weight", report(WeightKg=2)),
+        ("a fractional RSSI", report(DetectedBeacons=[{"MacAddress": "x", "Rssi": -50.0}])),
+        ("a numeric flag", report(IsInTarget=1)),
+        ("a numeric timestamp", report(Timestamp=1767600000)),
+        ("a date-only timestamp", report(Timestamp="2026-01-05")),
+        ("an unknown field", report(Colour="red")),
+        ("a weight out of float range", report().replace(b'"WeightKg": 0.0', b'"WeightKg": 1e400')),
+        ("a NaN weight", report().replace(b'"WeightKg": 0.0', b'"WeightKg": NaN')),
+        ("a duplicated key", report().replace(b'"IsInTarget": false',
+                                              b'"IsInTarget": 7, "IsInTarget": false')),
+        ("a byte-order mark", b"\xef\xbb\xbf" + report()),
+        ("a lone surrogate", report(RobotName="robot-1\ud800")),
+        ("not UTF-8", report().replace(b"robot-1", b"robot-\xff", 1)),
+        ("a JSON list", b"[]"),
+        ("JSON null", b"null"),
+    ], ids=lambda v: v if isinstance(v, str) else "")
     async def test_the_fast_path_and_the_route_give_the_same_bytes(self, fleet, what, body):
         """Status, content type and body are the same whichever of the two answers."""
         await fleet.request(1)

@@ -244,7 +244,14 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
         ready = self._ready
         busy = bool(ready) or self._stopping
         if self.speed is None:
-            self._wait_virtual(busy, scheduled)
+            self._unpolled_turns += 1
+            if (not busy and scheduled and self._holds <= 0
+                    and self._unpolled_turns < _READY_POLL_EVERY
+                    and (jump_s := scheduled[0][0] - self._virtual_s) < _POLL_BEFORE_JUMP_S):
+                if jump_s > 0.0:  # the usual turn: a short jump to the next timer, no poll due
+                    self._virtual_s += jump_s
+            else:
+                self._wait_virtual(busy, scheduled)
             end_s = self._virtual_s + self._clock_resolution
         else:
             timeout = None
@@ -307,7 +314,6 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
 
     def _wait_virtual(self, busy: bool, scheduled: list[Any]) -> None:
         """Poll real I/O; move virtual time to the next timer when nothing else is to do."""
-        self._unpolled_turns += 1
         if busy:
             if self._unpolled_turns >= _READY_POLL_EVERY:
                 self._poll_real(0.0)

@@ -92,7 +92,7 @@ class Outbox:
         self._motor: Command | None = None
         self._heartbeat: Command | None = None
         self._normal: collections.deque[Command] = collections.deque()
-        self._ready = asyncio.Event()
+        self._waiter: asyncio.Future[None] | None = None  # get() waiting for a command
 
     def __len__(self) -> int:
         slots = (self._stop, self._hello, self._motor, self._heartbeat)
@@ -121,7 +121,9 @@ class Outbox:
             while len(self._normal) > self.limit:
                 self._normal.popleft().settle(Outcome.DROPPED, detail="queue full")
                 self.dropped += 1
-        self._ready.set()
+        waiter = self._waiter
+        if waiter is not None and not waiter.done():
+            waiter.set_result(None)
 
     def _supersede(self, old: Command | None, detail: str) -> None:
         if old is not None:
@@ -159,7 +161,6 @@ class Outbox:
             return command
         if self._normal:
             return self._normal.popleft()
-        self._ready.clear()
         return None
 
     async def get(self) -> Command:
@@ -167,7 +168,12 @@ class Outbox:
             command = self.pop()
             if command is not None:
                 return command
-            await self._ready.wait()
+            # A bare future, not an asyncio.Event: one less coroutine per command.
+            self._waiter = asyncio.get_running_loop().create_future()
+            try:
+                await self._waiter
+            finally:
+                self._waiter = None
 
     def clear(self, outcome: Outcome, detail: str = "") -> None:
         """Settle every queued command with ``outcome`` (the link went down)."""

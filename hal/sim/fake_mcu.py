@@ -95,6 +95,7 @@ class FakeMcu:
         self._deadman: asyncio.TimerHandle | None = None
         self._deadman_due_s = 0.0
         self._line = bytearray()  # the line being received
+        self._frames: dict[tuple[int, str], bytes] = {}  # framed replies, by SEQ and text
         self._overlong = False
         self._out_pending: collections.deque[tuple[float, bytes]] = collections.deque()
         self._out_timer: asyncio.TimerHandle | None = None
@@ -343,8 +344,15 @@ class FakeMcu:
     def _reply(self, seq: int | None, text: str) -> None:
         if text.startswith("NAK"):
             self.naks.append((seq, text[4:]))
-        body = f"#{seq} {text}" if seq is not None else text
-        self._send_line(body.encode("ascii"), crc=seq is not None)
+        if seq is None:
+            self._send_lines([text.encode("ascii")], crc=False)
+            return
+        # Framed replies repeat every 256 commands: each is built (and its CRC run) once.
+        frame = self._frames.get((seq, text))
+        if frame is None:
+            body = f"#{seq} {text}".encode("ascii")
+            frame = self._frames[(seq, text)] = b"%s*%02X\n" % (body, crc8_fast(body))
+        self._send_frames(frame)
 
     def _send_line(self, body: bytes, crc: bool) -> None:
         self._send_lines([body], crc=crc)
@@ -357,6 +365,12 @@ class FakeMcu:
             data = b"".join([b"%s*%02X\n" % (body, crc8_fast(body)) for body in bodies])
         else:
             data = b"".join([body + b"\n" for body in bodies])
+        self._send_frames(data)
+
+    def _send_frames(self, data: bytes) -> None:
+        """Send framed lines in one write."""
+        if self._streams is None:
+            return
         if self.corrupt_fraction > 0.0:
             data = corrupt_bytes(data, self.corrupt_fraction, self._rng)
         loop = asyncio.get_running_loop()

@@ -44,14 +44,15 @@ class DriveTuning:
 
 def wheel_command(left_mps: float, right_mps: float, tuning: DriveTuning) -> MotorCommand:
     """Wheel speeds (m/s, signed) as PWM and direction, past the motors' deadband."""
+    return MotorCommand(_pwm(left_mps, tuning), _pwm(right_mps, tuning), left_mps >= 0,
+                        right_mps >= 0)
 
-    def pwm(speed: float) -> int:
-        if abs(speed) < 1e-4:
-            return 0
-        span = 255 - tuning.deadband_pwm
-        return min(255, round(tuning.deadband_pwm + abs(speed) / tuning.max_speed_mps * span))
 
-    return MotorCommand(pwm(left_mps), pwm(right_mps), left_mps >= 0, right_mps >= 0)
+def _pwm(speed: float, tuning: DriveTuning) -> int:
+    if abs(speed) < 1e-4:
+        return 0
+    span = 255 - tuning.deadband_pwm
+    return min(255, round(tuning.deadband_pwm + abs(speed) / tuning.max_speed_mps * span))
 
 
 class OdometryTracker:

@@ -19,6 +19,8 @@ class MotorCommand:
     right_forward: bool = True
 
     def __post_init__(self) -> None:
+        if 0 <= self.left_pwm <= 255 and 0 <= self.right_pwm <= 255:
+            return  # the usual case, twenty times a second: no loop, no getattr
         for name in ("left_pwm", "right_pwm"):
             value = getattr(self, name)
             if not 0 <= value <= 255:

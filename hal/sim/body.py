@@ -202,7 +202,14 @@ class DiffDriveBody:
         slip_std = p.slip_std
         wheel_base_m = p.wheel_base_m
         radius_m = p.radius_m
-        gauss = self.rng.gauss
+        rng = self.rng
+        gauss = rng.gauss
+        # Random.gauss written out (Box-Muller, the second value of each pair kept for the
+        # next call): the same draws without two calls a step. Subclasses keep their gauss.
+        inline_noise = type(rng) is random.Random and hasattr(rng, "gauss_next")
+        uniform = rng.random
+        kept: float | None = getattr(rng, "gauss_next", None)
+        cos, sin, sqrt, log = math.cos, math.sin, math.sqrt, math.log
         has_dock = self.world.dock is not None
         left, right = self.wheel_mps
         ticks_left, ticks_right = self._ticks
@@ -246,15 +253,26 @@ class DiffDriveBody:
             ticks_left += left_m / per_tick_m
             ticks_right += right_m / per_tick_m
             if left_m or right_m:
-                left_m *= 1 + gauss(0, slip_std)
-                right_m *= 1 + gauss(0, slip_std)
+                if inline_noise:
+                    x2pi = uniform() * _TWO_PI
+                    g2rad = sqrt(-2.0 * log(1.0 - uniform()))
+                    if kept is None:
+                        slip_left, slip_right = cos(x2pi) * g2rad, sin(x2pi) * g2rad
+                    else:
+                        slip_left, slip_right = kept, cos(x2pi) * g2rad
+                        kept = sin(x2pi) * g2rad
+                    left_m *= 1 + slip_left * slip_std
+                    right_m *= 1 + slip_right * slip_std
+                else:
+                    left_m *= 1 + gauss(0, slip_std)
+                    right_m *= 1 + gauss(0, slip_std)
             if left_m != 0 or right_m != 0:
                 moved = True
                 d = (left_m + right_m) / 2
                 dtheta = (right_m - left_m) / wheel_base_m
                 mid = heading + dtheta / 2
-                new_x = x + d * math.cos(mid)
-                new_y = y + d * math.sin(mid)
+                new_x = x + d * cos(mid)
+                new_y = y + d * sin(mid)
                 heading = (heading + dtheta + math.pi) % _TWO_PI - math.pi  # wrap_angle
                 free_m -= abs(d)
                 blocked = False
@@ -296,6 +314,8 @@ class DiffDriveBody:
             self._pose_obj = None
         self._dock_xyh = self._xyh
         self._on_dock = on_dock
+        if inline_noise:
+            rng.gauss_next = kept  # type: ignore[attr-defined]
 
     def _drain_for(self, pwm: tuple[int, int, bool, bool], on_dock: bool,
                    dt_s: float) -> float:

@@ -88,3 +88,29 @@ class TestDiffDriveBody:
         facing_person = DiffDriveBody(world, Pose(1.0, 1.0, 0), BodyParams(range_noise_cm=0))
         assert math.isclose(facing_person.front_range_cm(), (1.0 - 0.2 - 0.18) * 100,
                             abs_tol=0.01)
+
+    def test_slip_noise_is_exactly_what_rng_gauss_draws(self) -> None:
+        """The inline slip draws of a random.Random equal a subclass's own gauss() calls."""
+
+        class OwnGauss(random.Random):
+            """A subclass: the body leaves its gauss() alone."""
+
+        class Clock:
+            t_s = 0.0
+
+            def __call__(self) -> float:
+                return self.t_s
+
+        clocks = (Clock(), Clock())
+        bodies = [DiffDriveBody(_world(), Pose(1, 1, 0.3), rng=rng, clock=clock)
+                  for rng, clock in zip((random.Random(4), OwnGauss(4)), clocks, strict=True)]
+        for i in range(200):
+            for body, clock in zip(bodies, clocks, strict=True):
+                clock.t_s += 0.037
+                if i % 20 == 0:
+                    body.apply_pwm(90 + i % 7, 100, True, True)
+                if i % 3 == 0:
+                    body.front_range_cm()  # one draw: the next slip pair starts mid-pair
+                body.sync()
+        assert bodies[0].pose == bodies[1].pose
+        assert bodies[0].encoder_ticks() == bodies[1].encoder_ticks()

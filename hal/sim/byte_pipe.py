@@ -65,20 +65,18 @@ class _Direction:
         if self.timer is None:
             self.timer = self.loop.call_at(self.pending[0][0], self._deliver)
 
-    def _schedule(self) -> None:
-        if self.timer is None and self.pending:
-            self.timer = self.loop.call_at(self.pending[0][0], self._deliver)
-
     def _deliver(self) -> None:
         self.timer = None
         now = self.loop.time()
-        while self.pending and self.pending[0][0] <= now:
-            _, data = self.pending.popleft()
+        pending = self.pending
+        while pending and pending[0][0] <= now:
+            data = pending.popleft()[1]
             if self.sink is not None:
                 self.sink(data)
             elif self.target is not None and not self.target.at_eof():
                 self.target.feed_data(data)
-        self._schedule()
+        if self.timer is None and pending:
+            self.timer = self.loop.call_at(pending[0][0], self._deliver)
 
     def stop(self) -> None:
         if self.timer is not None:
@@ -103,7 +101,7 @@ class PipeTransport(asyncio.Transport):
             raise OSError(errno.EIO, "serial line is gone")
         if self._closing:
             return
-        self._out.send(bytes(data))
+        self._out.send(data if type(data) is bytes else bytes(data))
 
     def is_closing(self) -> bool:
         return self._closing

@@ -360,7 +360,7 @@ def main() -> int:
     parser = argparse.ArgumentParser()
     parser.add_argument("--frames", type=int, default=200)
     parser.add_argument("--passes", type=int, default=5)
-    parser.add_argument("--seconds", type=float, default=15.0)
+    parser.add_argument("--seconds", type=float, default=30.0)
     parser.add_argument("--part", choices=("all", "tracker", "loop", "loop-child"), default="all")
     parser.add_argument("--sched", choices=("default", "service"), default="default",
                         help=argparse.SUPPRESS)

@@ -21,6 +21,7 @@ import argparse
 import asyncio
 import collections
 import cProfile
+import importlib
 import pstats
 import resource
 import statistics
@@ -43,13 +44,18 @@ def main() -> int:
     opts = parser.parse_args()
 
     t0_wall, t0_cpu = time.perf_counter(), time.process_time()
+    from behaviours.profile import load_profile
     from hal.sim.scenario import load_scenario
     from robotd import sim_runner
     from robotd.sim_console import SimConsole
 
     scenario = load_scenario(opts.scenario)
-    if "fleet" in scenario.raw:
-        import robotd.sim_fleet  # noqa: F401 - loaded lazily by the runner; an import, not a run
+    # What the runner loads lazily on its first run (the daemon with its state machine and
+    # control server, the profile, the fleet's modules): imports, not part of any run.
+    lazy = ["robotd.daemon"] + (["robotd.sim_fleet"] if "fleet" in scenario.raw else [])
+    for module in lazy:
+        importlib.import_module(module)
+    load_profile(scenario.profile)
 
     import_wall = time.perf_counter() - t0_wall
     import_cpu = time.process_time() - t0_cpu

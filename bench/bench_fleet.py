@@ -234,9 +234,15 @@ async def run_one(db_url: str, robots: int, seconds: float, port: int,
         admin = Conn(port)
         for c in range(1, robots // 2 + 1):
             await admin.call("POST", "/api/requests", json.dumps({"CustomerId": c}).encode())
+        # Every robot reports once before the timing, and the exchanges run before the
+        # /health baseline: a robot that has not reported for OfflineAfterS when the offline
+        # monitor looks (every 30 s) goes offline, and its next report takes the write path.
+        for i in range(robots):
+            await admin.call("POST", f"/api/Robot/robot-{i}/data-exchange",
+                             exchange_body(f"robot-{i}", i))
         admin.close()
-        base, health_cpu_s, _ = await load(port, robots, seconds, proc.pid, health=True)
         latencies, cpu, own = await load(port, robots, seconds, proc.pid, health=False)
+        base, health_cpu_s, _ = await load(port, robots, seconds, proc.pid, health=True)
         return {"rps": len(latencies) / seconds, "p50": pct(latencies, 0.5),
                 "cpu_ms": cpu / len(latencies) * 1000,
                 "client_cpu_ms": own / len(latencies) * 1000,

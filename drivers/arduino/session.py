@@ -54,6 +54,8 @@ MAX_REFUSAL_RESENDS = 2
 USB_LATENCY_S = 0.02
 # Bytes of the longest reply (``#255 NAK:PARSE*CC\n``), to know when a reply is due.
 REPLY_BYTES = 18
+# Received lines whose parse is remembered (they are immutable; the memo is cleared when full).
+PARSED_LINES_KEPT = 1024
 
 
 class LinkBroken(Exception):
@@ -108,6 +110,7 @@ class Session:
         self._byte_s = 10.0 / config.baud  # 8N1: ten bit times a byte
         self._recent_rtt_s: collections.deque[float] = collections.deque(maxlen=4)
         self._tasks: list[asyncio.Task[None]] = []
+        self._parsed: dict[bytes, Line] = {}
         self.broken: asyncio.Future[BaseException] = self._loop.create_future()
 
     # -- lifecycle ---------------------------------------------------------------------------
@@ -190,7 +193,13 @@ class Session:
         if len(raw) + 1 > MAX_LINE_BYTES:
             self.counters.overlong += 1
             return
-        line: Line = parse_line(raw, self.framing)
+        # Lines repeat (an ACK per SEQ, IR and BAT values, ENCODER at rest): parse each once.
+        line = self._parsed.get(raw)
+        if line is None:
+            line = parse_line(raw, self.framing)
+            if len(self._parsed) >= PARSED_LINES_KEPT:
+                self._parsed.clear()
+            self._parsed[raw] = line
         if isinstance(line, Garbled):
             self.counters.crc_errors += 1
             log.debug("link.garbled", reason=line.reason, raw=line.raw)

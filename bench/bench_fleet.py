@@ -8,7 +8,9 @@ without the database).
 
 The site has 40 customer rooms with a beacon each (every reply lists all 41 beacons). Half of
 the robots serve a request (they get customer-room targets), half idle. Each robot
-keeps one HTTP/1.1 connection, as a real robot's client does.
+keeps one HTTP/1.1 connection, as a real robot's client does. Server CPU per request is read
+from /proc over the measured seconds only; the load generator (protocol callbacks on loop
+timers, uvloop) prints its own, since it shares the machine's cores with the server.
 """
 
 from __future__ import annotations

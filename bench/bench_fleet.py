@@ -32,6 +32,7 @@ sys.path.insert(0, str(ROOT))
 from fleet.pgtest import PgCluster, PgUnavailable  # noqa: E402
 
 ROOMS = 40
+WARMUP_S = 3.0
 
 
 def site_toml(robots: int) -> str:
@@ -122,7 +123,8 @@ class Robot(asyncio.Protocol):
         self.loop.call_at(self.next_t, self.send)
 
     def send(self) -> None:
-        assert self.transport is not None
+        if self.transport is None or self.transport.is_closing():
+            return
         self.measured = self.loop.time() >= self.measure_from
         self.sent_at = time.perf_counter()
         self.transport.write(self.request)
@@ -151,6 +153,8 @@ class Robot(asyncio.Protocol):
             self.transport.close()
 
     def connection_lost(self, exc: Exception | None) -> None:
+        if self.next_t < self.stop_at:
+            self.errors.append(0)  # the server closed the connection
         if not self.done.done():
             self.done.set_result(None)
 
@@ -163,7 +167,7 @@ async def load(port: int, robots: int, seconds: float, pid: int, *,
     latencies: list[float] = []
     errors: list[int] = []
     start = loop.time() + 0.5
-    warmup = 3.0
+    warmup = WARMUP_S
     measure_from, stop_at = start + warmup, start + warmup + seconds
     cpu: list[float] = []
     own: list[float] = []
@@ -188,7 +192,7 @@ async def load(port: int, robots: int, seconds: float, pid: int, *,
     await asyncio.gather(*done)
     sample()
     if errors:
-        msg = f"{len(errors)} errors, e.g. HTTP {errors[0]}"
+        msg = f"{len(errors)} errors, e.g. HTTP {errors[0]} (0: connection lost)"
         raise RuntimeError(msg)
     return latencies, cpu[1] - cpu[0], own[1] - own[0]
 

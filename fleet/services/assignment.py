@@ -5,7 +5,7 @@ from __future__ import annotations
 from datetime import UTC, datetime
 
 import structlog
-from sqlalchemy import select
+from sqlalchemy import and_, select
 from sqlalchemy.ext.asyncio import AsyncSession
 
 from fleet.errors import NoRobotAvailable
@@ -86,14 +86,21 @@ async def _preempt_least_recent(
     log.info("fleet.robot.preempted", robot=robot.name, requeued=old.id, for_request=request.id)
 
 
+_QUEUED = and_(Request.status == Status.PENDING, Request.is_approved.is_(True))
+
+
 async def process_queue(session: AsyncSession, now: datetime) -> list[Request]:
     """Dispatch approved Pending requests, oldest first, while robots are available."""
+    # Usually nothing waits: then no need to load every robot (a robot's reconnect, a cancel
+    # and a timeout all run this).
+    if (await session.execute(select(Request.id).where(_QUEUED).limit(1))).first() is None:
+        return []
     robots = [r for r in await serving_robots(session) if is_available(r)]
     if not robots:
         return []
     pending = (await session.execute(
         select(Request)
-        .where(Request.status == Status.PENDING, Request.is_approved.is_(True))
+        .where(_QUEUED)
         .order_by(Request.created_at, Request.id)
         .limit(len(robots))
     )).scalars().all()

@@ -104,6 +104,8 @@ class Session:
         self.inflight: InFlight | None = None
         self._events: list[Event] = []
         self._waiter: asyncio.Future[None] | None = None
+        self._deadline_s = 0.0
+        self._deadline_timer: asyncio.TimerHandle | None = None
         self._loop = asyncio.get_running_loop()
         self.last_rx_s = self._loop.time()
         self.last_drive_tx_s = self._loop.time()
@@ -139,6 +141,9 @@ class Session:
         return await asyncio.shield(self.broken)
 
     async def close(self) -> None:
+        if self._deadline_timer is not None:
+            self._deadline_timer.cancel()
+            self._deadline_timer = None
         for task in self._tasks:
             task.cancel()
         await asyncio.gather(*self._tasks, return_exceptions=True)
@@ -332,19 +337,39 @@ class Session:
         while not self._events:
             if deadline_s - self._loop.time() <= CLOCK_SLACK_S:
                 return None
-            # A bare future and timer: cheaper per command than wait_for (no extra task).
+            # A bare future (cheaper than wait_for: no extra task) and one deadline timer for
+            # the session that moves itself on, instead of a timer set and cancelled for each
+            # of twenty commands a second.
             waiter: asyncio.Future[None] = self._loop.create_future()
             self._waiter = waiter
-            timer = self._loop.call_at(deadline_s, _wake, waiter)
+            self._wake_at(deadline_s)
             try:
                 await waiter
             finally:
-                timer.cancel()
                 self._waiter = None
         events, self._events = self._events, []
         if len(events) > 1:
             events.sort(key=_rank)
         return events[0]
+
+    def _wake_at(self, deadline_s: float) -> None:
+        """Wake the waiter at ``deadline_s`` (the timer already set fires first, moves on)."""
+        self._deadline_s = deadline_s
+        timer = self._deadline_timer
+        if timer is not None:
+            if timer.when() <= deadline_s:
+                return
+            timer.cancel()
+        self._deadline_timer = self._loop.call_at(deadline_s, self._deadline_passed)
+
+    def _deadline_passed(self) -> None:
+        timer, self._deadline_timer = self._deadline_timer, None
+        if self._waiter is None or timer is None:
+            return
+        if self._deadline_s > timer.when():  # a later deadline was set meanwhile
+            self._deadline_timer = self._loop.call_at(self._deadline_s, self._deadline_passed)
+            return
+        _wake(self._waiter)
 
     def _acked(self, inflight: InFlight, reply: Ack | Hello, resends: int,
                elapsed_s: float) -> None:

@@ -220,13 +220,18 @@ class FakeMcu:
             chunk = corrupt_bytes(chunk, self.corrupt_fraction, self._rng)
         start = 0
         while (end := chunk.find(b"\n", start)) >= 0:
-            self._take(chunk[start:end])
-            line, overlong = bytes(self._line), self._overlong
-            self._line.clear()
-            self._overlong = False
+            piece = chunk[start:end]
+            if not self._line and len(piece) < LINE_MAX and b"\r" not in piece:
+                line, overlong = piece, False  # the usual write: one whole line
+            else:
+                self._take(piece)
+                line, overlong = bytes(self._line), self._overlong
+                self._line.clear()
+                self._overlong = False
             self._handle_line(line, overlong)
             start = end + 1
-        self._take(chunk[start:])
+        if start < len(chunk):
+            self._take(chunk[start:])
 
     def _take(self, piece: bytes) -> None:
         """Add bytes to the line as the firmware does: CR skipped, past 63 bytes dropped."""

@@ -294,18 +294,25 @@ async def control_run(images: list[Any], seconds: float, loaded: bool) -> dict[s
 
 
 UNIT = Path(__file__).resolve().parent.parent / "systemd" / "robotd.service"
-POLICIES = {"rr": "SCHED_RR", "fifo": "SCHED_FIFO"}
-POLICY_NAMES = {os.SCHED_OTHER: "SCHED_OTHER", os.SCHED_RR: "SCHED_RR", os.SCHED_FIFO: "SCHED_FIFO"}
+POLICIES = {"rr": os.SCHED_RR, "fifo": os.SCHED_FIFO, "other": os.SCHED_OTHER}
+POLICY_NAMES = {v: f"SCHED_{k.upper()}" for k, v in POLICIES.items()}
 
 
-def unit_scheduling() -> tuple[int, int] | None:
-    """(policy, priority) that systemd/robotd.service gives the daemon, None for the default."""
+def unit_scheduling() -> tuple[int, int, int] | None:
+    """(nice, policy, priority) that systemd/robotd.service gives the daemon; None when it
+    sets none of them."""
     text = UNIT.read_text()
-    policy = re.search(r"^CPUSchedulingPolicy=(\w+)", text, re.MULTILINE)
-    priority = re.search(r"^CPUSchedulingPriority=(\d+)", text, re.MULTILINE)
-    if policy is None or policy.group(1) not in POLICIES:
+
+    def setting(name: str) -> str | None:
+        found = re.search(rf"^{name}=(\S+)", text, re.MULTILINE)
+        return found.group(1) if found else None
+
+    nice, policy, priority = (setting("Nice"), setting("CPUSchedulingPolicy"),
+                              setting("CPUSchedulingPriority"))
+    if nice is None and policy is None:
         return None
-    return getattr(os, POLICIES[policy.group(1)]), int(priority.group(1)) if priority else 1
+    return (int(nice or 0), POLICIES.get(policy or "other", os.SCHED_OTHER),
+            int(priority or 0))
 
 
 def bench_loop(seconds: float) -> None:
@@ -315,8 +322,10 @@ def bench_loop(seconds: float) -> None:
     for sched in ("default", "service") if service is not None else ("default",):
         def set_policy(sched: str = sched) -> None:
             if sched == "service" and service is not None:
-                os.sched_setscheduler(0, service[0], os.sched_param(service[1]))
-        try:  # the scheduler is set in the child before it starts any thread
+                nice, policy, priority = service
+                os.setpriority(os.PRIO_PROCESS, 0, nice)
+                os.sched_setscheduler(0, policy, os.sched_param(priority))
+        try:  # the scheduling is set in the child before it starts any thread
             subprocess.run([sys.executable, __file__, "--part", "loop-child", "--sched", sched,
                             "--seconds", str(seconds)], check=True, preexec_fn=set_policy)
         except subprocess.CalledProcessError as exc:
@@ -331,9 +340,12 @@ def loop_child(seconds: float, sched: str) -> None:
     mount = CameraMount()
     images = [f for f, _ in render_frames(mount, 60, seed=99)]
     policy = os.sched_getscheduler(0)
-    label = ("default scheduling (SCHED_OTHER)" if sched == "default" else
-             f"scheduled as {UNIT.name} runs it ({POLICY_NAMES.get(policy, policy)}, "
-             f"priority {os.sched_getparam(0).sched_priority})")
+    label = (f"default scheduling ({POLICY_NAMES.get(policy, policy)}, nice "
+             f"{os.getpriority(os.PRIO_PROCESS, 0)})")
+    if sched == "service":
+        label = f"scheduled as {UNIT.name} runs it: " + label.split("(", 1)[1].rstrip(")")
+        if policy != os.SCHED_OTHER:
+            label += f", priority {os.sched_getparam(0).sched_priority}"
     for loaded in (False, True):
         print_loop_run(label, images, seconds, loaded)
 

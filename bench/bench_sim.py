@@ -21,6 +21,7 @@ import argparse
 import asyncio
 import collections
 import cProfile
+import gc
 import importlib
 import pstats
 import resource
@@ -69,6 +70,7 @@ def main() -> int:
         args = argparse.Namespace(scenario=opts.scenario, seed=i + 1, realtime=False, speed=None,
                                   report=None, quiet=True, socket=None, config=None, mcu="fake")
         console = SimConsole(quiet=True)
+        gc.collect()  # the previous run's garbage is not this run's work
         w0, c0 = time.perf_counter(), time.process_time()
         with tempfile.TemporaryDirectory(prefix="bench-sim-") as workdir, \
                 _counting(opts.turns) as counts:

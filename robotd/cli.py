@@ -169,7 +169,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         daemon = Daemon(settings, devices, profile, state_dir=state_dir,
                         socket_path=settings.get("control.socket"),
-                        wall_clock=system_wall_clock, config_path=config_path)
+                        wall_clock=system_wall_clock, config_path=config_path, freeze_gc=True)
     except (OSError, sqlite3.Error) as exc:
         print(f"robotd: cannot open the state store in {state_dir}: {exc} (check "
               "robot.state_dir; under systemd StateDirectory= provides it)", file=sys.stderr)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import gc
 import os
 import signal
 from collections import deque
@@ -51,12 +52,14 @@ class Daemon:
         config_path: the file ``reload``/SIGHUP reads again (None: nothing to reload).
         notify: tell systemd READY/WATCHDOG/STOPPING through ``$NOTIFY_SOCKET``.
         handle_signals: SIGTERM/SIGINT stop, SIGHUP reloads (off inside tests and the sim).
+        freeze_gc: once started, collect and freeze what start-up made (``robotd run``; not in
+            processes that run many daemons, where frozen garbage would never be freed).
     """
 
     def __init__(self, settings: Settings, devices: Devices, profile: Profile, *,
                  state_dir: Path, socket_path: str | None, wall_clock: WallClock,
                  config_path: Path | None = None, notify: bool = True,
-                 handle_signals: bool = True) -> None:
+                 handle_signals: bool = True, freeze_gc: bool = False) -> None:
         self.settings = settings
         self.devices = devices
         self.profile = profile
@@ -65,6 +68,7 @@ class Daemon:
         self.wall_clock = wall_clock
         self.config_path = config_path
         self.handle_signals = handle_signals
+        self.freeze_gc = freeze_gc
         self.notifier = Notifier() if notify else Notifier({})
         self.ready = asyncio.Event()
         self.events: deque[dict[str, Any]] = deque(maxlen=EVENT_HISTORY)
@@ -155,6 +159,8 @@ class Daemon:
                 for problem in self.start_problems:
                     log.error("daemon.start_failed", problem=problem)
                 return 1
+            if self.freeze_gc:
+                _freeze_startup_objects()
             self.ready.set()
             self.notifier.notify("READY=1", f"STATUS=state {self.state}")
             log.info("daemon.ready", startup_s=round(loop.time() - self._started_s, 3),
@@ -242,3 +248,15 @@ class Daemon:
         for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
             with contextlib.suppress(Exception):
                 loop.remove_signal_handler(sig)
+
+
+def _freeze_startup_objects() -> None:
+    """Move everything start-up made (modules, devices, the machine: ~130k objects) out of
+    the cyclic collector's reach. A full collection over them takes ~70 ms on the dev machine,
+    several 13 FPS ticks and a serial heartbeat; afterwards a full collection only looks at
+    what was made since. They live as long as the daemon, so nothing is lost by never
+    collecting them."""
+    gc.collect()
+    gc.freeze()
+    log.info("daemon.gc_frozen", objects=gc.get_freeze_count())
+

@@ -106,7 +106,8 @@ async def running_daemon(*, profile: BaseProfile | None = None, devices: Devices
                          config: dict[str, dict[str, Any]] | None = None,
                          config_path: Path | None = None,
                          handle_signals: bool = False,
-                         state_dir: Path | None = None) -> AsyncIterator[Daemon]:
+                         state_dir: Path | None = None,
+                         freeze_gc: bool = False) -> AsyncIterator[Daemon]:
     """A started daemon (READY) in a fresh temporary state dir; stopped on exit."""
     workdir = Path(tempfile.mkdtemp(prefix="rd-"))  # short: Unix socket paths are <= 107 bytes
     values = defaults()
@@ -116,7 +117,7 @@ async def running_daemon(*, profile: BaseProfile | None = None, devices: Devices
                     state_dir=state_dir or workdir / "state",
                     socket_path=str(workdir / "control.sock"),
                     wall_clock=system_wall_clock, config_path=config_path, notify=False,
-                    handle_signals=handle_signals)
+                    handle_signals=handle_signals, freeze_gc=freeze_gc)
     task = asyncio.create_task(daemon.run())
     ready = asyncio.ensure_future(daemon.ready.wait())
     await asyncio.wait({task, ready}, timeout=20, return_when=asyncio.FIRST_COMPLETED)

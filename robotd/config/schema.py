@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import tomllib
 from dataclasses import dataclass, field
 from typing import Any
@@ -39,6 +40,9 @@ class Option:
         if kind == "float":
             if isinstance(value, bool) or not isinstance(value, int | float):
                 return None, f"expected a number, got {_show(value)}"
+            if not math.isfinite(value):
+                # NaN passes every range check (all its comparisons are false).
+                return None, f"expected a finite number, got {value}"
             return self._bounded(float(value))
         if kind == "str":
             if not isinstance(value, str):
@@ -57,6 +61,8 @@ class Option:
                 isinstance(v, int | float) and not isinstance(v, bool) for v in value
             ):
                 return None, f"expected a list of numbers, got {_show(value)}"
+            if not all(math.isfinite(v) for v in value):
+                return None, f"expected finite numbers, got {value!r}"
             return [float(v) for v in value], None
         if kind == "table":
             if not isinstance(value, dict):

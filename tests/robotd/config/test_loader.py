@@ -40,6 +40,12 @@ class TestLoadConfigText:
         assert str(info.value) == (
             "open.toml:3: serial.baud: TOML syntax error: Invalid value (at end of document)")
 
+    def test_nan_in_the_file_is_an_error_on_its_line(self) -> None:
+        text = "[line_follow]\nkp = nan\n"
+        with pytest.raises(ConfigError) as info:
+            load_config_text(text, "nan.toml")
+        assert str(info.value) == "nan.toml:2: line_follow.kp: expected a finite number, got nan"
+
     def test_unknown_section_suggests_the_close_one(self) -> None:
         """A misspelt section is named and the likely one suggested."""
         with pytest.raises(ConfigError, match=r"x.toml:1: serail: unknown section .*'serial'"):

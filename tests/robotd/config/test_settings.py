@@ -16,6 +16,17 @@ class TestSettings:
             s.set("line_follow.kp", -1)
         assert s.get("line_follow.kp") == 0.5
 
+    @pytest.mark.parametrize("value", [float("nan"), float("inf"), float("-inf")])
+    def test_a_number_that_is_not_finite_is_refused(self, value: float) -> None:
+        """NaN passes any range check (its comparisons are all false): a NaN gain would stop
+        the robot with no error. It is refused like any bad value, also without bounds."""
+        s = Settings(defaults())
+        with pytest.raises(ValueError, match=r"line_follow.kp: expected a finite number"):
+            s.set("line_follow.kp", value)
+        assert s.get("line_follow.kp") == 0.5
+        assert Settings.option("line_follow.kp").parse_text("nan") == (
+            None, "expected a finite number, got nan")
+
     def test_listeners_hear_changes_under_their_prefix(self) -> None:
         s = Settings(defaults())
         heard: list[tuple[str, object]] = []

@@ -5,8 +5,11 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from pathlib import Path
 
 import uvicorn
+from sqlalchemy.engine import make_url
+from sqlalchemy.exc import ArgumentError
 
 from fleet.app import create_app
 from fleet.http_protocol import CoalescingHttpToolsProtocol
@@ -25,7 +28,7 @@ def _parser() -> argparse.ArgumentParser:
     serve.add_argument("--site", default=os.environ.get("ROBOTD_FLEET_SITE"),
                        help="site TOML file: rooms, beacons, customers, robots, settings")
     serve.add_argument("--host", default="127.0.0.1")
-    serve.add_argument("--port", type=int, default=8080)
+    serve.add_argument("--port", type=_port, default=8080, help="TCP port (1-65535)")
     serve.add_argument("--sqlite-inline", action="store_true",
                        help="run SQLite calls on the event loop's thread instead of aiosqlite's "
                             "worker threads (one server process only)")
@@ -37,9 +40,43 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _port(text: str) -> int:
+    try:
+        port = int(text)
+    except ValueError:
+        port = 0
+    if not 1 <= port <= 65535:
+        msg = f"expected a TCP port 1-65535, got {text!r}"
+        raise argparse.ArgumentTypeError(msg)
+    return port
+
+
+def sqlite_dir_problem(db_url: str) -> str | None:
+    """Why a SQLite database file cannot be made where the URL says (None: it can, or the
+    URL is not SQLite), so the server says so in one line instead of failing at start-up."""
+    try:
+        url = make_url(db_url)
+    except ArgumentError:
+        return None  # create_app words the bad URL
+    if not url.drivername.startswith("sqlite") or url.database in (None, "", ":memory:"):
+        return None
+    folder = Path(url.database).parent
+    if not folder.is_dir():
+        return (f"database {url.database}: the directory {folder} does not exist (create it, "
+                f"or pass --db sqlite:///PATH; the systemd unit's StateDirectory= makes "
+                f"/var/lib/robotd-fleet)")
+    if not os.access(folder, os.W_OK):
+        return f"database {url.database}: the directory {folder} is not writable"
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     configure_logging(args.log_level)
+    problem = sqlite_dir_problem(args.db)
+    if problem is not None:
+        print(f"robotd-fleet: {problem}", file=sys.stderr)
+        return 2
     try:
         site = load_site(args.site) if args.site else None
         app = create_app(args.db, site=site, inline_sqlite=args.sqlite_inline)

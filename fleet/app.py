@@ -21,6 +21,7 @@ from fastapi.responses import JSONResponse
 from starlette.types import Receive, Scope, Send
 
 from fleet.api import admin, requests, robot
+from fleet.api.body_limit import BodyLimit
 from fleet.api.exchange_fast import ExchangeFastPath
 from fleet.clock import Clock
 from fleet.errors import FleetError
@@ -38,10 +39,10 @@ class FleetApp(FastAPI):
 
     def __init__(self, server: FleetServer, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        self._exchange = ExchangeFastPath(super().__call__, server)
+        self._front = BodyLimit(ExchangeFastPath(super().__call__, server))
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        await self._exchange(scope, receive, send)
+        await self._front(scope, receive, send)
 
 
 def create_app(

@@ -44,6 +44,32 @@ BAD_EXCHANGES = [
 ]
 
 
+class TestBodySize:
+    async def test_a_body_announced_over_the_limit_is_refused_unread(self, fleet):
+        """A 2 MiB body (the limit is 1 MiB; a real report is a few hundred bytes): 413 with
+        a message, nothing changed."""
+        before = await snapshot(fleet)
+        body = b'{"IsInTarget": false, "Pad": "' + b"x" * (2 * 1024 * 1024) + b'"}'
+        response = await fleet.http.post("/api/Robot/robot-1/data-exchange", content=body,
+                                         headers={"content-type": "application/json"})
+        assert response.status_code == 413
+        assert "over the 1048576 byte limit" in response.json()["detail"]
+        assert await snapshot(fleet) == before
+
+    async def test_a_chunked_body_is_refused_once_it_passes_the_limit(self, fleet):
+        async def chunks():
+            yield b'{"CustomerId": 1, "Pad": "'
+            for _ in range(40):
+                yield b"x" * 65536
+            yield b'"}'
+
+        before = await snapshot(fleet)
+        response = await fleet.http.post("/api/requests", content=chunks(),
+                                         headers={"content-type": "application/json"})
+        assert response.status_code == 413
+        assert await snapshot(fleet) == before
+
+
 class TestBadRequests:
     @pytest.mark.parametrize(("what", "body", "code"), BAD_CREATES,
                              ids=[w for w, _, _ in BAD_CREATES])

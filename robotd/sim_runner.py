@@ -26,6 +26,7 @@ from hal.sim.body import DiffDriveBody
 from hal.sim.geometry import Pose
 from hal.sim.scenario import RobotSpec, Scenario, ScenarioError, load_scenario, read_beside
 from hal.sim.tracks import PathRecorder, TrackPoint
+from hal.timer_chain import timer_chain
 from robotd import vclock
 from robotd.config import ConfigError, load_config
 from robotd.config.errors import ConfigProblem
@@ -274,9 +275,6 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
     seen_collisions = {n: 0 for n in robots}
     records = {n: r.record for n, r in robots.items()}
     observers = {n: functools.partial(on_event, n) for n in robots}
-    over: asyncio.Future[None] = loop.create_future()
-    watch_timer: asyncio.TimerHandle | None = None
-
     def watch() -> bool:
         """One watch tick; True when the run is over."""
         now = loop.time() - start
@@ -298,23 +296,10 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
             return True
         return False
 
-    def tick() -> None:
-        # A timer callback per tick: one loop turn where a task waking from sleep costs two.
-        nonlocal watch_timer
-        try:
-            if watch():
-                over.set_result(None)
-                return
-        except Exception as exc:
-            over.set_exception(exc)
-            return
-        watch_timer = loop.call_later(_WATCH_PERIOD_S, tick)
+    def tick() -> float | None:
+        return None if watch() else _WATCH_PERIOD_S
 
-    watch_timer = loop.call_later(_WATCH_PERIOD_S, tick)
-    try:
-        await over
-    finally:
-        watch_timer.cancel()
+    await timer_chain(tick, _WATCH_PERIOD_S)
     elapsed = loop.time() - start
 
     for r in robots.values():

@@ -38,6 +38,7 @@ from drivers.arduino.framing import (
 from drivers.arduino.outbox import Command, Kind, Outbox, Outcome
 from drivers.arduino.stats import LinkCounters
 from hal.ports import StreamPair
+from hal.timer_chain import timer_chain
 
 log = structlog.get_logger(__name__)
 
@@ -391,35 +392,23 @@ class Session:
 
     # -- keeping the link alive --------------------------------------------------------------
     async def _heartbeat_loop(self) -> None:
-        # Each look at the clock is a timer callback: one loop turn where a task waking from
-        # sleep costs two, and MOTOR traffic pushes the heartbeat back several times a second.
+        # MOTOR traffic pushes the heartbeat back several times a second: each look at the
+        # clock is a timer callback (hal.timer_chain), not a task waking from sleep.
         period = self.config.heartbeat_s
-        failed: asyncio.Future[None] = self._loop.create_future()
-        timer: asyncio.TimerHandle | None = None
 
-        def check() -> None:
-            nonlocal timer
-            try:
-                due = self.last_drive_tx_s + period
-                now = self._loop.time()
-                if now < due - CLOCK_SLACK_S:
-                    timer = self._loop.call_later(due - now, check)
-                    return
-                busy = self.inflight is not None and self.inflight.command.kind in (
-                    Kind.MOTOR, Kind.HEARTBEAT)
-                if not busy and not self.outbox.has(Kind.MOTOR) and not self.outbox.has(
-                        Kind.HEARTBEAT):
-                    self.outbox.put(Command("HB", None))
-                timer = self._loop.call_later(period, check)
-            except Exception as exc:  # ends the heartbeat task with it, as a failing loop would
-                failed.set_exception(exc)
+        def check() -> float:
+            due = self.last_drive_tx_s + period
+            now = self._loop.time()
+            if now < due - CLOCK_SLACK_S:
+                return due - now
+            busy = self.inflight is not None and self.inflight.command.kind in (
+                Kind.MOTOR, Kind.HEARTBEAT)
+            if not busy and not self.outbox.has(Kind.MOTOR) and not self.outbox.has(
+                    Kind.HEARTBEAT):
+                self.outbox.put(Command("HB", None))
+            return period
 
-        check()
-        try:
-            await failed
-        finally:
-            if timer is not None:
-                timer.cancel()
+        await timer_chain(check)
 
     async def _watchdog_loop(self) -> None:
         limit = self.config.silence_s

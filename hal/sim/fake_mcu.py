@@ -30,6 +30,7 @@ from hal.sim.mcu_frames import (
     read_seq,
 )
 from hal.sim.plant import MotorPlant
+from hal.timer_chain import timer_chain
 
 log = structlog.get_logger(__name__)
 
@@ -406,37 +407,23 @@ class FakeMcu:
             self._out_timer = loop.call_at(self._out_pending[0][0], self._flush)
 
     async def _telemetry(self) -> None:
-        # Each telemetry moment is a timer callback that sets the next one: one loop turn where
-        # a task sleeping in between would cost two (the simulator turns the loop a lot).
+        # Each telemetry moment is a timer callback that sets the next one (hal.timer_chain).
         loop = asyncio.get_running_loop()
         due = {name: loop.time() + period for name, period in self.periods_s.items()}
-        failed: asyncio.Future[None] = loop.create_future()
-        timer: asyncio.TimerHandle | None = None
-        next_s = 0.0
+        next_s = min(due.values())
 
-        def arm() -> None:
-            nonlocal next_s, timer
+        def send() -> float:
+            nonlocal next_s
+            names = [n for n, t in due.items() if t <= next_s + 1e-9]
+            for name in names:
+                due[name] += self.periods_s[name]
+            if loop.time() >= self._booting_until_s:
+                self._send_lines([self._telemetry_body(n) for n in names],
+                                 crc=self.crc_framing)
             next_s = min(due.values())
-            timer = loop.call_later(max(0.0, next_s - loop.time()), send)
+            return max(0.0, next_s - loop.time())
 
-        def send() -> None:
-            try:
-                names = [n for n, t in due.items() if t <= next_s + 1e-9]
-                for name in names:
-                    due[name] += self.periods_s[name]
-                if loop.time() >= self._booting_until_s:
-                    self._send_lines([self._telemetry_body(n) for n in names],
-                                     crc=self.crc_framing)
-                arm()
-            except Exception as exc:  # ends the telemetry task with it, as a failing loop would
-                failed.set_exception(exc)
-
-        arm()
-        try:
-            await failed
-        finally:
-            if timer is not None:
-                timer.cancel()
+        await timer_chain(send, max(0.0, next_s - loop.time()))
 
     def _telemetry_body(self, name: str) -> bytes:
         if name == "ENCODER":

@@ -7,6 +7,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from hal.sim.body import DiffDriveBody
+from hal.timer_chain import timer_chain
 
 
 @dataclass(frozen=True, slots=True)
@@ -32,29 +33,17 @@ class PathRecorder:
     tracks: dict[str, list[TrackPoint]] = field(default_factory=dict)
 
     async def run(self) -> None:
-        # Each sample is a timer callback that sets the next one: one loop turn where a task
-        # sleeping in between would cost two.
+        # Each sample is a timer callback that sets the next one (hal.timer_chain).
         loop = asyncio.get_running_loop()
         next_sample = loop.time()
-        failed: asyncio.Future[None] = loop.create_future()
-        timer: asyncio.TimerHandle | None = None
 
-        def sample() -> None:
-            nonlocal next_sample, timer
-            try:
-                self.sample(loop.time())
-            except Exception as exc:  # ends the recorder task with it, as a failing loop would
-                failed.set_exception(exc)
-                return
+        def sample() -> float:
+            nonlocal next_sample
+            self.sample(loop.time())
             next_sample += self.sample_s
-            timer = loop.call_later(max(0.0, next_sample - loop.time()), sample)
+            return max(0.0, next_sample - loop.time())
 
-        sample()
-        try:
-            await failed
-        finally:
-            if timer is not None:
-                timer.cancel()
+        await timer_chain(sample)
 
     def sample(self, t_s: float) -> None:
         for name, body in self.bodies.items():

@@ -1,7 +1,8 @@
 """A minimal host side of the serial link, written for the firmware tests only.
 
-It frames and checks lines itself (CRC-8 poly 0x07) so the firmware is tested against the
-contract, independently of ``drivers/arduino``.
+It frames and checks lines itself, with the bitwise CRC-8 of the simulated board
+(``hal.sim.mcu_frames``), so the firmware is tested against the contract independently of
+``drivers/arduino``.
 """
 
 from __future__ import annotations
@@ -11,14 +12,7 @@ import contextlib
 import os
 import tty
 
-
-def crc8(data: bytes) -> int:
-    crc = 0
-    for byte in data:
-        crc ^= byte
-        for _ in range(8):
-            crc = ((crc << 1) ^ 0x07) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
-    return crc
+from hal.sim.mcu_frames import crc8_bitwise as crc8  # the firmware's own bitwise CRC
 
 
 def frame(body: str) -> bytes:

@@ -282,6 +282,9 @@ async def control_run(images: list[Any], seconds: float, loaded: bool) -> dict[s
         with contextlib.suppress(asyncio.CancelledError):
             await task
     await camera.close()
+    probe = DeadlineSleeper(asyncio.get_running_loop())  # what the follower's sleeper used
+    precise = probe.precise
+    probe.close()
     ticks = follower.recent_ticks()
     period = follower.period_s
     jitter = [abs(b - a - period) for a, b in itertools.pairwise(ticks)]
@@ -290,7 +293,7 @@ async def control_run(images: list[Any], seconds: float, loaded: bool) -> dict[s
     return {"ticks": len(ticks), "jitter": jitter, "latency": latencies,
             "processing": processing, "overruns": follower.overruns, "load": counts,
             "late_p99_ms": follower.status()["late_p99_ms"],
-            "precise": DeadlineSleeper(asyncio.get_running_loop()).precise}
+            "precise": precise}
 
 
 UNIT = Path(__file__).resolve().parent.parent / "systemd" / "robotd.service"

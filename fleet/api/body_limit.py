@@ -42,7 +42,7 @@ class BodyLimit:
                 except ValueError:
                     declared = 0  # the HTTP parser refuses a malformed length itself
                 if declared > self.max_bytes:
-                    await self._refuse(send, declared)
+                    await self._refuse(send, BodyTooLarge(declared, self.max_bytes))
                     return
                 break
         received = 0
@@ -69,9 +69,7 @@ class BodyLimit:
                 raise
             await self._refuse(send, exc)
 
-    async def _refuse(self, send: Send, exc_or_size: BodyTooLarge | int) -> None:
-        exc = (exc_or_size if isinstance(exc_or_size, BodyTooLarge)
-               else BodyTooLarge(exc_or_size, self.max_bytes))
+    async def _refuse(self, send: Send, exc: BodyTooLarge) -> None:
         body = json.dumps({"detail": exc.detail}).encode()
         await send({"type": "http.response.start", "status": 413, "headers": [
             (b"content-type", b"application/json"),

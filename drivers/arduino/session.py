@@ -1,4 +1,4 @@
-"""One open connection to the motor board: reader, one-in-flight sender, heartbeat, watchdog.
+"""One open connection to the motor board: receiver, one-in-flight sender, heartbeat, watchdog.
 
 The sender transmits one command at a time and waits for its acknowledgement. It resends the
 same frame (same SEQ) when ``ack_timeout_s`` passes in silence, at most ``max_resends`` times;
@@ -21,7 +21,6 @@ import structlog
 
 from drivers.arduino.config import LinkConfig
 from drivers.arduino.framing import (
-    MAX_LINE_BYTES,
     SEQ_MODULO,
     Ack,
     Framing,
@@ -32,10 +31,10 @@ from drivers.arduino.framing import (
     Telemetry,
     Unparsed,
     encode_command,
-    parse_line,
     well_formed,
 )
 from drivers.arduino.outbox import Command, Kind, Outbox, Outcome
+from drivers.arduino.receiver import LineReceiver
 from drivers.arduino.stats import LinkCounters
 from hal.ports import StreamPair
 from hal.timer_chain import timer_chain
@@ -55,8 +54,6 @@ MAX_REFUSAL_RESENDS = 2
 USB_LATENCY_S = 0.02
 # Bytes of the longest reply (``#255 NAK:PARSE*CC\n``), to know when a reply is due.
 REPLY_BYTES = 18
-# Received lines whose parse is remembered (they are immutable; the memo is cleared when full).
-PARSED_LINES_KEPT = 1024
 
 
 class LinkBroken(Exception):
@@ -113,12 +110,14 @@ class Session:
         self._byte_s = 10.0 / config.baud  # 8N1: ten bit times a byte
         self._recent_rtt_s: collections.deque[float] = collections.deque(maxlen=4)
         self._tasks: list[asyncio.Task[None]] = []
-        self._parsed: dict[bytes, Line] = {}
         self.broken: asyncio.Future[BaseException] = self._loop.create_future()
+        self.receiver = LineReceiver(self.framing, counters, self._on_line,
+                                     self._connection_ended)
 
     # -- lifecycle ---------------------------------------------------------------------------
     def start(self) -> None:
-        self._spawn(self._read_loop())
+        if not self.receiver.attach((self.reader, self.writer)):
+            self._spawn(self.receiver.pump(self.reader))
         self._spawn(self._send_loop())
 
     def start_keepalive(self) -> None:
@@ -137,6 +136,11 @@ class Session:
             return
         exc = task.exception() or LinkBroken("a link task ended")
         self.broken.set_result(exc)
+
+    def _connection_ended(self, exc: BaseException | None) -> None:
+        """The port's connection ended (None: end of file) or a received line failed."""
+        if not self.broken.done():
+            self.broken.set_result(exc or LinkBroken("port closed (end of file)"))
 
     async def wait_broken(self) -> BaseException:
         return await asyncio.shield(self.broken)
@@ -167,45 +171,7 @@ class Session:
             self._post(Preempted())
 
     # -- receiving ---------------------------------------------------------------------------
-    async def _read_loop(self) -> None:
-        buffer = bytearray()
-        discarding = False
-        while True:
-            chunk = await self.reader.read(512)
-            if not chunk:
-                msg = "port closed (end of file)"
-                raise LinkBroken(msg)
-            if not buffer and not discarding and chunk.find(b"\n") == len(chunk) - 1:
-                self._on_line(chunk[:-1])  # the usual chunk: exactly one whole line
-                continue
-            buffer += chunk
-            while True:
-                end = buffer.find(b"\n")
-                if end < 0:
-                    break
-                line = bytes(buffer[:end])
-                del buffer[: end + 1]
-                if discarding:
-                    discarding = False
-                    continue
-                self._on_line(line)
-            if len(buffer) >= MAX_LINE_BYTES:
-                self.counters.overlong += 1
-                log.warning("link.overlong_line", head=bytes(buffer[:16]))
-                buffer.clear()
-                discarding = True
-
-    def _on_line(self, raw: bytes) -> None:
-        if len(raw) + 1 > MAX_LINE_BYTES:
-            self.counters.overlong += 1
-            return
-        # Lines repeat (an ACK per SEQ, IR and BAT values, ENCODER at rest): parse each once.
-        line = self._parsed.get(raw)
-        if line is None:
-            line = parse_line(raw, self.framing)
-            if len(self._parsed) >= PARSED_LINES_KEPT:
-                self._parsed.clear()
-            self._parsed[raw] = line
+    def _on_line(self, line: Line) -> None:
         if isinstance(line, Garbled):
             self.counters.crc_errors += 1
             log.debug("link.garbled", reason=line.reason, raw=line.raw)

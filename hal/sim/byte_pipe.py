@@ -50,8 +50,8 @@ class _Direction:
         self.busy_until_s = 0.0
         self.pending: collections.deque[tuple[float, bytes]] = collections.deque()
         self.timer: asyncio.TimerHandle | None = None
-        self.target: asyncio.StreamReader | None = None
-        self.sink: Callable[[bytes], None] | None = None  # takes the bytes instead of target
+        self.receiver: Callable[[bytes], None] | None = None  # the far end's data_received
+        self.sink: Callable[[bytes], None] | None = None  # takes the bytes instead
         self.bytes_sent = 0
 
     def send(self, data: bytes) -> None:
@@ -71,10 +71,9 @@ class _Direction:
         pending = self.pending
         while pending and pending[0][0] <= now:
             data = pending.popleft()[1]
-            if self.sink is not None:
-                self.sink(data)
-            elif self.target is not None and not self.target.at_eof():
-                self.target.feed_data(data)
+            receive = self.sink or self.receiver
+            if receive is not None:
+                receive(data)
         if self.timer is None and pending:
             self.timer = self.loop.call_at(pending[0][0], self._deliver)
 
@@ -86,15 +85,25 @@ class _Direction:
 
 
 class PipeTransport(asyncio.Transport):
-    """One end's transport: writes go into the outgoing direction."""
+    """One end's transport: writes go into the outgoing direction, arriving bytes to the
+    protocol (its ``data_received``)."""
 
-    def __init__(self, pipe: BytePipe, out: _Direction, peer_in: _Direction) -> None:
+    def __init__(self, pipe: BytePipe, out: _Direction, incoming: _Direction) -> None:
         super().__init__()
         self._pipe = pipe
         self._out = out
-        self._in = peer_in
+        self._in = incoming
         self._closing = False
-        self.protocol: asyncio.StreamReaderProtocol | None = None
+        self.protocol: asyncio.Protocol | None = None
+
+    def set_protocol(self, protocol: asyncio.BaseProtocol) -> None:
+        assert isinstance(protocol, asyncio.Protocol)
+        self.protocol = protocol
+        self._in.receiver = protocol.data_received
+
+    def get_protocol(self) -> asyncio.BaseProtocol:
+        assert self.protocol is not None
+        return self.protocol
 
     def write(self, data: bytes | bytearray | memoryview) -> None:
         if self._pipe.broken:
@@ -150,10 +159,9 @@ class BytePipe:
     def _end(self, loop: asyncio.AbstractEventLoop, out: _Direction,
              incoming: _Direction) -> StreamPair:
         reader = asyncio.StreamReader(loop=loop)
-        incoming.target = reader
         transport = PipeTransport(self, out, incoming)
         protocol = asyncio.StreamReaderProtocol(reader, loop=loop)
-        transport.protocol = protocol
+        transport.set_protocol(protocol)
         protocol.connection_made(transport)
         self._transports.append(transport)
         return reader, asyncio.StreamWriter(transport, protocol, reader, loop)
@@ -162,7 +170,7 @@ class BytePipe:
         """Hand the bytes arriving at ``b`` to ``sink`` at their arrival time, not to b's reader.
 
         A simulated device served this way takes each write as one callback: no reader task
-        to wake. None gives them back to the reader.
+        to wake. None gives them back to b's protocol (its reader).
         """
         self.a_to_b.sink = sink
 

@@ -1,0 +1,133 @@
+"""The link's line receiver: bytes from the port to parsed lines, on the transport or pumped."""
+
+from __future__ import annotations
+
+import asyncio
+
+from drivers.arduino.framing import Ack, Framing, Garbled, Line, Telemetry, frame_body
+from drivers.arduino.receiver import LineReceiver
+from drivers.arduino.stats import LinkCounters
+from hal.sim.byte_pipe import BytePipe
+from robotd import vclock
+
+
+class Catch:
+    """A receiver with what it handed on."""
+
+    def __init__(self) -> None:
+        self.lines: list[Line] = []
+        self.ended: list[BaseException | None] = []
+        self.counters = LinkCounters()
+        self.receiver = LineReceiver(Framing.CRC, self.counters, self.lines.append,
+                                     self.ended.append)
+
+
+class TestOnTheTransport:
+    def test_lines_split_across_and_within_writes_arrive_in_order(self) -> None:
+        """Whatever the chunking, each whole line is handed on once, parsed, in order."""
+
+        async def main() -> None:
+            pipe = BytePipe()
+            catch = Catch()
+            assert catch.receiver.attach(pipe.a)
+            ack, enc = frame_body(b"#3 ACK"), frame_body(b"ENCODER:5,-6")
+            device = pipe.b[1]
+            device.write(ack + enc[:4])
+            device.write(enc[4:])
+            device.write(ack)
+            await asyncio.sleep(0.01)
+            assert catch.lines == [Ack(3), Telemetry("ENCODER", ("5", "-6")), Ack(3)]
+            pipe.close()
+
+        vclock.run(main())
+
+    def test_an_overlong_line_is_counted_and_dropped_up_to_its_end(self) -> None:
+        """Past 64 bytes a line is noise: counted once, nothing of it handed on."""
+
+        async def main() -> None:
+            pipe = BytePipe()
+            catch = Catch()
+            assert catch.receiver.attach(pipe.a)
+            pipe.b[1].write(b"X" * 70)
+            pipe.b[1].write(b"Y" * 10 + b"\n" + frame_body(b"#1 ACK"))
+            await asyncio.sleep(0.01)
+            assert catch.lines == [Ack(1)]
+            assert catch.counters.overlong == 1
+            pipe.close()
+
+        vclock.run(main())
+
+    def test_a_damaged_line_is_handed_on_as_garbled(self) -> None:
+        """The receiver parses; deciding what a garbled line means is the session's job."""
+
+        async def main() -> None:
+            pipe = BytePipe()
+            catch = Catch()
+            assert catch.receiver.attach(pipe.a)
+            pipe.b[1].write(b"#1 ACK*00\n")
+            await asyncio.sleep(0.01)
+            assert isinstance(catch.lines[0], Garbled)
+            pipe.close()
+
+        vclock.run(main())
+
+    def test_the_end_of_the_line_reaches_the_receiver_and_the_writer(self) -> None:
+        """A vanished port is reported once, and the writer still sees its connection end."""
+
+        async def main() -> None:
+            pipe = BytePipe()
+            catch = Catch()
+            reader, writer = pipe.a
+            assert catch.receiver.attach(pipe.a)
+            pipe.break_()
+            assert len(catch.ended) == 1 and isinstance(catch.ended[0], OSError)
+            assert reader.exception() is catch.ended[0]
+            writer.close()
+
+        vclock.run(main())
+
+    def test_a_failing_line_handler_ends_the_connection_and_later_bytes_are_ignored(
+            self) -> None:
+        """What the handler raises is reported as the end; nothing is handed on after it."""
+
+        async def main() -> None:
+            pipe = BytePipe()
+            ended: list[BaseException | None] = []
+            seen: list[Line] = []
+
+            def on_line(line: Line) -> None:
+                seen.append(line)
+                raise RuntimeError("boom")
+
+            receiver = LineReceiver(Framing.CRC, LinkCounters(), on_line, ended.append)
+            assert receiver.attach(pipe.a)
+            pipe.b[1].write(frame_body(b"#1 ACK") + frame_body(b"#2 ACK"))
+            await asyncio.sleep(0.01)
+            assert len(seen) == 1
+            assert isinstance(ended[0], RuntimeError)
+            pipe.close()
+
+        vclock.run(main())
+
+
+class TestPumped:
+    def test_a_reader_with_bytes_already_buffered_is_pumped_with_the_same_result(
+            self) -> None:
+        """Bytes a reader holds are not lost: attach refuses and pump() reads them, then
+        the rest, and reports end of file as None."""
+
+        async def main() -> None:
+            pipe = BytePipe()
+            catch = Catch()
+            pipe.b[1].write(frame_body(b"#1 ACK"))
+            await asyncio.sleep(0.01)
+            assert not catch.receiver.attach(pipe.a)
+            pump = asyncio.create_task(catch.receiver.pump(pipe.a[0]))
+            pipe.b[1].write(frame_body(b"#2 ACK"))
+            await asyncio.sleep(0.01)
+            pipe.close()
+            await pump
+            assert catch.lines == [Ack(1), Ack(2)]
+            assert catch.ended == [None]
+
+        vclock.run(main())

@@ -5,7 +5,8 @@ row gets a per-pixel score for the wanted colour, divided by the local floor bri
 row with the line closed over), so light that falls off to the corners or varies over the
 floor does not move the line. Runs of high score are line candidates; when there are several,
 one line is picked (nearest the previous position) and each row keeps its run of it. The
-position is the median over the rows that found the line.
+position is the mean over the rows that found the line, at their mean row (the median when
+one row is off the others).
 """
 
 from __future__ import annotations
@@ -47,6 +48,7 @@ _TOO_DARK = 20.0  # floor brightness (grey levels) below which nothing can be se
 _GREY_TINT = 24  # channel spread (grey levels) a grey surface shows from noise and light
 _BACKGROUND_FRAC = 0.17  # background window, fraction of the width: wider than any line
 _GAP_PX = 3  # gaps this narrow inside a run are noise
+_OFF_LINE_PX = 0.5  # mean this far from the median: a row is off the line
 _PAD = 2  # zero columns either side of each row, so runs never cross rows
 _MAX_WORK_PX = 640  # wider frames are averaged over 2 (3...) columns: same answer, less work
 
@@ -64,7 +66,7 @@ class LineReading:
     candidates: int = 0
     colour: str = DEFAULT_COLOUR
     reason: str = ""
-    row_px: float = 0.0  # the image row the position refers to (middle of the rows used)
+    row_px: float = 0.0  # the image row the position refers to (mean of the rows used)
 
 
 @dataclass(frozen=True, slots=True)
@@ -139,8 +141,10 @@ class LineTracker:
         self._misses = 0
         self._rows: tuple[int, npt.NDArray[np.intp]] | None = None
         self._picks = np.zeros(0, np.intp)
-        self._mid_row = 0.0
+        self._pick_rows: list[int] = []
         self._col_index = np.zeros(0, np.float32)
+        self._score = np.zeros((0, 0), np.float32)  # reused: rows of score, zero-padded
+        self._sums = np.zeros((2, 0), np.float32)  # reused: their 3-tap sums, x column
 
     @property
     def colour(self) -> str:
@@ -196,7 +200,7 @@ class LineTracker:
             picks = np.linspace(top, bottom - 1, min(p.rows, bottom - top)).astype(np.intp)
             self._rows = (h, picks)
             self._picks = picks
-            self._mid_row = _median_of(picks.tolist())
+            self._pick_rows = picks.tolist()
         step = max(1, -(-w // _MAX_WORK_PX))
         rows: Plane = image[self._rows[1]]
         if step > 1:  # mean of each column group: keeps sub-pixel detail, halves the noise
@@ -207,13 +211,13 @@ class LineTracker:
               full_width: int) -> LineReading:
         centre = (full_width - 1) / 2
         if colour.kind in ("dark", "light"):
-            value = cv2.max(cv2.max(planes[0], planes[1]), planes[2])
+            value = np.maximum(np.maximum(planes[0], planes[1]), planes[2])
             floor = _background(value, cv2.MORPH_CLOSE)
             if float(cv2.mean(floor)[0]) < _TOO_DARK:
                 return self._lost(centre, colour, "too dark")
             # Grey lines only: saturation beyond what noise gives counts against the pixel
             # (uint8 arithmetic saturates at 0: max(spread - tint, 0) in one call).
-            low = cv2.min(cv2.min(planes[0], planes[1]), planes[2])
+            low = np.minimum(np.minimum(planes[0], planes[1]), planes[2])
             spread = cv2.subtract(value, low)
             tint = cv2.subtract(spread, _GREY_TINT)  # type: ignore[call-overload]  # a scalar: cv2's stubs lack it
             if colour.kind == "dark":
@@ -228,24 +232,28 @@ class LineTracker:
             wanted = _reduce(cv2.min, [planes[c] for c in colour.channels])
             others = _reduce(cv2.max, [planes[c] for c in (0, 1, 2) if c not in colour.channels])
             raw = cv2.subtract(wanted, others, dtype=cv2.CV_32F)
-        score = cv2.divide(raw, floor)  # 0 where the floor is 0
+        k, width = raw.shape
+        # The score goes into rows laid end to end with zero columns either side, so runs
+        # never cross rows and 1-D operations find them all at once.
+        span = width + 2 * _PAD
+        if self._score.shape != (k, span):
+            self._score = np.zeros((k, span), np.float32)
+            self._sums = np.zeros((2, k * span), np.float32)
+        cv2.divide(raw, floor, dst=self._score[:, _PAD:-_PAD])
         threshold = self.params.min_contrast * _THRESHOLD_SCALE[colour.kind]
-        return self._pick(score, threshold, colour, step, full_width)
+        return self._pick(k, width, threshold, colour, step, full_width)
 
-    def _pick(self, score: Plane, threshold: float, colour: _Colour,
+    def _pick(self, k: int, width: int, threshold: float, colour: _Colour,
               step: int, full_width: int) -> LineReading:
         p = self.params
         centre = (full_width - 1) / 2
-        k, width = score.shape
-        # Rows laid end to end with zero columns either side, so runs never cross rows and
-        # 1-D operations find them all at once. Adding the row shifted by -1, 0, +1 is a
-        # 3-tap sum that takes the edge off sensor noise (hence 3 * threshold).
         span = width + 2 * _PAD
-        padded = np.zeros((k, span), np.float32)
-        padded[:, _PAD - 1:-_PAD - 1] = score
-        padded[:, _PAD:-_PAD] += score
-        padded[:, _PAD + 1:-_PAD + 1] += score
-        flat = padded.ravel()
+        # Each cell plus its neighbours either side: a 3-tap sum that takes the edge off
+        # sensor noise (hence 3 * threshold); the first and last cell stay 0.
+        cells, flat = self._score.ravel(), self._sums[0]
+        inner = flat[1:-1]
+        np.add(cells[:-2], cells[1:-1], out=inner)
+        inner += cells[2:]
         above = flat > 3 * threshold
         change = (above[1:] != above[:-1]).nonzero()[0] + 1
         begin, end = change[0::2], change[1::2]
@@ -275,14 +283,15 @@ class LineTracker:
         found = begin.size
         if found < max(1, (k + 2) // 3):
             return self._lost(centre, colour, "too few rows")
-        row_px = self._mid_row if found == k else _median_of(self._picks[row].tolist())
+        rows_px = self._pick_rows if found == k else self._picks[row].tolist()
         if bounds.size != 2 * found:
             bounds = np.empty(2 * found, np.intp)
             bounds[0::2], bounds[1::2] = begin, end
-        mass = np.add.reduceat(flat, bounds)[0::2]  # > 0: every run is above the threshold
-        moment = np.add.reduceat(flat * self._cols(k, span), bounds)[0::2]
-        xs = (moment / mass).tolist()
-        line_x = _median_of(xs) * step + (step - 1) / 2
+        np.multiply(flat, self._cols(k, span), out=self._sums[1])
+        # mass > 0: every run is above the threshold
+        mass, moment = np.add.reduceat(self._sums, bounds, axis=1)[:, 0::2]
+        x_px, row_px = _centre((moment / mass).tolist(), rows_px, found == k)
+        line_x = x_px * step + (step - 1) / 2
         line_w = _median_of(run_w.tolist()) * step
         # Seen cut off by the image border: its visible part's centre is within half its
         # width (plus the smoothing's spread) of the border.
@@ -330,6 +339,19 @@ def _one_line(row: npt.NDArray[np.intp], mid: Plane, near: float, reach: float,
     return np.sort(chosen[distance[chosen] <= reach])
 
 
+def _centre(xs: list[float], rows: list[int], evenly: bool) -> tuple[float, float]:
+    """Where the line is, and at which row: the mean over the rows, which is less noisy than
+    the median - unless one row is off the others (a run cut short by glare or noise) and
+    pulls the mean away from the median. Comparing them needs both at the same row: rows
+    evenly spaced, all found."""
+    mid_x = _median_of(xs)
+    if evenly:
+        mean_x = sum(xs) / len(xs)
+        if abs(mean_x - mid_x) <= _OFF_LINE_PX:
+            return mean_x, sum(rows) / len(rows)
+    return mid_x, _median_of(rows)
+
+
 def _median_of(values: list[float] | list[int]) -> float:
     ordered = sorted(values)
     n = len(ordered)
@@ -345,7 +367,8 @@ def _background(value: Plane, closing: int) -> Plane:
     """
     k, width = value.shape
     blocks = max(4, width // 8)
-    coarse = cv2.resize(value, (blocks, k), interpolation=cv2.INTER_AREA).astype(np.float32)
+    coarse = np.maximum(cv2.resize(value, (blocks, k), interpolation=cv2.INTER_AREA), 1,
+                        dtype=np.float32)  # the score divides by it
     kernel = _kernel(max(3, round(blocks * _BACKGROUND_FRAC)) | 1)
     smooth = cv2.blur(cv2.morphologyEx(coarse, closing, kernel), (3, 1))
     out: Plane = cv2.resize(smooth, (width, k), interpolation=cv2.INTER_LINEAR)

@@ -354,7 +354,8 @@ class SimCamera:
         yaw_rps = (wheel_mps[1] - wheel_mps[0]) / self.body.params.wheel_base_m
         along_px = abs(speed) * m.exposure_s / m.m_per_px
         across_px = abs(yaw_rps) * m.forward_m * m.exposure_s / m.m_per_px
-        ky, kx = 1 + round(along_px), 1 + round(across_px)
+        # Odd box sizes: an even one has no centre pixel and shifts the image half a pixel.
+        ky, kx = 1 + 2 * round(along_px / 2), 1 + 2 * round(across_px / 2)
         if kx == 1 and ky == 1:
             return image
         out: U8Image = cv2.blur(image, (kx, ky))

@@ -96,6 +96,33 @@ class TestFindsTheLine:
         reading = LineTracker().track(frame_at(camera, 0.03))
         assert reading.error_px == pytest.approx(px(camera, 0.03), abs=3.0)
 
+    def test_the_position_is_the_mean_over_the_rows_at_their_mean_row(self) -> None:
+        """A slanted line: the position and the row it refers to lie on the line."""
+        image = synthetic(slope=0.2)
+        reading = LineTracker().track(image)
+        assert reading.x_px == pytest.approx(LEFT_PX + 9.5 + 0.2 * reading.row_px, abs=0.05)
+
+    def test_one_row_cut_short_does_not_pull_the_position(self) -> None:
+        """Glare hides half the line in one scan row: that row is outvoted, not averaged in."""
+        image = synthetic(slope=0.0)
+        p = TrackerParams()
+        scan_rows = np.linspace(int(p.roi_top * 240), int(p.roi_bottom * 240) - 1, p.rows)
+        image[int(scan_rows[3]), LEFT_PX:LEFT_PX + 10] = 200
+        assert LineTracker(p).track(image).x_px == pytest.approx(LEFT_PX + 9.5, abs=0.05)
+
+
+LEFT_PX = 120
+
+
+def synthetic(slope: float) -> np.ndarray:  # type: ignore[type-arg]
+    """A light grey 320 x 240 frame with a 20 px dark line starting at LEFT_PX on row 0 and
+    moving ``slope`` px right per row."""
+    image = np.full((240, 320, 3), 200, np.uint8)
+    for row in range(240):
+        left = LEFT_PX + round(slope * row)
+        image[row, left:left + 20] = 40
+    return image
+
 
 class TestRefuses:
     def test_bare_floor_is_lost(self) -> None:
@@ -121,6 +148,17 @@ class TestRefuses:
         reading = LineTracker().track(frame_at(camera, 0.0))
         assert reading.lost
         assert reading.reason == "too dark"
+
+    def test_a_half_black_frame_gives_no_infinities(self) -> None:
+        """Black where the floor should be (a lens half covered): the line in the lit half is
+        still found, and nothing in the black half divides by a zero floor."""
+        image = synthetic(slope=0.0)
+        image[:, 200:] = 0
+        with np.errstate(all="raise"):
+            reading = LineTracker().track(image)
+        assert not reading.lost
+        assert reading.x_px == pytest.approx(LEFT_PX + 9.5, abs=0.05)
+        assert math.isfinite(reading.confidence)
 
     def test_a_frame_that_is_not_bgr_is_a_clear_error(self) -> None:
         """A grey image or an empty array: ValueError naming the shape."""

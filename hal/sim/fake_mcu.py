@@ -7,39 +7,39 @@ without executing it again, drives a ``MotorPlant``, sends ``ENCODER``/``IR``/``
 telemetry at fixed rates, and stops the motors 500 ms after the last ``MOTOR``/``HB``.
 Lines starting with ``#`` are crc framing, others plain; telemetry follows the framing of the
 last good command. Fault switches: ``unplug()``, ``replug()``, ``corrupt(pct)``,
-``delay(s)``, ``reset()``. Frame parsing is in ``hal.sim.mcu_frames``.
+``delay(s)``, ``reset()``. Frame parsing is in ``hal.sim.mcu_frames``, the serial port (line
+assembly, damaged and delayed transmission) in ``hal.sim.mcu_uart``.
 """
 
 from __future__ import annotations
 
 import asyncio
 import collections
-import random
 from collections.abc import Callable
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import structlog
 
 from hal.ports import StreamPair
-from hal.sim.byte_pipe import BytePipe, corrupt_bytes
+from hal.sim.byte_pipe import BytePipe
 from hal.sim.mcu_frames import (
+    HEX_BYTE,
     ParseError,
     crc8_fast,
-    hex_ok,
     parse_payload,
     read_seq,
 )
+from hal.sim.mcu_uart import McuUart
 from hal.sim.plant import MotorPlant
 from hal.timer_chain import timer_chain
 
 log = structlog.get_logger(__name__)
 
-LINE_MAX = 64  # bytes per line including '\n'
-_TX_BACKLOG_BYTES = 4096
+# Distinct command payloads whose parse is remembered (a drive sends a few dozen, over and over).
+_PAYLOADS_KEPT = 1024
 
 
-@dataclass(frozen=True, slots=True)
-class Executed:
+class Executed(NamedTuple):
     """One command the MCU carried out (``seq`` None in plain framing)."""
 
     t_s: float
@@ -74,7 +74,7 @@ class FakeMcu:
         self.announce_boot = announce_boot
         self.reset_on_open = reset_on_open
         self.boot_s = boot_s
-        self._booting_until_s = float("-inf")
+        self.uart = McuUart(self._handle_line, seed=seed)
         self.executed: collections.deque[Executed] = collections.deque(maxlen=history)
         self.duplicates = 0
         self.naks: list[tuple[int | None, str]] = []
@@ -84,10 +84,7 @@ class FakeMcu:
         self.boots = 0
         self.last_drive_s: float | None = None
         self.plugged = True
-        self.corrupt_fraction = 0.0
-        self.reply_delay_s = 0.0
         self.plug_listeners: list[Callable[[bool], None]] = []
-        self._rng = random.Random(seed)
         self._boot_state()
         self._streams: StreamPair | None = None
         self._pipe: BytePipe | None = None
@@ -95,11 +92,9 @@ class FakeMcu:
         self._tasks: list[asyncio.Task[None]] = []
         self._deadman: asyncio.TimerHandle | None = None
         self._deadman_due_s = 0.0
-        self._line = bytearray()  # the line being received
         self._frames: dict[tuple[int, str], bytes] = {}  # framed replies, by SEQ and text
-        self._overlong = False
-        self._out_pending: collections.deque[tuple[float, bytes]] = collections.deque()
-        self._out_timer: asyncio.TimerHandle | None = None
+        # payload bytes -> (payload, word, arguments, NAK reason or "")
+        self._payloads: dict[bytes, tuple[str, str, tuple[int, ...], str]] = {}
 
     def _boot_state(self) -> None:
         self.crc_framing = True
@@ -112,12 +107,21 @@ class FakeMcu:
     def connected(self) -> bool:
         return self._streams is not None
 
+    @property
+    def corrupt_fraction(self) -> float:
+        return self.uart.corrupt_fraction
+
+    @property
+    def reply_delay_s(self) -> float:
+        return self.uart.reply_delay_s
+
     # -- wiring ------------------------------------------------------------------------------
     def connect(self, streams: StreamPair, hangup: Callable[[], None] | None = None) -> None:
         """Serve a newly opened port; ``hangup`` breaks it on ``unplug()``."""
         self.disconnect()
         self._streams = streams
         self._hangup = hangup or streams[1].transport.abort
+        self.uart.attach(streams[1].transport, backlog_possible=True)
         loop = asyncio.get_running_loop()
         self._tasks = [loop.create_task(self._serve(streams[0])),
                        loop.create_task(self._telemetry())]
@@ -134,7 +138,8 @@ class FakeMcu:
         self._streams = pipe.b
         self._hangup = pipe.break_
         self._pipe = pipe
-        pipe.receive_at_b(self._receive)
+        self.uart.attach(pipe.b[1].transport, backlog_possible=False)  # a pipe never buffers
+        pipe.receive_at_b(self.uart.receive)
         self._tasks = [asyncio.get_running_loop().create_task(self._telemetry())]
         if self.reset_on_open:
             self.reset()
@@ -147,12 +152,7 @@ class FakeMcu:
         if self._pipe is not None:
             self._pipe.receive_at_b(None)
             self._pipe = None
-        self._line.clear()
-        self._overlong = False
-        self._out_pending.clear()
-        if self._out_timer is not None:
-            self._out_timer.cancel()
-            self._out_timer = None
+        self.uart.detach()
 
     async def close(self) -> None:
         tasks = list(self._tasks)
@@ -182,11 +182,11 @@ class FakeMcu:
 
     def corrupt(self, pct: float) -> None:
         """Flip one bit in ``pct`` % of the bytes, in both directions."""
-        self.corrupt_fraction = max(0.0, min(100.0, pct)) / 100.0
+        self.uart.corrupt_fraction = max(0.0, min(100.0, pct)) / 100.0
 
     def delay(self, seconds: float) -> None:
         """Hold every outgoing line this long."""
-        self.reply_delay_s = max(0.0, seconds)
+        self.uart.reply_delay_s = max(0.0, seconds)
 
     def reset(self) -> None:
         """The board restarts: motors off, SEQ memory and encoder counts cleared."""
@@ -198,9 +198,9 @@ class FakeMcu:
         self._boot_state()
         log.info("fake_mcu.reset", boots=self.boots)
         loop = asyncio.get_running_loop()
-        self._booting_until_s = loop.time() + self.boot_s
+        self.uart.deaf_until_s = loop.time() + self.boot_s
         if self.announce_boot:
-            loop.call_at(self._booting_until_s, self._send_line,
+            loop.call_at(self.uart.deaf_until_s, self._send_line,
                          f"BOOT:{self.firmware},{self.protocol}".encode(), True)
 
     # -- receiving ---------------------------------------------------------------------------
@@ -212,37 +212,7 @@ class FakeMcu:
                 return
             if not chunk:
                 return
-            self._receive(chunk)
-
-    def _receive(self, chunk: bytes) -> None:
-        if asyncio.get_running_loop().time() < self._booting_until_s:
-            return  # the bootloader has the UART: the sketch never sees these bytes
-        if self.corrupt_fraction > 0.0:
-            chunk = corrupt_bytes(chunk, self.corrupt_fraction, self._rng)
-        start = 0
-        while (end := chunk.find(b"\n", start)) >= 0:
-            piece = chunk[start:end]
-            if not self._line and len(piece) < LINE_MAX and b"\r" not in piece:
-                line, overlong = piece, False  # the usual write: one whole line
-            else:
-                self._take(piece)
-                line, overlong = bytes(self._line), self._overlong
-                self._line.clear()
-                self._overlong = False
-            self._handle_line(line, overlong)
-            start = end + 1
-        if start < len(chunk):
-            self._take(chunk[start:])
-
-    def _take(self, piece: bytes) -> None:
-        """Add bytes to the line as the firmware does: CR skipped, past 63 bytes dropped."""
-        if b"\r" in piece:
-            piece = piece.replace(b"\r", b"")
-        room = LINE_MAX - 1 - len(self._line)
-        if len(piece) > room:
-            piece = piece[:room]
-            self._overlong = True
-        self._line += piece
+            self.uart.receive(chunk)
 
     def _handle_line(self, line: bytes, overlong: bool) -> None:
         if line.startswith(b"#"):
@@ -260,18 +230,15 @@ class FakeMcu:
         if overlong:
             self._reply(seq, "NAK:PARSE")
             return
-        body, check = line[:-3], line[-2:]
-        if len(line) < 3 or line[-3:-2] != b"*" or not hex_ok(check) or int(
-                check, 16) != crc8_fast(body):
+        body = line[:-3]
+        crc = HEX_BYTE.get(line[-2:])
+        if line[-3:-2] != b"*" or crc is None or crc != crc8_fast(body):
             self._reply(seq, "NAK:CRC")
             return
         self.crc_framing = True
-        crc = int(check, 16)
-        payload = body[body.index(b" ") + 1:].decode("ascii", "replace")
-        try:
-            word, args = parse_payload(payload)
-        except ParseError as exc:
-            self._reply(seq, f"NAK:{exc.reason}")
+        payload, word, args, refused = self._command(body[body.index(b" ") + 1:])
+        if refused:
+            self._reply(seq, refused)
             return
         if self._last == (seq, crc):
             self.duplicates += 1
@@ -284,18 +251,30 @@ class FakeMcu:
         self._reply(seq, reply)
 
     def _handle_plain_line(self, line: bytes) -> None:
-        payload = line.decode("ascii", "replace")
-        try:
-            word, args = parse_payload(payload)
-        except ParseError as exc:
-            self._reply(None, f"NAK:{exc.reason}")
+        payload, word, args, refused = self._command(line)
+        if refused:
+            self._reply(None, refused)
             return
         self.crc_framing = False
         self._reply(None, self._execute(None, word, args, payload))
 
+    def _command(self, raw: bytes) -> tuple[str, str, tuple[int, ...], str]:
+        """(payload, word, arguments, NAK reply or ""), parsed once per distinct payload."""
+        command = self._payloads.get(raw)
+        if command is None:
+            payload = raw.decode("ascii", "replace")
+            try:
+                word, args = parse_payload(payload)
+                command = (payload, word, args, "")
+            except ParseError as exc:
+                command = (payload, "", (), f"NAK:{exc.reason}")
+            if len(self._payloads) >= _PAYLOADS_KEPT:
+                self._payloads.clear()
+            self._payloads[raw] = command
+        return command
+
     def _execute(self, seq: int | None, word: str, args: tuple[int, ...], payload: str) -> str:
-        loop = asyncio.get_running_loop()
-        self.executed.append(Executed(loop.time(), seq, payload))
+        self.executed.append(Executed(asyncio.get_running_loop().time(), seq, payload))
         if word == "MOTOR":
             left, right, left_dir, right_dir = args
             self.plant.apply_pwm(left, right, left_dir == 1, right_dir == 1)
@@ -358,7 +337,7 @@ class FakeMcu:
         if frame is None:
             body = f"#{seq} {text}".encode("ascii")
             frame = self._frames[(seq, text)] = b"%s*%02X\n" % (body, crc8_fast(body))
-        self._send_frames(frame)
+        self.uart.send(frame)
 
     def _send_line(self, body: bytes, crc: bool) -> None:
         self._send_lines([body], crc=crc)
@@ -371,40 +350,7 @@ class FakeMcu:
             data = b"".join([b"%s*%02X\n" % (body, crc8_fast(body)) for body in bodies])
         else:
             data = b"".join([body + b"\n" for body in bodies])
-        self._send_frames(data)
-
-    def _send_frames(self, data: bytes) -> None:
-        """Send framed lines in one write."""
-        if self._streams is None:
-            return
-        if self.corrupt_fraction > 0.0:
-            data = corrupt_bytes(data, self.corrupt_fraction, self._rng)
-        loop = asyncio.get_running_loop()
-        if self.reply_delay_s <= 0 and not self._out_pending:
-            self._write(data)
-            return
-        self._out_pending.append((loop.time() + self.reply_delay_s, data))
-        if self._out_timer is None:
-            self._out_timer = loop.call_at(self._out_pending[0][0], self._flush)
-
-    def _write(self, data: bytes) -> None:
-        if self._streams is None:
-            return
-        writer = self._streams[1]
-        # Nobody reading the port: a UART's bytes are simply gone.
-        if writer.transport.get_write_buffer_size() <= _TX_BACKLOG_BYTES:
-            try:
-                writer.write(data)
-            except (OSError, RuntimeError):
-                return  # the line is gone (cheaper than contextlib.suppress per write)
-
-    def _flush(self) -> None:
-        self._out_timer = None
-        loop = asyncio.get_running_loop()
-        while self._out_pending and self._out_pending[0][0] <= loop.time():
-            self._write(self._out_pending.popleft()[1])
-        if self._out_pending:
-            self._out_timer = loop.call_at(self._out_pending[0][0], self._flush)
+        self.uart.send(data)
 
     async def _telemetry(self) -> None:
         # Each telemetry moment is a timer callback that sets the next one (hal.timer_chain).
@@ -417,7 +363,7 @@ class FakeMcu:
             names = [n for n, t in due.items() if t <= next_s + 1e-9]
             for name in names:
                 due[name] += self.periods_s[name]
-            if loop.time() >= self._booting_until_s:
+            if loop.time() >= self.uart.deaf_until_s:
                 self._send_lines([self._telemetry_body(n) for n in names],
                                  crc=self.crc_framing)
             next_s = min(due.values())

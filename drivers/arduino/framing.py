@@ -11,7 +11,7 @@ import re
 from dataclasses import dataclass
 from enum import StrEnum
 
-from drivers.arduino.crc8 import crc8
+from drivers.arduino.crc8 import crc8, crc8_joined
 
 MAX_LINE_BYTES = 64
 SEQ_MODULO = 256
@@ -89,23 +89,40 @@ def check_payload(payload: str, framing: Framing) -> None:
         raise ValueError(msg)
 
 
+# The framing of payloads and SEQ prefixes seen so far: their bytes and CRC-8 (a drive sends a
+# few dozen distinct payloads over and over; cleared when full).
+_ENCODED: dict[str, tuple[bytes, int]] = {}
+_ENCODED_KEPT = 1024
+_SEQ_PREFIXES = [(b"#%d " % seq, crc8(b"#%d " % seq)) for seq in range(SEQ_MODULO)]
+
+
 def encode_command(payload: str, seq: int | None, framing: Framing) -> bytes:
     """The bytes of one host command; ValueError when it would break the line rules."""
-    if not payload or not payload.isascii() or _FORBIDDEN.search(payload) is not None:
-        msg = f"bad command payload {payload!r}: printable ASCII without '*', '#' or newlines"
-        raise ValueError(msg)
+    encoded = _ENCODED.get(payload)
+    if encoded is None:
+        if not payload or not payload.isascii() or _FORBIDDEN.search(payload) is not None:
+            msg = f"bad command payload {payload!r}: printable ASCII without '*', '#' or newlines"
+            raise ValueError(msg)
+        data = payload.encode("ascii")
+        encoded = (data, crc8(data))
+        if len(_ENCODED) >= _ENCODED_KEPT:
+            _ENCODED.clear()
+        _ENCODED[payload] = encoded
+    data, data_crc = encoded
     if framing is Framing.PLAIN:
-        line = payload.encode("ascii") + b"\n"
+        framed = len(data) + 1
     else:
         if seq is None or not 0 <= seq < SEQ_MODULO:
             msg = f"SEQ must be 0-255 in crc framing, got {seq}"
             raise ValueError(msg)
-        body = b"#%d %s" % (seq, payload.encode("ascii"))
-        line = b"%s*%02X\n" % (body, crc8(body))
-    if len(line) > MAX_LINE_BYTES:
-        msg = f"command {payload!r} is {len(line)} bytes framed, the link allows {MAX_LINE_BYTES}"
+        prefix, prefix_crc = _SEQ_PREFIXES[seq]
+        framed = len(prefix) + len(data) + 4  # "*CC\n"
+    if framed > MAX_LINE_BYTES:
+        msg = f"command {payload!r} is {framed} bytes framed, the link allows {MAX_LINE_BYTES}"
         raise ValueError(msg)
-    return line
+    if framing is Framing.PLAIN:
+        return data + b"\n"
+    return b"%s%s*%02X\n" % (prefix, data, crc8_joined(prefix_crc, data_crc, len(data)))
 
 
 _WORDS = frozenset({"LED_IDLE", "LED_WAITING", "LED_MOVING", "SUCCESS_SCAN", "FAILURE_SCAN",

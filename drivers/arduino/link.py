@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-from collections.abc import Callable
+from collections.abc import Callable, Coroutine
 from typing import Any, Generic, TypeVar
 
 import structlog
@@ -61,8 +61,9 @@ class Feed(Generic[T]):
     def latest(self) -> T | None:
         return self._latest.latest()
 
-    async def next_reading(self) -> T:
-        return await self._latest.next()
+    def next_reading(self) -> Coroutine[Any, Any, T]:
+        """Awaitable: the next reading (LinkDown when the link goes down first)."""
+        return self._latest.next()  # its coroutine itself: one frame less per reading
 
     def publish(self, value: T) -> None:
         self._latest.publish(value)

@@ -218,11 +218,12 @@ class Session:
         self.next_seq = (seq + 1) % SEQ_MODULO
         return seq
 
-    async def _write(self, frame: bytes, kind: Kind) -> None:
+    def _transmit(self, frame: bytes, kind: Kind) -> bool:
+        """Write ``frame``; True when the port holds bytes back (then drain the writer)."""
         self.writer.write(frame)
-        await self.writer.drain()
-        if kind in (Kind.MOTOR, Kind.HEARTBEAT):
+        if kind is Kind.MOTOR or kind is Kind.HEARTBEAT:
             self.last_drive_tx_s = self._loop.time()
+        return self.writer.transport.get_write_buffer_size() > 0
 
     async def _exchange(self, command: Command) -> None:
         seq = self._take_seq()
@@ -235,7 +236,8 @@ class Session:
         self._events.clear()
         self.inflight = inflight
         first_s = last_s = self._loop.time()
-        await self._write(frame, command.kind)
+        if self._transmit(frame, command.kind):
+            await self.writer.drain()
         self.counters.sent += 1
         timeouts = fast = refusals = 0
         try:
@@ -272,7 +274,8 @@ class Session:
                     continue
                 else:
                     fast += 1
-                await self._write(frame, command.kind)
+                if self._transmit(frame, command.kind):
+                    await self.writer.drain()
                 self.counters.resent += 1
                 last_s = self._loop.time()
                 log.debug("link.resent", seq=seq, payload=command.payload,

@@ -43,7 +43,13 @@ def _ints(line: Telemetry, count: int) -> list[int]:
 def interpret(line: Telemetry, t_s: float) -> Reading | None:
     """The reading a telemetry line carries; None for kinds this driver does not know."""
     if line.name == "ENCODER":
-        left, right = _ints(line, 2)
+        fields = line.fields
+        if len(fields) == 2:  # twenty a second: the usual line without _ints' list
+            try:
+                return EncoderReading(int(fields[0]), int(fields[1]), t_s)
+            except ValueError:
+                pass
+        left, right = _ints(line, 2)  # says what is wrong
         return EncoderReading(left, right, t_s)
     if line.name == "IR":
         (distance_cm,) = _ints(line, 1)

@@ -26,6 +26,7 @@ from hal.sim.mcu_frames import (
     HEX_BYTE,
     ParseError,
     crc8_fast,
+    crc8_join,
     parse_payload,
     read_seq,
 )
@@ -93,8 +94,8 @@ class FakeMcu:
         self._deadman: asyncio.TimerHandle | None = None
         self._deadman_due_s = 0.0
         self._frames: dict[tuple[int, str], bytes] = {}  # framed replies, by SEQ and text
-        # payload bytes -> (payload, word, arguments, NAK reason or "")
-        self._payloads: dict[bytes, tuple[str, str, tuple[int, ...], str]] = {}
+        # payload bytes -> (payload, word, arguments, NAK reply or "", CRC-8)
+        self._payloads: dict[bytes, tuple[str, str, tuple[int, ...], str, int]] = {}
 
     def _boot_state(self) -> None:
         self.crc_framing = True
@@ -230,13 +231,17 @@ class FakeMcu:
         if overlong:
             self._reply(seq, "NAK:PARSE")
             return
-        body = line[:-3]
         crc = HEX_BYTE.get(line[-2:])
-        if line[-3:-2] != b"*" or crc is None or crc != crc8_fast(body):
+        if line[-3:-2] != b"*" or crc is None:
+            self._reply(seq, "NAK:CRC")
+            return
+        body = line[:-3]
+        space = body.index(b" ")  # read_seq found it, before the '*'
+        payload, word, args, refused, payload_crc = self._command(body[space + 1:])
+        if crc != crc8_join(crc8_fast(body[:space + 1]), payload_crc, len(body) - space - 1):
             self._reply(seq, "NAK:CRC")
             return
         self.crc_framing = True
-        payload, word, args, refused = self._command(body[body.index(b" ") + 1:])
         if refused:
             self._reply(seq, refused)
             return
@@ -251,23 +256,24 @@ class FakeMcu:
         self._reply(seq, reply)
 
     def _handle_plain_line(self, line: bytes) -> None:
-        payload, word, args, refused = self._command(line)
+        payload, word, args, refused, _ = self._command(line)
         if refused:
             self._reply(None, refused)
             return
         self.crc_framing = False
         self._reply(None, self._execute(None, word, args, payload))
 
-    def _command(self, raw: bytes) -> tuple[str, str, tuple[int, ...], str]:
-        """(payload, word, arguments, NAK reply or ""), parsed once per distinct payload."""
+    def _command(self, raw: bytes) -> tuple[str, str, tuple[int, ...], str, int]:
+        """(payload, word, arguments, NAK reply or "", CRC-8 of ``raw``), worked out once
+        per distinct payload."""
         command = self._payloads.get(raw)
         if command is None:
             payload = raw.decode("ascii", "replace")
             try:
                 word, args = parse_payload(payload)
-                command = (payload, word, args, "")
+                command = (payload, word, args, "", crc8_fast(raw))
             except ParseError as exc:
-                command = (payload, "", (), f"NAK:{exc.reason}")
+                command = (payload, "", (), f"NAK:{exc.reason}", crc8_fast(raw))
             if len(self._payloads) >= _PAYLOADS_KEPT:
                 self._payloads.clear()
             self._payloads[raw] = command

@@ -41,6 +41,17 @@ def crc8_fast(data: bytes) -> int:
     return crc
 
 
+# _ZEROS[n][crc]: a running CRC continued over n zero bytes.
+_ZEROS = [bytes(range(256))]
+for _ in range(64):
+    _ZEROS.append(_ZEROS[-1].translate(bytes(_CRC_TABLE)))
+
+
+def crc8_join(crc_head: int, crc_tail: int, tail_bytes: int) -> int:
+    """CRC-8 of ``head + tail`` from the parts' CRCs (the CRC is linear; tail <= 64 bytes)."""
+    return _ZEROS[tail_bytes][crc_head] ^ crc_tail
+
+
 class ParseError(Exception):
     def __init__(self, reason: str) -> None:
         super().__init__(reason)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from hypothesis import given
 from hypothesis import strategies as st
 
-from drivers.arduino.crc8 import crc8
+from drivers.arduino.crc8 import crc8, crc8_joined
 from hal.sim.mcu_frames import crc8_bitwise
 
 
@@ -35,3 +35,9 @@ class TestCrc8:
         flipped = bytearray(data)
         flipped[bit // 8] ^= 1 << (bit % 8)
         assert crc8(bytes(flipped)) != crc8(data)
+
+    @given(st.binary(max_size=40), st.binary(max_size=64))
+    def test_the_crc_of_two_parts_joins_into_the_crc_of_both(self, head: bytes,
+                                                             tail: bytes) -> None:
+        """crc8_joined(crc(head), crc(tail), len(tail)) is crc(head + tail)."""
+        assert crc8_joined(crc8(head), crc8(tail), len(tail)) == crc8(head + tail)

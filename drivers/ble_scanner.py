@@ -11,6 +11,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import functools
+import math
 import uuid as uuidlib
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
@@ -32,10 +33,24 @@ APPLE_COMPANY_ID = 0x004C
 IBEACON_TYPE = 0x02
 IBEACON_LENGTH = 0x15  # 21 bytes follow: UUID 16, major 2, minor 2, measured power 1
 IBEACON_PAYLOAD_BYTES = 2 + IBEACON_LENGTH
+# HCI reports RSSI in -127..+20 dBm and 127 for "not available"; BlueZ and some adapters hand
+# over 0 when they have no RSSI. 0 dBm would put a -59 dBm beacon a millimetre away.
+MIN_RSSI_DBM = -127
+MAX_RSSI_DBM = 20
 
 
 class MalformedAdvert(ValueError):
     """An advert claims to be an iBeacon but its bytes do not fit the layout."""
+
+
+def valid_rssi_dbm(rssi: object) -> int | None:
+    """The advert's RSSI in dBm, or None for the placeholders adapters send without one."""
+    if isinstance(rssi, bool) or not isinstance(rssi, int | float) or not math.isfinite(rssi):
+        return None
+    value = int(rssi)
+    if value == 0 or not MIN_RSSI_DBM <= value <= MAX_RSSI_DBM:
+        return None
+    return value
 
 
 @dataclass(frozen=True, slots=True)
@@ -153,7 +168,7 @@ class BleBeaconScanner:
         self._backoff_s = restart_base_s
         self._alive_since_restart = True
         self.counts = dict.fromkeys(("adverts", "sightings", "not_ibeacon", "malformed",
-                                     "other_uuid", "callback_errors", "restarts",
+                                     "other_uuid", "bad_rssi", "callback_errors", "restarts",
                                      "scan_errors"), 0)
         self.last_error: str | None = None
         self.last_sighting: BeaconSighting | None = None
@@ -217,9 +232,15 @@ class BleBeaconScanner:
             if self._uuids and frame.uuid not in self._uuids:
                 self.counts["other_uuid"] += 1
                 return
+            rssi_dbm = valid_rssi_dbm(adv.rssi)
+            if rssi_dbm is None:
+                # Tracked as a sighting it would drag the smoothed RSSI up to "arrived".
+                self.counts["bad_rssi"] += 1
+                log.debug("ble.bad_rssi", mac=getattr(device, "address", "?"), rssi=adv.rssi)
+                return
             sighting = BeaconSighting(mac=str(device.address).upper(), uuid=frame.uuid,
                                       major=frame.major, minor=frame.minor,
-                                      rssi_dbm=int(adv.rssi), tx_power_dbm=frame.tx_power_dbm,
+                                      rssi_dbm=rssi_dbm, tx_power_dbm=frame.tx_power_dbm,
                                       t_s=now)
         except (MalformedAdvert, TypeError, AttributeError, ValueError) as exc:
             self.counts["malformed"] += 1

@@ -119,6 +119,7 @@ def _print_table(report: dict[str, Any]) -> None:
     s = report["scanner"]
     print(f"adverts {s['adverts']}, iBeacon sightings {s['sightings']}, not iBeacon "
           f"{s['not_ibeacon']}, other UUID {s['other_uuid']}, malformed {s['malformed']}, "
+          f"no RSSI {s['bad_rssi']}, "
           f"restarts {s['restarts']}, errors {s['scan_errors']}")
 
 

@@ -163,6 +163,25 @@ class TestScannerAdverts:
 
         assert vclock.run(main()) == (1, 1)
 
+    @pytest.mark.parametrize("rssi", [0, 127, 21, -128, None, float("nan")])
+    def test_placeholder_rssi_values_are_counted_not_tracked(self, rssi: Any) -> None:
+        """RSSI 0 or +127 (adapters without a reading) never becomes a sighting.
+
+        Tracked, a 0 dBm sighting would put the beacon a millimetre away and report arrival.
+        """
+        async def main() -> tuple[list[int], int]:
+            driver, made = _scanner()
+            seen: list[BeaconSighting] = []
+            driver.on_sighting(seen.append)
+            await driver.start()
+            made[0].play("AA:00:00:00:00:01", ESTIMOTE_12345_54321, rssi=rssi)
+            made[0].play("AA:00:00:00:00:01", ESTIMOTE_12345_54321, rssi=-127)
+            made[0].play("AA:00:00:00:00:01", ESTIMOTE_12345_54321, rssi=20)
+            await driver.close()
+            return [s.rssi_dbm for s in seen], driver.counts["bad_rssi"]
+
+        assert vclock.run(main()) == ([-127, 20], 1)
+
     def test_a_bad_configured_uuid_is_refused_up_front(self) -> None:
         """A UUID in the configuration that is not a UUID raises ValueError naming it."""
         with pytest.raises(ValueError, match="not-a-uuid"):

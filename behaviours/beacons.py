@@ -31,8 +31,11 @@ class SettingsView(Protocol):
 
 
 def distance_m(tx_power_dbm: float, rssi_dbm: float, path_loss_exponent: float) -> float:
-    """Log-distance path-loss estimate; the seed's formula is n = 2."""
-    return float(10 ** ((tx_power_dbm - rssi_dbm) / (10 * path_loss_exponent)))
+    """Log-distance path-loss estimate; the seed's formula is n = 2 (inf when off the scale)."""
+    try:
+        return float(10 ** ((tx_power_dbm - rssi_dbm) / (10 * path_loss_exponent)))
+    except OverflowError:
+        return math.inf
 
 
 @dataclass(frozen=True, slots=True)
@@ -105,11 +108,12 @@ class BeaconTracker:
     def __init__(self, scanner: BeaconScanner | None = None, *, path_loss_exponent: float = 2.0,
                  smoothing_s: float = 1.0, removal_timeout_s: float = 10.0,
                  clock: Callable[[], float] | None = None) -> None:
-        self.path_loss_exponent = path_loss_exponent
+        self.path_loss_exponent = 2.0
+        self._beacons: dict[str, TrackedBeacon] = {}
+        self.set_path_loss_exponent(path_loss_exponent)
         self.smoothing_s = smoothing_s
         self.removal_timeout_s = removal_timeout_s
         self._clock = clock or (lambda: asyncio.get_running_loop().time())
-        self._beacons: dict[str, TrackedBeacon] = {}
         self._configs: dict[str, BeaconConfig] = {}
         self.removed = 0
         if scanner is not None:
@@ -134,8 +138,8 @@ class BeaconTracker:
         return tracker
 
     def set_path_loss_exponent(self, n: float) -> None:
-        if not n > 0:
-            msg = f"ble.path_loss_exponent must be > 0, got {n}"
+        if not (n > 0 and math.isfinite(n)):
+            msg = f"ble.path_loss_exponent must be a number > 0, got {n}"
             raise ValueError(msg)
         self.path_loss_exponent = n
         for b in self._beacons.values():

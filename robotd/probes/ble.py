@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import math
 import random
 import statistics
 import sys
@@ -20,6 +21,7 @@ from behaviours.beacons import BeaconTracker
 from drivers.ble_scanner import BleBeaconScanner, ScannerFactory, bleak_scanner_factory
 from hal.devices import DeviceUnavailable
 from hal.readings import BeaconSighting
+from robotd.config.settings import Settings
 from robotd.probes import run_standalone
 
 SIM_UUID = "fda50693-a4e2-4fb1-afcf-c6eb07647825"
@@ -60,6 +62,10 @@ async def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"probe ble: --uuid: {exc}", file=sys.stderr)
         return 2
+    problem = _bad_option(args)
+    if problem:
+        print(f"probe ble: {problem}", file=sys.stderr)
+        return 2
     tracker = BeaconTracker(scanner, path_loss_exponent=args.path_loss_exponent,
                             removal_timeout_s=max(10.0, args.duration_s + 1))
     rssi: dict[str, list[int]] = defaultdict(list)
@@ -90,6 +96,14 @@ async def run(args: argparse.Namespace) -> int:
             print(f"no matching iBeacon seen in {args.duration_s:g} s", file=sys.stderr)
         return 1
     return 0
+
+
+def _bad_option(args: argparse.Namespace) -> str | None:
+    """Why the numeric options cannot be used, or None; n is checked like the config's."""
+    if not (args.duration_s > 0 and math.isfinite(args.duration_s)):
+        return f"--duration-s: expected a number of seconds > 0, got {args.duration_s}"
+    _, error = Settings.option("ble.path_loss_exponent").check(args.path_loss_exponent)
+    return None if error is None else f"--path-loss-exponent: {error}"
 
 
 def _report(tracker: BeaconTracker, rssi: dict[str, list[int]], status: dict[str, Any],

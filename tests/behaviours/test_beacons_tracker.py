@@ -36,6 +36,16 @@ class TestDistance:
         """n = 3 (indoors, obstacles) maps 30 dB to 10 m."""
         assert math.isclose(distance_m(-59, -89, 3.0), 10.0)
 
+    def test_off_the_scale_is_infinite_not_an_error(self) -> None:
+        """A tiny exponent overflows the float range: the distance is inf, nothing raises."""
+        assert distance_m(-59, -127, 0.001) == math.inf
+
+    @pytest.mark.parametrize("n", [0.0, -1.0, math.nan, math.inf])
+    def test_tracker_refuses_an_unusable_exponent(self, n: float) -> None:
+        """The constructor checks n like tuning does (it divides by n for every advert)."""
+        with pytest.raises(ValueError, match="path_loss_exponent"):
+            BeaconTracker(path_loss_exponent=n)
+
 
 class TestBeaconTracker:
     def test_first_sighting_creates_an_entry_then_rssi_is_smoothed(self) -> None:

@@ -39,6 +39,15 @@ class TestBleProbe:
         assert vclock.run(ble.run(_args(ble, ["--sim", "--uuid", "room-103"]))) == 2
         assert "room-103" in capsys.readouterr().err
 
+    @pytest.mark.parametrize(("option", "value"), [
+        ("--path-loss-exponent", "0"), ("--path-loss-exponent", "nan"),
+        ("--path-loss-exponent", "0.001"), ("--duration-s", "0"), ("--duration-s", "-5")])
+    def test_unusable_numbers_are_usage_errors(self, option: str, value: str,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+        """n outside the config's range or a duration <= 0 exits 2 naming the option."""
+        assert vclock.run(ble.run(_args(ble, ["--sim", f"{option}={value}"]))) == 2
+        assert option in capsys.readouterr().err
+
 
 class TestHx711Probe:
     def test_calibration_prints_the_factor_for_toml(

@@ -118,8 +118,18 @@ class OutlierFilter:
     def average(self) -> float | None:
         return sum(self._accepted) / len(self._accepted) if self._accepted else None
 
+    def robust_average(self) -> float | None:
+        """Mean of the accepted codes near their median: a spike that got in (the first codes
+        after start-up have no median to be checked against) does not move a tare."""
+        if not self._accepted:
+            return None
+        median = statistics.median(self._accepted)
+        near = [c for c in self._accepted if abs(c - median) <= self.outlier_counts]
+        return sum(near) / len(near)
+
     def clear(self) -> None:
-        self._recent.clear()
+        """Restart the moving average; the median history stays, so the next code is still
+        checked against the recent ones."""
         self._accepted.clear()
 
 
@@ -243,7 +253,7 @@ class Hx711:
                 msg = (f"{self.name}: no good reading for {wait_s:g} s "
                        f"(discarded so far: {self.counts})")
                 raise DeviceUnavailable(msg) from None
-        average = self.filter.average()
+        average = self.filter.robust_average()
         return float(reading.raw) if average is None else average
 
     def status(self) -> dict[str, Any]:

@@ -267,3 +267,24 @@ class TestHx711Tare:
                 await hx.tare()
 
         vclock.run(main())
+
+
+class TestHx711TareAndCalibrationFaults:
+    @pytest.mark.parametrize("settled", [1, 10])
+    def test_a_spike_during_tare_does_not_move_the_zero(self, settled: int) -> None:
+        """One conversion 2 M counts off while taring (right after start-up, when no median
+        exists yet, or later) leaves the tare within noise of the true zero."""
+        async def main() -> tuple[int, float]:
+            _, lines, hx = _rig()
+            hx.calibration_factor = 103_500.0
+            await hx.start()
+            await _settle(hx, settled)
+            lines.spike_next_conversion(2_000_000)
+            await hx.tare()
+            kg = await _settle(hx, 10)
+            await hx.close()
+            return hx.tare_offset, kg
+
+        tare, kg = vclock.run(main())
+        assert tare == pytest.approx(-48_213, abs=300)
+        assert abs(kg) < 0.01

@@ -16,6 +16,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import gc
+import math
 import statistics
 from collections import deque
 from collections.abc import Callable
@@ -147,8 +148,9 @@ class Hx711:
                  calibration_factor: float = 107374.0, average_window: int = 8,
                  median_window: int = 5, outlier_kg: float = 1.0,
                  timeout_s: float = 1.0) -> None:
-        if calibration_factor == 0:
-            msg = "hx711.calibration_factor must not be 0"
+        if calibration_factor == 0 or not math.isfinite(calibration_factor):
+            msg = ("hx711.calibration_factor must be a finite number other than 0, "
+                   f"got {calibration_factor}")
             raise ValueError(msg)
         self.name = name
         self._open_lines = open_lines
@@ -215,13 +217,20 @@ class Hx711:
 
     async def calibrate(self, known_kg: float) -> float:
         """With ``known_kg`` on the tared cell, set and return the counts per kg."""
-        if known_kg <= 0:
-            msg = f"known weight must be > 0 kg, got {known_kg}"
+        if not (known_kg > 0 and math.isfinite(known_kg)):
+            msg = f"known weight must be a number of kg > 0, got {known_kg}"
             raise ValueError(msg)
         change = await self.average_raw() - self.tare_offset
         if abs(change) < MIN_CALIBRATION_COUNTS:
             msg = (f"the reading changed by only {change:.0f} counts with the known weight; "
                    "is it on the cell?")
+            raise ValueError(msg)
+        if change < 0:
+            # hx711.calibration_factor must be > 0 in robotd.toml, so a negative one cannot
+            # be kept; the wiring is what needs changing.
+            msg = (f"the reading went down by {-change:.0f} counts with the known weight on: "
+                   "the load cell's signal wires (A+/A-, usually green and white) are swapped "
+                   "or the cell is mounted upside down; swap A+ and A- and calibrate again")
             raise ValueError(msg)
         factor = change / known_kg
         self.set_calibration_factor(factor)
@@ -229,8 +238,8 @@ class Hx711:
         return factor
 
     def set_calibration_factor(self, factor: float) -> None:
-        if factor == 0:
-            msg = "hx711.calibration_factor must not be 0"
+        if factor == 0 or not math.isfinite(factor):
+            msg = f"hx711.calibration_factor must be a finite number other than 0, got {factor}"
             raise ValueError(msg)
         self.calibration_factor = factor
         self.filter.outlier_counts = self._outlier_kg * abs(factor)

@@ -288,3 +288,39 @@ class TestHx711TareAndCalibrationFaults:
         tare, kg = vclock.run(main())
         assert tare == pytest.approx(-48_213, abs=300)
         assert abs(kg) < 0.01
+
+    def test_calibrating_a_cell_wired_backwards_is_refused_with_advice(self) -> None:
+        """A load that lowers the reading would need a negative factor, which robotd.toml
+        refuses: calibrate() says to swap A+ and A- instead of returning it."""
+        async def main() -> None:
+            body, _, hx = _rig(counts_per_kg=-103_500.0)
+            await hx.start()
+            await hx.tare()
+            body.payload_kg = 2.0
+            with pytest.raises(ValueError, match="swap A\\+ and A-"):
+                await hx.calibrate(2.0)
+            await hx.close()
+
+        vclock.run(main())
+
+    @pytest.mark.parametrize("known_kg", [0.0, -2.0, float("nan"), float("inf")])
+    def test_an_unusable_known_weight_is_refused(self, known_kg: float) -> None:
+        """Zero, negative, NaN or infinite known weights raise before any factor is set."""
+        async def main() -> None:
+            _, _, hx = _rig()
+            await hx.start()
+            with pytest.raises(ValueError, match="known weight"):
+                await hx.calibrate(known_kg)
+            await hx.close()
+            assert hx.calibration_factor == 107374.0
+
+        vclock.run(main())
+
+    @pytest.mark.parametrize("factor", [0.0, float("nan"), float("inf")])
+    def test_an_unusable_factor_is_refused(self, factor: float) -> None:
+        """The constructor and set_calibration_factor refuse 0, NaN and infinity."""
+        with pytest.raises(ValueError, match="calibration_factor"):
+            Hx711(lambda: SimHx711Lines(weight_kg=lambda: 0.0), calibration_factor=factor)
+        hx = _rig()[2]
+        with pytest.raises(ValueError, match="calibration_factor"):
+            hx.set_calibration_factor(factor)

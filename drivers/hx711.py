@@ -167,7 +167,8 @@ class Hx711:
         self._latest: LatestValue[WeightReading] = LatestValue()
         self._discard_next = 1
         self.counts = dict.fromkeys(("reads", "accepted", "sck_high", "saturated", "outliers",
-                                     "timeouts", "settling"), 0)
+                                     "timeouts", "settling", "line_errors"), 0)
+        self.last_error: str | None = None
 
     # --- LoadCell ---------------------------------------------------------------------------
     async def start(self) -> None:
@@ -271,7 +272,7 @@ class Hx711:
                 "raw": None if latest is None else latest.raw, "gain": self.gain.name,
                 "tare_offset": self.tare_offset,
                 "calibration_factor": round(self.calibration_factor, 3),
-                "running": self._task is not None}
+                "running": self._task is not None, "last_error": self.last_error}
 
     # --- reading ----------------------------------------------------------------------------
     async def _wait_ready(self, timeout_s: float) -> bool:
@@ -298,38 +299,48 @@ class Hx711:
                 gc.enable()
 
     async def _run(self) -> None:
-        loop = asyncio.get_running_loop()
         while True:
-            if not await self._wait_ready(self.timeout_s):
-                self.counts["timeouts"] += 1
-                log.warning("hx711.timeout", waited_s=self.timeout_s)
-                continue
-            code: int | None = None
             try:
-                code = self.read_once()
-            except ReadDiscarded as exc:
-                self.counts[exc.reason] += 1
-                log.info("hx711.discarded", reason=exc.reason, detail=str(exc))
-                if exc.reason == "sck_high":
-                    # The chip reset on power-down: it is back on A128 and settling.
-                    self._discard_next = 1
-            # Sleep through most of the next conversion instead of polling for it.
-            await asyncio.sleep(self.period_s * 0.8)
-            if code is None:
-                continue
-            if self._discard_next:
-                # The gain pulses of this read apply from the next conversion on.
-                self._discard_next -= 1
-                self.counts["settling"] += 1
-                continue
-            if not self.filter.add(code):
-                self.counts["outliers"] += 1
-                continue
-            self.counts["accepted"] += 1
-            average = self.filter.average()
-            assert average is not None
-            kg = (average - self.tare_offset) / self.calibration_factor
-            self._latest.publish(WeightReading(kg=kg, raw=round(average), t_s=loop.time()))
+                await self._read_next()
+            except Exception as exc:  # lgpio.error, OSError: the GPIO chip went away
+                self.counts["line_errors"] += 1
+                self.last_error = f"{type(exc).__name__}: {exc}"
+                log.warning("hx711.line_error", error=self.last_error, retry_s=self.timeout_s)
+                await asyncio.sleep(self.timeout_s)
+
+    async def _read_next(self) -> None:
+        """Wait for one conversion, read it, filter it and publish the weight."""
+        loop = asyncio.get_running_loop()
+        if not await self._wait_ready(self.timeout_s):
+            self.counts["timeouts"] += 1
+            log.warning("hx711.timeout", waited_s=self.timeout_s)
+            return
+        code: int | None = None
+        try:
+            code = self.read_once()
+        except ReadDiscarded as exc:
+            self.counts[exc.reason] += 1
+            log.info("hx711.discarded", reason=exc.reason, detail=str(exc))
+            if exc.reason == "sck_high":
+                # The chip reset on power-down: it is back on A128 and settling.
+                self._discard_next = 1
+        # Sleep through most of the next conversion instead of polling for it.
+        await asyncio.sleep(self.period_s * 0.8)
+        if code is None:
+            return
+        if self._discard_next:
+            # The gain pulses of this read apply from the next conversion on.
+            self._discard_next -= 1
+            self.counts["settling"] += 1
+            return
+        if not self.filter.add(code):
+            self.counts["outliers"] += 1
+            return
+        self.counts["accepted"] += 1
+        average = self.filter.average()
+        assert average is not None
+        kg = (average - self.tare_offset) / self.calibration_factor
+        self._latest.publish(WeightReading(kg=kg, raw=round(average), t_s=loop.time()))
 
     def apply_setting(self, dotted: str, value: Any) -> None:
         """A tuned ``hx711.*`` value takes effect at once (tare, factor, windows)."""

@@ -14,7 +14,9 @@ a GPIO access takes) and never falls behind the event loop's clock.
 from __future__ import annotations
 
 import asyncio
+import errno
 import math
+import os
 import random
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -74,6 +76,7 @@ class SimHx711Lines:
     _saturate: int | None = None
     _spike_counts: int = 0
     _connected: bool = True
+    _gpio_error: OSError | None = None
 
     def __post_init__(self) -> None:
         if self.sps not in (10, 80):
@@ -111,6 +114,15 @@ class SimHx711Lines:
     def connect(self) -> None:
         self._connected = True
 
+    def lose_gpio(self, errno_name: str = "ENODEV") -> None:
+        """The GPIO chip went away (a header cable pulled, a driver unloaded): every line
+        access raises OSError, as lgpio does, until ``restore_gpio``."""
+        code = getattr(errno, errno_name)
+        self._gpio_error = OSError(code, os.strerror(code))
+
+    def restore_gpio(self) -> None:
+        self._gpio_error = None
+
     def clear_faults(self) -> None:
         self._glitch = None
         self._saturate = None
@@ -130,6 +142,8 @@ class SimHx711Lines:
         return self._tick()
 
     def read_dout(self) -> bool:
+        if self._gpio_error is not None:
+            raise self._gpio_error
         now = self._tick()
         # ``powered_down`` with the time just taken (the clock cannot move in between).
         if (self._sck and now - self._rise_us > POWER_DOWN_US) or not self._connected:
@@ -139,6 +153,8 @@ class SimHx711Lines:
         return not self._ready(now)
 
     def set_sck(self, high: bool) -> None:
+        if self._gpio_error is not None:
+            raise self._gpio_error
         now = self._tick()
         if high == self._sck:
             return
@@ -209,4 +225,6 @@ class SimHx711Lines:
         code = (self.offset_counts * gain / 128 + signal + self._spike_counts
                 + self.rng.gauss(0, self.noise_counts))
         self._spike_counts = 0
-        return int(max(CODE_MIN, min(CODE_MAX, math.floor(code))))
+        if math.isnan(code):
+            return CODE_MAX  # a load that is not a number: treated as an input out of range
+        return int(max(CODE_MIN, min(CODE_MAX, math.floor(max(-1e12, min(1e12, code))))))

@@ -324,3 +324,27 @@ class TestHx711TareAndCalibrationFaults:
         hx = _rig()[2]
         with pytest.raises(ValueError, match="calibration_factor"):
             hx.set_calibration_factor(factor)
+
+
+class TestHx711LineErrors:
+    def test_a_vanished_gpio_chip_is_reported_and_reading_resumes(self) -> None:
+        """OSError from the lines (lgpio after the chip went away) does not end the reader:
+        it is counted, named in status(), and readings resume once the lines answer; close()
+        still works."""
+        async def main() -> None:
+            body, lines, hx = _rig()
+            hx.tare_offset, hx.calibration_factor = -48_213, 103_500.0
+            body.payload_kg = 2.0
+            await hx.start()
+            await _settle(hx, 3)
+            lines.lose_gpio()
+            await asyncio.sleep(3)
+            status = hx.status()
+            assert status["line_errors"] >= 2 and "No such device" in status["last_error"]
+            assert status["running"] is True
+            lines.restore_gpio()
+            kg = await asyncio.wait_for(_settle(hx, 10), 10)
+            await hx.close()
+            assert abs(kg - 2.0) < 0.02
+
+        vclock.run(main())

@@ -130,3 +130,25 @@ class TestSimHx711Lines:
         bench.t_s = 5.0
         c = bench.chip.now_us()
         assert b == a + 1 and c == 5_000_000
+
+    def test_a_load_that_is_not_a_number_reads_as_out_of_range(self) -> None:
+        """A NaN or infinite payload (a scenario typo) gives the clipped codes, not a crash."""
+        for kg, code in ((float("nan"), 0x7FFFFF), (float("inf"), 0x7FFFFF),
+                         (float("-inf"), -0x800000)):
+            bench = Bench(kg=kg)
+            bench.wait_ready()
+            assert bench.read() == code
+
+    def test_lost_gpio_raises_oserror_until_restored(self) -> None:
+        """lose_gpio() makes every line access raise OSError (as lgpio does) until restored."""
+        bench = Bench()
+        bench.chip.lose_gpio()
+        for access in (bench.chip.read_dout, lambda: bench.chip.set_sck(True)):
+            try:
+                access()
+            except OSError as exc:
+                assert "No such device" in str(exc)
+            else:
+                raise AssertionError("no OSError")
+        bench.chip.restore_gpio()
+        bench.wait_ready()

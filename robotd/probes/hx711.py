@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import math
 import random
 import statistics
 import sys
@@ -55,13 +56,31 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
     return values
 
 
+def _bad_option(args: argparse.Namespace) -> str | None:
+    """Why the numeric options cannot be used, or None."""
+    if args.known_kg is not None and not (args.known_kg > 0 and math.isfinite(args.known_kg)):
+        return f"--known-kg: expected the calibration mass in kg (> 0), got {args.known_kg}"
+    if not (args.sim_kg >= 0 and math.isfinite(args.sim_kg)):
+        return f"--sim-kg: expected a load in kg (>= 0), got {args.sim_kg}"
+    if args.readings < 1:
+        return f"--readings: expected at least 1, got {args.readings}"
+    if args.wait_s is not None and not (args.wait_s >= 0 and math.isfinite(args.wait_s)):
+        return f"--wait-s: expected seconds (>= 0), got {args.wait_s}"
+    return None
+
+
 async def run(args: argparse.Namespace) -> int:
+    problem = _bad_option(args)
+    if problem:
+        print(f"probe hx711: {problem}", file=sys.stderr)
+        return 2
     try:
         cfg = _settings(args)
     except ConfigError as exc:
         print(f"probe hx711: {exc}", file=sys.stderr)
         return 2
-    load = {"kg": 0.0 if args.known_kg or args.tare else args.sim_kg}
+    calibrating = args.known_kg is not None
+    load = {"kg": 0.0 if calibrating or args.tare else args.sim_kg}
     open_lines: Callable[[], Hx711Lines]
     if args.sim:
         from hal.sim.hx711_model import SimHx711Lines
@@ -83,20 +102,19 @@ async def run(args: argparse.Namespace) -> int:
         return 1
     report: dict[str, Any] = {}
     try:
-        if args.tare or args.known_kg:
+        if args.tare or calibrating:
             await _step(args, "Empty the bin, then press Enter", quiet=args.json)
             await hx.tare()
             report["tare_offset"] = hx.tare_offset
-        if args.known_kg:
+        if calibrating:
             await _step(args, f"Place {args.known_kg:g} kg on the cell, then press Enter",
                         quiet=args.json)
             load["kg"] = args.known_kg  # the simulated technician places it
-            try:
-                report["calibration_factor"] = round(await hx.calibrate(args.known_kg), 3)
-            except ValueError as exc:
-                print(f"probe hx711: {exc}", file=sys.stderr)
-                return 1
+            report["calibration_factor"] = round(await hx.calibrate(args.known_kg), 3)
         report.update(await _measure(hx, args.readings))
+    except (ValueError, DeviceUnavailable) as exc:
+        print(f"probe hx711: {exc}", file=sys.stderr)
+        return 1
     finally:
         await hx.close()
     if args.json:
@@ -119,9 +137,22 @@ async def _step(args: argparse.Namespace, prompt: str, *, quiet: bool) -> None:
 
 
 async def _measure(hx: Hx711, count: int) -> dict[str, Any]:
+    """``count`` readings; DeviceUnavailable when they stop coming (every read discarded)."""
     loop = asyncio.get_running_loop()
     t0 = loop.time()
-    readings = [await hx.next_reading() for _ in range(max(1, count))]
+    wait_s = hx.timeout_s + 10 * hx.period_s
+    readings = []
+    for _ in range(max(1, count)):
+        try:
+            readings.append(await asyncio.wait_for(hx.next_reading(), wait_s))
+        except TimeoutError:
+            c = hx.counts
+            msg = (f"{hx.name}: no good reading for {wait_s:g} s: reads {c['reads']}, "
+                   f"saturated {c['saturated']} (input out of range: a loose or shorted "
+                   f"bridge wire?), long clock pulse {c['sck_high']}, outliers "
+                   f"{c['outliers']}, data-ready timeouts {c['timeouts']}, GPIO errors "
+                   f"{c['line_errors']}")
+            raise DeviceUnavailable(msg) from None
     elapsed_s = loop.time() - t0
     kgs = [r.kg for r in readings]
     return {
@@ -142,7 +173,7 @@ def _print(report: dict[str, Any], args: argparse.Namespace) -> None:
     c = report["counts"]
     print(f"reads {c['reads']}, discarded: long clock pulse {c['sck_high']}, saturated "
           f"{c['saturated']}, outliers {c['outliers']}, data-ready timeouts {c['timeouts']}")
-    if args.tare or args.known_kg:
+    if args.tare or args.known_kg is not None:
         print("\nPut this in robotd.toml:\n[hx711]")
         print(f"tare_offset = {report['tare_offset']}")
         print(f"calibration_factor = {report['calibration_factor']}")

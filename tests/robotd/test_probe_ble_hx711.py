@@ -71,3 +71,21 @@ class TestHx711Probe:
         code = vclock.run(hx711.run(_args(hx711, ["--chip", "63"])))
         assert code == 1
         assert "hx711:" in capsys.readouterr().err
+
+    def test_saturated_input_ends_with_the_counts_instead_of_hanging(
+            self, capsys: pytest.CaptureFixture[str]) -> None:
+        """A load beyond the ADC's range (or a loose bridge wire) gives only saturated codes:
+        the probe exits 1 naming them rather than waiting for a reading forever."""
+        code = vclock.run(hx711.run(_args(hx711, ["--sim", "--sim-kg", "1000"])))
+        assert code == 1
+        assert "saturated" in capsys.readouterr().err
+
+    @pytest.mark.parametrize("argv", [
+        ["--known-kg", "0"], ["--known-kg", "-2"], ["--known-kg", "nan"], ["--sim-kg", "nan"],
+        ["--readings", "0"], ["--wait-s", "-1"]])
+    def test_unusable_numbers_are_usage_errors(self, argv: list[str],
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+        """A calibration mass that is not > 0 (0 used to skip calibration silently), a NaN
+        load or no readings exit 2 naming the option, before the technician is asked anything."""
+        assert vclock.run(hx711.run(_args(hx711, ["--sim", *argv]))) == 2
+        assert argv[0] in capsys.readouterr().err

@@ -23,6 +23,7 @@ log = structlog.get_logger(__name__)
 
 _PERIOD_S = 0.05
 _HEADING_TOLERANCE_RAD = math.radians(2.0)
+_RETURN_TO_TURN_RAD = math.radians(45)
 
 
 @dataclass(frozen=True, slots=True)
@@ -129,7 +130,7 @@ class WaypointDrive:
             if remaining <= tuning.tolerance_m or along <= 0:
                 break
             error = _wrap(math.atan2(dy, dx) - pose.theta_rad)
-            if abs(error) > math.radians(45):
+            if abs(error) > _RETURN_TO_TURN_RAD:
                 await self._turn_towards(x_m, y_m, tuning)
                 continue
             speed = max(tuning.min_mps, min(tuning.cruise_mps, 1.2 * along))

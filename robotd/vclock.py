@@ -218,7 +218,7 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
             timer._repr = None
             timer._source_traceback = None
             timer._when = when
-        heapq.heappush(self._scheduled, (when, next(self._timer_order), timer))
+        _heappush(self._scheduled, (when, next(self._timer_order), timer))
         timer._scheduled = True
         return timer  # type: ignore[no-any-return]
 
@@ -263,7 +263,7 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
             self._process_events(self._selector.select(timeout))
             end_s = self.time() + self._clock_resolution
         while scheduled and scheduled[0][0] < end_s:
-            timer = heapq.heappop(scheduled)[2]
+            timer = _heappop(scheduled)[2]
             timer._scheduled = False
             ready.append(timer)
 
@@ -274,8 +274,9 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
                 self._run_handles(ready)
             else:
                 # Handle._run, inlined: one Python frame less per callback.
+                popleft = ready.popleft
                 for _ in range(len(ready)):
-                    handle = ready.popleft()
+                    handle = popleft()
                     if handle._cancelled:
                         continue
                     try:
@@ -348,6 +349,8 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
 
 
 _new_handle: Callable[[type[events.Handle]], Any] = object.__new__
+_heappop = heapq.heappop
+_heappush = heapq.heappush
 
 
 class _Timer(events.TimerHandle):

@@ -57,6 +57,7 @@ class Feed(Generic[T]):
 
     def __init__(self) -> None:
         self._latest: LatestValue[T] = LatestValue()
+        self.publish: Callable[[T], None] = self._latest.publish  # no frame of our own
 
     def latest(self) -> T | None:
         return self._latest.latest()
@@ -64,9 +65,6 @@ class Feed(Generic[T]):
     def next_reading(self) -> Coroutine[Any, Any, T]:
         """Awaitable: the next reading (LinkDown when the link goes down first)."""
         return self._latest.next()  # its coroutine itself: one frame less per reading
-
-    def publish(self, value: T) -> None:
-        self._latest.publish(value)
 
     def fail(self, exc: BaseException) -> None:
         self._latest.fail(exc)

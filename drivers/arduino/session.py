@@ -282,9 +282,9 @@ class Session:
                           timeouts=timeouts, fast=fast)
         finally:
             self.inflight = None
-            # Cancelled with the connection: nobody can tell whether it ran.
-            command.settle(Outcome.LINK_DOWN, seq=seq, resends=timeouts + fast,
-                           detail="link went down in flight")
+            if command.future is not None:  # cancelled with the connection: did it run?
+                command.settle(Outcome.LINK_DOWN, seq=seq, resends=timeouts + fast,
+                               detail="link went down in flight")
 
     def _worth_fast_resend(self, event: Event, fast: int, since_last_s: float,
                            since_first_s: float, frame_bytes: int) -> bool:
@@ -348,9 +348,10 @@ class Session:
         rtt_s = elapsed_s if resends == 0 else None
         if rtt_s is not None:
             self.counters.rtt_s.append(rtt_s)
-        detail = f"{reply.firmware},{reply.protocol}" if isinstance(reply, Hello) else ""
-        inflight.command.settle(Outcome.ACKED, seq=inflight.seq, resends=resends,
-                                rtt_s=rtt_s, detail=detail)
+        if inflight.command.future is not None:  # wheel commands and heartbeats: nobody waits
+            detail = f"{reply.firmware},{reply.protocol}" if isinstance(reply, Hello) else ""
+            inflight.command.settle(Outcome.ACKED, seq=inflight.seq, resends=resends,
+                                    rtt_s=rtt_s, detail=detail)
 
     def _lost(self, inflight: InFlight, resends: int) -> None:
         self.counters.lost += 1

@@ -36,6 +36,8 @@ from hal.timer_chain import timer_chain
 
 log = structlog.get_logger(__name__)
 
+_TELEMETRY_HEADS = {name: (b"%s:" % name.encode(), crc8_fast(b"%s:" % name.encode()))
+                    for name in ("ENCODER", "IR", "BAT")}
 # Distinct command payloads whose parse is remembered (a drive sends a few dozen, over and over).
 _PAYLOADS_KEPT = 1024
 
@@ -361,29 +363,39 @@ class FakeMcu:
     async def _telemetry(self) -> None:
         # Each telemetry moment is a timer callback that sets the next one (hal.timer_chain).
         loop = asyncio.get_running_loop()
-        due = {name: loop.time() + period for name, period in self.periods_s.items()}
+        periods = self.periods_s
+        due = {name: loop.time() + period for name, period in periods.items()}
         next_s = min(due.values())
 
         def send() -> float:
             nonlocal next_s
-            names = [n for n, t in due.items() if t <= next_s + 1e-9]
-            for name in names:
-                due[name] += self.periods_s[name]
+            lines = []
+            for name, due_s in due.items():
+                if due_s <= next_s + 1e-9:
+                    due[name] = due_s + periods[name]
+                    lines.append(name)
             if loop.time() >= self.uart.deaf_until_s:
-                self._send_lines([self._telemetry_body(n) for n in names],
-                                 crc=self.crc_framing)
+                crc = self.crc_framing
+                data = b"".join([self._telemetry_line(name, crc) for name in lines])
+                if self._streams is not None:
+                    self.uart.send(data)
             next_s = min(due.values())
             return max(0.0, next_s - loop.time())
 
         await timer_chain(send, max(0.0, next_s - loop.time()))
 
-    def _telemetry_body(self, name: str) -> bytes:
+    def _telemetry_line(self, name: str, crc: bool) -> bytes:
+        """One telemetry line, framed; its CRC joined from the name's and the fields'."""
         if name == "ENCODER":
             left, right = self.plant.encoder_ticks()
-            text = f"ENCODER:{left - self._tick_offset[0]},{right - self._tick_offset[1]}"
+            fields = b"%d,%d" % (left - self._tick_offset[0], right - self._tick_offset[1])
         elif name == "IR":
-            text = f"IR:{round(self.plant.front_range_cm())}"
+            fields = b"%d" % round(self.plant.front_range_cm())
         else:
             voltage_v, percent, on_dock = self.plant.battery()
-            text = f"BAT:{round(voltage_v * 1000)},{round(percent)},{int(on_dock)}"
-        return text.encode("ascii")
+            fields = b"%d,%d,%d" % (round(voltage_v * 1000), round(percent), on_dock)
+        head, head_crc = _TELEMETRY_HEADS[name]
+        if not crc:
+            return b"%s%s\n" % (head, fields)
+        return b"%s%s*%02X\n" % (head, fields,
+                                   crc8_join(head_crc, crc8_fast(fields), len(fields)))

@@ -78,12 +78,11 @@ def parse_payload(payload: str) -> tuple[str, tuple[int, ...]]:
 
 def read_seq(line: bytes) -> int | None:
     """``#SEQ `` at the start: 1-3 digits, 0-255, then one space; None when unreadable."""
-    if len(line) < 2 or line[0:1] != b"#":
+    space = line.find(b" ", 2, 5)
+    if space < 0 or line[:1] != b"#":
         return None
-    i = 1
-    while i < len(line) and i <= 3 and 0x30 <= line[i] <= 0x39:
-        i += 1
-    if i == 1 or i >= len(line) or line[i:i + 1] != b" ":
+    digits = line[1:space]
+    if not digits.isdigit():
         return None
-    seq = int(line[1:i])
+    seq = int(digits)
     return seq if seq <= 255 else None

@@ -78,11 +78,28 @@ class LoadCheck:
 
         def tuned(dotted: str, value: Any) -> None:
             key = dotted.rpartition(".")[2]
-            if key in keys:
+            if key in ("min_kg", "max_kg"):
+                # Both from the settings: once the pair is in order again, all of it applies.
+                check.set_thresholds(min_kg=float(settings.get("weight.min_kg")),
+                                     max_kg=float(settings.get("weight.max_kg")))
+            elif key in keys:
                 setattr(check, key, float(value))
 
         settings.watch("weight", tuned)
         return check
+
+    def set_thresholds(self, *, min_kg: float | None = None, max_kg: float | None = None
+                       ) -> bool:
+        """Change the thresholds; a pair out of order is not applied (logged) and the
+        previous pair stays, so a half-done retune cannot turn every load into a verdict."""
+        new_min = self.min_kg if min_kg is None else min_kg
+        new_max = self.max_kg if max_kg is None else max_kg
+        if not new_min < new_max:
+            log.error("load.thresholds_invalid", min_kg=new_min, max_kg=new_max,
+                      kept_min_kg=self.min_kg, kept_max_kg=self.max_kg)
+            return False
+        self.min_kg, self.max_kg = new_min, new_max
+        return True
 
     def on_overweight(self, callback: Callable[[float], None]) -> None:
         """Call ``callback(kg)`` when a steady load reaches ``max_kg`` (once per episode)."""

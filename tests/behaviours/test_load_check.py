@@ -98,3 +98,20 @@ class TestLoadCheckClosedLoop:
             await hx.close()
 
         vclock.run(main())
+
+
+class TestLoadCheckFaults:
+    def test_thresholds_tuned_out_of_order_are_not_applied(self) -> None:
+        """weight.min_kg tuned above weight.max_kg keeps the previous pair (4.2 kg stays
+        loaded, not overweight); once max_kg is raised past it, the settings' pair applies."""
+        settings = Settings(defaults())
+        check = LoadCheck.from_settings(None, settings)
+        _feed(check, [4.2] * 12)
+        settings.set("weight.min_kg", 12.0)
+        assert (check.min_kg, check.max_kg) == (0.5, 10.0)
+        assert check.check_load() is LoadVerdict.LOADED
+        settings.set("weight.max_kg", 0.1)
+        assert check.check_load() is LoadVerdict.LOADED
+        settings.set("weight.max_kg", 20.0)
+        assert (check.min_kg, check.max_kg) == (12.0, 20.0)
+        assert check.check_load() is LoadVerdict.WAIT_LOAD

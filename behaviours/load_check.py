@@ -17,7 +17,7 @@ from typing import Any, Protocol
 
 import structlog
 
-from hal.devices import LoadCell
+from hal.devices import DeviceUnavailable, LoadCell
 from hal.readings import WeightReading
 
 log = structlog.get_logger(__name__)
@@ -52,11 +52,13 @@ class LoadCheck:
         min_kg, max_kg: the ``weight`` section's thresholds (tunable, set the attributes).
         stable_s, stable_kg: the steadiness requirement.
         min_readings: fewest readings in the window that can count as steady.
+        stale_s: ``run()`` forgets the weight when the load cell gives nothing for this long
+            (its reader stopped getting good codes), so no verdict rests on old readings.
     """
 
     def __init__(self, load_cell: LoadCell | None = None, *, min_kg: float = 0.5,
                  max_kg: float = 10.0, stable_s: float = 1.0, stable_kg: float = 0.05,
-                 min_readings: int = 3) -> None:
+                 min_readings: int = 3, stale_s: float = 3.0) -> None:
         if not min_kg < max_kg:
             msg = f"weight.min_kg ({min_kg}) must be below weight.max_kg ({max_kg})"
             raise ValueError(msg)
@@ -66,6 +68,8 @@ class LoadCheck:
         self.stable_s = stable_s
         self.stable_kg = stable_kg
         self.min_readings = min_readings
+        self.stale_s = stale_s
+        self.stale = False
         self._window: deque[WeightReading] = deque()
         self._overweight = False
         self._alert_listeners: list[Callable[[float], None]] = []
@@ -170,10 +174,28 @@ class LoadCheck:
         if self.load_cell is None:
             return
         while True:
-            self.add(await self.load_cell.next_reading())
+            try:
+                reading = await asyncio.wait_for(self.load_cell.next_reading(), self.stale_s)
+            except (TimeoutError, DeviceUnavailable) as exc:
+                self._forget(exc)
+                if isinstance(exc, DeviceUnavailable):
+                    await asyncio.sleep(self.stale_s)
+                continue
+            if self.stale:
+                self.stale = False
+                log.info("load.readings_back")
+            self.add(reading)
             await asyncio.sleep(0)
+
+    def _forget(self, exc: BaseException) -> None:
+        if not self.stale:
+            log.warning("load.no_readings", silent_s=self.stale_s,
+                        error=str(exc) or type(exc).__name__)
+        self.stale = True
+        self._window.clear()
 
     def status(self) -> dict[str, Any]:
         w = self.weight()
         return {"kg": None if w.kg is None else round(w.kg, 3), "stable": w.stable,
+                "stale": self.stale,
                 "load": self.check_load().value, "unload": self.check_unload().value}

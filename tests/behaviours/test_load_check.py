@@ -115,3 +115,28 @@ class TestLoadCheckFaults:
         settings.set("weight.max_kg", 20.0)
         assert (check.min_kg, check.max_kg) == (12.0, 20.0)
         assert check.check_load() is LoadVerdict.WAIT_LOAD
+
+    def test_a_load_cell_that_stops_answering_leaves_no_verdict(self) -> None:
+        """When the HX711 stops delivering (DOUT stuck high) the weight becomes unknown
+        after stale_s instead of the last loaded verdict standing; it comes back with it."""
+        async def main() -> None:
+            load = {"kg": 4.2}
+            lines = SimHx711Lines(weight_kg=lambda: load["kg"], sps=10, rng=random.Random(4))
+            hx = Hx711(lambda: lines, tare_offset=-48_213, calibration_factor=103_500.0)
+            check = LoadCheck(hx, min_kg=0.5, max_kg=10.0, stale_s=2.0)
+            await hx.start()
+            runner = asyncio.create_task(check.run())
+            await asyncio.sleep(3)
+            assert check.check_load() is LoadVerdict.LOADED
+            lines.disconnect()
+            await asyncio.sleep(3)
+            assert check.weight().kg is None and check.status()["stale"] is True
+            assert check.check_load() is LoadVerdict.UNSTABLE
+            assert check.check_unload() is LoadVerdict.UNSTABLE
+            lines.connect()
+            verdict = await asyncio.wait_for(check.wait_for(LoadVerdict.LOADED), 10)
+            assert verdict is LoadVerdict.LOADED and check.stale is False
+            runner.cancel()
+            await hx.close()
+
+        vclock.run(main())

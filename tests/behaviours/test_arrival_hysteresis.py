@@ -38,7 +38,7 @@ class TestArrival:
     def test_in_target_at_threshold_and_out_below_the_exit_margin(self) -> None:
         """Enter at RSSI >= threshold; stay down to threshold - exit margin; leave below."""
         tracker = _tracker()
-        arrival = Arrival(tracker, enter_margin_db=0.0, exit_margin_db=3.0)
+        arrival = Arrival(tracker, enter_margin_db=0.0, exit_margin_db=3.0, exit_hold_s=0.0)
         steps = [(-66, False), (-65, True), (-67, True), (-68, True), (-69, False),
                  (-66, False), (-65, True)]
         for t, (rssi, expected) in enumerate(steps):
@@ -165,3 +165,43 @@ class TestArrivalFromSettings:
         settings.set("ble.default_rssi_threshold_dbm", -72)
         assert arrival.exit_margin_db == 5.0 and tracker.path_loss_exponent == 2.5
         assert arrival.default_threshold_dbm == -72.0
+
+
+class TestArrivalParkedNearTheThreshold:
+    def test_a_robot_parked_where_rssi_sits_between_the_levels_does_not_flap(self) -> None:
+        """Parked 2.4 m from a -59 dBm beacon (mean -66.6 dBm, between the enter level -65
+        and the exit level -68) for 10 minutes of 4 dB sim noise: with the 2 s exit hold
+        IsInTarget changes a handful of times at most (without it: about 65 times)."""
+        async def main(exit_hold_s: float) -> int:
+            world = World.from_table({"width_m": 10, "height_m": 4, "beacons": [
+                {"mac": TARGET, "uuid": UUID, "major": 1, "minor": 103, "x_m": 1.0,
+                 "y_m": 2.0, "tx_power_dbm": -59}]})
+            air = SimBleAir(DiffDriveBody(world, Pose(3.4, 2.0, 0.0)), rng=random.Random(1))
+            scanner = BleBeaconScanner([UUID], scanner_factory=air.scanner_factory())
+            tracker = BeaconTracker(scanner, smoothing_s=1.0)
+            tracker.apply_config([BeaconConfig(TARGET, rssi_threshold_dbm=-65.0,
+                                               is_navigation_target=True)])
+            arrival = Arrival(tracker, exit_hold_s=exit_hold_s)
+            async with air.running():
+                await scanner.start()
+                for _ in range(6000):
+                    await asyncio.sleep(0.1)
+                    arrival.update()
+                await scanner.close()
+            return arrival.changes
+
+        assert vclock.run(main(0.0)) > 30
+        assert vclock.run(main(2.0)) <= 6
+
+    def test_exit_needs_the_rssi_below_the_exit_level_for_the_hold(self) -> None:
+        """Below the exit level for less than exit_hold_s of sightings keeps the arrival;
+        staying there that long ends it; a lost beacon ends it at once."""
+        tracker = _tracker()
+        arrival = Arrival(tracker, exit_hold_s=2.0)
+        for t, rssi, expected in [(0.0, -60, True), (1.0, -70, True), (2.0, -66, True),
+                                  (3.0, -70, True), (4.5, -70, True), (5.0, -70, False),
+                                  (6.0, -60, True)]:
+            _see(tracker, rssi, t)
+            assert arrival.update() is expected, (t, rssi)
+        tracker.prune(30.0)
+        assert arrival.update() is False

@@ -19,7 +19,8 @@ import structlog
 from drivers.arduino.config import LinkConfig
 from drivers.arduino.framing import Framing, Telemetry, check_payload
 from drivers.arduino.outbox import Command, Delivery, Outbox, Outcome
-from drivers.arduino.session import LinkBroken, Session
+from drivers.arduino.receiver import LinkBroken
+from drivers.arduino.session import Session
 from drivers.arduino.stats import LinkCounters
 from drivers.arduino.telemetry import Boot, TelemetryError, interpret
 from hal.devices import DeviceUnavailable, LinkDown

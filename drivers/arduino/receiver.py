@@ -27,6 +27,10 @@ PARSED_LINES_KEPT = 1024
 READ_CHUNK_BYTES = 512
 
 
+class LinkBroken(Exception):
+    """The connection failed (EOF, I/O error, silence); the link reconnects."""
+
+
 class LineReceiver(asyncio.Protocol):
     """Splits received bytes into lines of at most 64 bytes and hands each on parsed.
 
@@ -34,13 +38,13 @@ class LineReceiver(asyncio.Protocol):
         framing: how lines are parsed.
         counters: counts overlong lines.
         on_line: gets each line, in order.
-        on_lost: gets why the connection ended (None: end of file), once; also what
+        on_lost: gets why the connection ended (LinkBroken at end of file), once; also what
             ``on_line`` raised, after which further bytes are ignored.
     """
 
     def __init__(self, framing: Framing, counters: LinkCounters,
                  on_line: Callable[[Line], None],
-                 on_lost: Callable[[BaseException | None], None]) -> None:
+                 on_lost: Callable[[BaseException], None]) -> None:
         self._framing = framing
         self._counters = counters
         self._on_line = on_line
@@ -154,4 +158,4 @@ class LineReceiver(asyncio.Protocol):
     def _end(self, exc: BaseException | None) -> None:
         if not self._ended:
             self._ended = True
-            self._on_lost(exc)
+            self._on_lost(exc or LinkBroken("port closed (end of file)"))

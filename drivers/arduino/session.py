@@ -14,8 +14,7 @@ import asyncio
 import collections
 import contextlib
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Any, TypeVar
+from typing import Any, NamedTuple, TypeVar
 
 import structlog
 
@@ -33,11 +32,11 @@ from drivers.arduino.framing import (
     encode_command,
     well_formed,
 )
+from drivers.arduino.keepalive import CLOCK_SLACK_S, send_heartbeats, watch_silence
 from drivers.arduino.outbox import Command, Kind, Outbox, Outcome
-from drivers.arduino.receiver import LineReceiver
+from drivers.arduino.receiver import LineReceiver, LinkBroken
 from drivers.arduino.stats import LinkCounters
 from hal.ports import StreamPair
-from hal.timer_chain import timer_chain
 
 log = structlog.get_logger(__name__)
 
@@ -46,8 +45,6 @@ T = TypeVar("T")
 # Fast resends per command are also bounded by count, so a line that garbles everything
 # cannot make the sender spin when the wire takes no time (the in-memory pipe).
 MAX_FAST_RESENDS = 32
-# The loop runs timers up to its clock resolution early; closer than this counts as due.
-CLOCK_SLACK_S = 1e-6
 # A well-formed command the MCU refuses (NAK:PARSE/RANGE) is sent again this often at most.
 MAX_REFUSAL_RESENDS = 2
 # Slack for USB serial adapters that hold bytes back before passing them on (FTDI: 16 ms).
@@ -56,31 +53,25 @@ USB_LATENCY_S = 0.02
 REPLY_BYTES = 18
 
 
-class LinkBroken(Exception):
-    """The connection failed (EOF, I/O error, silence); the link reconnects."""
-
-
 class Preempted:
     """Mailbox marker: STOP wants the line now."""
 
 
-class Evidence:
+class Evidence(NamedTuple):
     """Mailbox marker: our frame may be lost (garbled line, NAK:CRC, reboot, later telemetry).
 
     ``definite``: resend at once. ``intact``: an intact telemetry line, which tells only once
     the reply is overdue, since the MCU answers a frame before it sends further telemetry.
     """
 
-    def __init__(self, *, definite: bool = False, intact: bool = False) -> None:
-        self.definite = definite
-        self.intact = intact
+    definite: bool = False
+    intact: bool = False
 
 
 Event = Ack | Hello | Nak | Preempted | Evidence
 
 
-@dataclass
-class InFlight:
+class InFlight(NamedTuple):
     command: Command
     seq: int | None
     frame: bytes
@@ -123,8 +114,8 @@ class Session:
     def start_keepalive(self) -> None:
         """Heartbeat and silence watchdog; only crc firmware answers HB."""
         if self.framing is Framing.CRC:
-            self._spawn(self._heartbeat_loop())
-            self._spawn(self._watchdog_loop())
+            self._spawn(send_heartbeats(self))
+            self._spawn(watch_silence(self))
 
     def _spawn(self, coro: object) -> None:
         task: asyncio.Task[None] = self._loop.create_task(coro)  # type: ignore[arg-type]
@@ -137,10 +128,10 @@ class Session:
         exc = task.exception() or LinkBroken("a link task ended")
         self.broken.set_result(exc)
 
-    def _connection_ended(self, exc: BaseException | None) -> None:
-        """The port's connection ended (None: end of file) or a received line failed."""
+    def _connection_ended(self, exc: BaseException) -> None:
+        """The port's connection ended, or a received line failed."""
         if not self.broken.done():
-            self.broken.set_result(exc or LinkBroken("port closed (end of file)"))
+            self.broken.set_result(exc)
 
     async def wait_broken(self) -> BaseException:
         return await asyncio.shield(self.broken)
@@ -359,35 +350,6 @@ class Session:
                                 detail="no acknowledgement")
         log.warning("link.lost", seq=inflight.seq, payload=inflight.command.payload,
                     resends=resends)
-
-    # -- keeping the link alive --------------------------------------------------------------
-    async def _heartbeat_loop(self) -> None:
-        # MOTOR traffic pushes the heartbeat back several times a second: each look at the
-        # clock is a timer callback (hal.timer_chain), not a task waking from sleep.
-        period = self.config.heartbeat_s
-
-        def check() -> float:
-            due = self.last_drive_tx_s + period
-            now = self._loop.time()
-            if now < due - CLOCK_SLACK_S:
-                return due - now
-            busy = self.inflight is not None and self.inflight.command.kind in (
-                Kind.MOTOR, Kind.HEARTBEAT)
-            if not busy and not self.outbox.has(Kind.MOTOR) and not self.outbox.has(
-                    Kind.HEARTBEAT):
-                self.outbox.put(Command("HB", None))
-            return period
-
-        await timer_chain(check)
-
-    async def _watchdog_loop(self) -> None:
-        limit = self.config.silence_s
-        while True:
-            silent_s = self._loop.time() - self.last_rx_s
-            if silent_s >= limit - CLOCK_SLACK_S:
-                msg = f"no intact line from the MCU for {silent_s:.2f} s"
-                raise LinkBroken(msg)
-            await asyncio.sleep(limit - silent_s)
 
 
 def _wake(waiter: asyncio.Future[None]) -> None:

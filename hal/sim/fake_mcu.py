@@ -203,8 +203,8 @@ class FakeMcu:
         loop = asyncio.get_running_loop()
         self.uart.deaf_until_s = loop.time() + self.boot_s
         if self.announce_boot:
-            loop.call_at(self.uart.deaf_until_s, self._send_line,
-                         f"BOOT:{self.firmware},{self.protocol}".encode(), True)
+            loop.call_at(self.uart.deaf_until_s, self._send_lines,
+                         [f"BOOT:{self.firmware},{self.protocol}".encode()], True)
 
     # -- receiving ---------------------------------------------------------------------------
     async def _serve(self, reader: asyncio.StreamReader) -> None:
@@ -347,10 +347,7 @@ class FakeMcu:
             frame = self._frames[(seq, text)] = b"%s*%02X\n" % (body, crc8_fast(body))
         self.uart.send(frame)
 
-    def _send_line(self, body: bytes, crc: bool) -> None:
-        self._send_lines([body], crc=crc)
-
-    def _send_lines(self, bodies: list[bytes], *, crc: bool) -> None:
+    def _send_lines(self, bodies: list[bytes], crc: bool) -> None:
         """Frame lines and send them in one write (as a UART's buffer drains them)."""
         if self._streams is None:
             return

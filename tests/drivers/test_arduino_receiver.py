@@ -5,7 +5,7 @@ from __future__ import annotations
 import asyncio
 
 from drivers.arduino.framing import Ack, Framing, Garbled, Line, Telemetry, frame_body
-from drivers.arduino.receiver import LineReceiver
+from drivers.arduino.receiver import LineReceiver, LinkBroken
 from drivers.arduino.stats import LinkCounters
 from hal.sim.byte_pipe import BytePipe
 from robotd import vclock
@@ -16,7 +16,7 @@ class Catch:
 
     def __init__(self) -> None:
         self.lines: list[Line] = []
-        self.ended: list[BaseException | None] = []
+        self.ended: list[BaseException] = []
         self.counters = LinkCounters()
         self.receiver = LineReceiver(Framing.CRC, self.counters, self.lines.append,
                                      self.ended.append)
@@ -92,7 +92,7 @@ class TestOnTheTransport:
 
         async def main() -> None:
             pipe = BytePipe()
-            ended: list[BaseException | None] = []
+            ended: list[BaseException] = []
             seen: list[Line] = []
 
             def on_line(line: Line) -> None:
@@ -114,7 +114,7 @@ class TestPumped:
     def test_a_reader_with_bytes_already_buffered_is_pumped_with_the_same_result(
             self) -> None:
         """Bytes a reader holds are not lost: attach refuses and pump() reads them, then
-        the rest, and reports end of file as None."""
+        the rest, and reports end of file as LinkBroken."""
 
         async def main() -> None:
             pipe = BytePipe()
@@ -128,6 +128,6 @@ class TestPumped:
             pipe.close()
             await pump
             assert catch.lines == [Ack(1), Ack(2)]
-            assert catch.ended == [None]
+            assert len(catch.ended) == 1 and isinstance(catch.ended[0], LinkBroken)
 
         vclock.run(main())

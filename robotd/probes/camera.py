@@ -81,8 +81,10 @@ async def run(args: argparse.Namespace) -> int:
         print(f"probe camera: {exc}", file=sys.stderr)
         return 1
     last: Frame | None = report.pop("last")
+    ended = report.pop("ended", None)
     if last is None or report["frames"] == 0:
-        print(f"probe camera: no frames within {args.timeout_s:g} s", file=sys.stderr)
+        why = ended or f"no frames within {args.timeout_s:g} s"
+        print(f"probe camera: {why}", file=sys.stderr)
         return 1
     reading = tracker.track(last.image)
     report["line"] = {"colour": reading.colour, "lost": reading.lost,
@@ -106,18 +108,23 @@ async def _measure(camera: CaptureCamera, args: argparse.Namespace) -> dict[str,
     got = 0
     last = camera.latest()
     t0 = loop.time()
+    ended: str | None = None
     try:
         async with asyncio.timeout(args.timeout_s):
             while got < args.frames:
                 last = await camera.next_reading()
                 got += 1
-    except (TimeoutError, DeviceUnavailable):
+    except TimeoutError:
         pass
+    except DeviceUnavailable as exc:  # a recording that ended, a camera that went away
+        ended = str(exc)
     finally:
         elapsed_s = loop.time() - t0
         await camera.close()
-    return _figures(camera.source, camera.width_px, camera.height_px, got, elapsed_s, last,
-                    camera.status())
+    figures = _figures(camera.source, camera.width_px, camera.height_px, got, elapsed_s, last,
+                       camera.status())
+    figures["ended"] = ended
+    return figures
 
 
 async def _measure_sim(args: argparse.Namespace, camera_cfg: dict[str, Any]) -> dict[str, Any]:

@@ -64,6 +64,17 @@ class TestCameraProbe:
         assert line["lost"] and line["colour"] == "red"
         assert (tmp_path / "last.png").exists()
 
+    def test_a_recording_that_ends_at_once_says_so(
+            self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        """A one-image "recording" ends after its first frame: exit 1 saying it ended (not
+        "no frames within 5 s", which sent technicians looking for a stalled camera)."""
+        path = tmp_path / "still.png"
+        cv2.imwrite(str(path), np.full((240, 320, 3), 200, np.uint8))
+        code = vclock.run(probe.run(_args(["--source", "file", "--file", str(path)])))
+        assert code == 1
+        err = capsys.readouterr().err
+        assert "end of recording after 1 frames" in err and "within" not in err
+
     def test_a_missing_camera_exits_1_with_one_line(self, capsys: pytest.CaptureFixture[str]
                                                     ) -> None:
         """No such V4L2 device: exit 1, the reason on stderr."""

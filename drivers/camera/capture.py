@@ -15,6 +15,7 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import cv2
+import numpy as np
 import numpy.typing as npt
 import structlog
 
@@ -28,6 +29,7 @@ Image = npt.NDArray[Any]  # uint8 BGR (cv2 returns loosely typed arrays)
 
 _MAX_FAILED_READS = 30  # in a row, before the camera counts as gone and is reopened
 _REOPEN_MAX_S = 10.0
+MIN_FRAME_PX = 16  # the smallest camera.width/height; the tracker needs 8 columns, 2 rows
 
 
 class CaptureCamera:
@@ -51,6 +53,8 @@ class CaptureCamera:
         self.failed_reads = 0
         self.reopens = 0
         self.resized = 0
+        self.bad_frames = 0
+        self.last_error: str | None = None
 
     def describe(self) -> str:
         return f"camera {self.name}"
@@ -63,10 +67,20 @@ class CaptureCamera:
         self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix=self.name)
         try:
             await self._call(self._open)
-            first = await self._call(self._grab)
+            grabbed = await self._call(self._grab)
+            first = None if grabbed is None else as_bgr(grabbed)
             if first is None:
-                msg = f"{self.describe()}: opened but delivers no frames"
+                what = "no frames" if grabbed is None else (
+                    f"unusable frames (shape {grabbed.shape}, dtype {grabbed.dtype})")
+                msg = f"{self.describe()}: opened but delivers {what}"
                 raise DeviceUnavailable(msg)
+        except DeviceUnavailable:
+            await self._shutdown()
+            raise
+        except Exception as exc:  # the capture library's own error (cv2.error, RuntimeError)
+            await self._shutdown()
+            msg = f"{self.describe()}: cannot read a frame ({type(exc).__name__}: {exc})"
+            raise DeviceUnavailable(msg) from exc
         except BaseException:
             await self._shutdown()
             raise
@@ -92,7 +106,8 @@ class CaptureCamera:
     def status(self) -> dict[str, Any]:
         return {"source": self.source, "width_px": self.width_px, "height_px": self.height_px,
                 "fps": self.fps, "frames": self._seq, "failed_reads": self.failed_reads,
-                "reopens": self.reopens, "running": self._task is not None}
+                "bad_frames": self.bad_frames, "reopens": self.reopens,
+                "last_error": self.last_error, "running": self._task is not None}
 
     # --- Camera -------------------------------------------------------------------------------
     def latest(self) -> Frame | None:
@@ -129,12 +144,31 @@ class CaptureCamera:
         self._seq += 1
         self._frames.publish(Frame(image, self._seq, asyncio.get_running_loop().time()))
 
+    async def _grab_checked(self) -> Image | None:
+        """The next frame, or None when the read failed or the frame cannot be used; a
+        capture library's exception counts as a failed read instead of ending the task."""
+        try:
+            image: Image | None = await self._call(self._grab)
+        except Exception as exc:  # cv2.error, picamera2's RuntimeError, OSError
+            self.last_error = f"{type(exc).__name__}: {exc}"
+            log.warning("camera.read_error", camera=self.name, error=self.last_error)
+            return None
+        if image is None:
+            return None
+        frame = as_bgr(image)
+        if frame is None:
+            self.bad_frames += 1
+            self.last_error = f"unusable frame: shape {image.shape}, dtype {image.dtype}"
+            log.warning("camera.bad_frame", camera=self.name, shape=list(image.shape),
+                        dtype=str(image.dtype))
+        return frame
+
     async def _run(self) -> None:
         misses = 0
         backoff_s = 0.5
         while True:
             await self._pace()
-            image = await self._call(self._grab)
+            image = await self._grab_checked()
             if image is not None:
                 misses = 0
                 backoff_s = 0.5
@@ -169,6 +203,24 @@ class CaptureCamera:
         with contextlib.suppress(Exception):
             await asyncio.get_running_loop().run_in_executor(executor, self._close)
         executor.shutdown(wait=False)
+
+
+
+def as_bgr(image: Image) -> Image | None:
+    """The frame as 8-bit BGR (h, w, 3), what the line tracker reads; grey and BGRA frames
+    are converted. None for what cannot be a frame: empty, tiny, not 8-bit, odd channels."""
+    shape: tuple[int, ...] = tuple(getattr(image, "shape", ()))
+    if (len(shape) not in (2, 3) or getattr(image, "dtype", None) != np.uint8
+            or shape[0] < MIN_FRAME_PX or shape[1] < MIN_FRAME_PX):
+        return None
+    channels = 1 if len(shape) == 2 else shape[2]
+    if channels == 3:
+        return image
+    if channels == 1:
+        return cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
+    if channels == 4:
+        return cv2.cvtColor(image, cv2.COLOR_BGRA2BGR)
+    return None
 
 
 class OpenCvCapture(CaptureCamera):

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from behaviours.line_tracker import LineTracker
-from drivers.camera import PiCamera, UvcCamera, VideoFileCamera, open_camera, probe
+from drivers.camera import CaptureCamera, PiCamera, UvcCamera, VideoFileCamera, open_camera, probe
 from hal.devices import Camera, DeviceUnavailable
 from hal.sim.body import DiffDriveBody
 from hal.sim.camera_model import SimCamera
@@ -177,3 +177,80 @@ class TestUnavailableCameras:
         assert camera.loop
         with pytest.raises(DeviceUnavailable, match=r"camera\.file"):
             open_camera({"source": "file", "file": ""})
+
+
+class ScriptedSource(CaptureCamera):
+    """A capture source on the documented subclass hooks that plays back what a capture
+    library returned (arrays, None, or an exception to raise), then keeps giving frames."""
+
+    source = "scripted"
+
+    def __init__(self, grabs: list[Any]) -> None:
+        super().__init__("scripted", 64, 48, 30.0)
+        self.grabs = grabs
+        self.opens = 0
+
+    def _open(self) -> None:
+        self.opens += 1
+
+    def _grab(self) -> Any:
+        item = self.grabs.pop(0) if self.grabs else np.full((48, 64, 3), 99, np.uint8)
+        if isinstance(item, Exception):
+            raise item
+        return item
+
+    def _close(self) -> None:
+        pass
+
+    async def _pace(self) -> None:
+        await asyncio.sleep(0.01)
+
+
+class TestOddFrames:
+    def test_grey_and_bgra_frames_become_bgr(self) -> None:
+        """Grey (h, w) and BGRA frames reach readers as (h, w, 3) BGR, which the tracker
+        reads; nothing else is published."""
+        grey = np.full((48, 64), 50, np.uint8)
+        bgra = np.full((48, 64, 4), 60, np.uint8)
+
+        async def main() -> list[tuple[int, ...]]:
+            camera = ScriptedSource([np.full((48, 64, 3), 40, np.uint8), grey, bgra])
+            await camera.start()
+            shapes = [tuple((await camera.next_reading()).image.shape) for _ in range(2)]
+            await camera.close()
+            return shapes
+
+        assert vclock.run(main()) == [(48, 64, 3), (48, 64, 3)]
+
+    def test_unusable_frames_and_library_errors_are_counted_not_fatal(self) -> None:
+        """Empty, tiny, float or 2-channel frames and an exception from the capture library
+        count as failed reads (named in status) and capture goes on."""
+        bad: list[Any] = [np.zeros((0, 0, 3), np.uint8), np.zeros((4, 4, 3), np.uint8),
+                          np.zeros((48, 64, 3), np.float32), np.zeros((48, 64, 2), np.uint8),
+                          RuntimeError("Camera frontend has timed out!")]
+
+        async def main() -> dict[str, Any]:
+            camera = ScriptedSource([np.full((48, 64, 3), 40, np.uint8), *bad])
+            await camera.start()
+            frame = await asyncio.wait_for(camera.next_reading(), 1.0)
+            status = camera.status()
+            await camera.close()
+            assert frame.image.shape == (48, 64, 3)
+            return status
+
+        status = vclock.run(main())
+        assert status["bad_frames"] == 4 and status["failed_reads"] == 5
+        assert "timed out" in status["last_error"]
+
+    def test_a_first_frame_that_cannot_be_used_is_unavailable(self, tmp_path: Path) -> None:
+        """A recording of 8x8 frames (or a library error on the first read) fails start()
+        with DeviceUnavailable naming the problem, not a crash later in the tracker."""
+        path = tmp_path / "tiny.avi"
+        writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10, (8, 8))
+        for _ in range(3):
+            writer.write(np.full((8, 8, 3), 200, np.uint8))
+        writer.release()
+        with pytest.raises(DeviceUnavailable, match=r"unusable frames \(shape \(8, 8, 3\)"):
+            vclock.run(VideoFileCamera(path).start())
+        with pytest.raises(DeviceUnavailable, match=r"cannot read a frame.*USB"):
+            vclock.run(ScriptedSource([OSError("USB gone")]).start())

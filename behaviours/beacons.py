@@ -61,7 +61,8 @@ class BeaconConfig:
             raise ValueError(msg)
         threshold = entry.get("RssiThreshold")
         if threshold is not None and (isinstance(threshold, bool)
-                                      or not isinstance(threshold, int | float)):
+                                      or not isinstance(threshold, int | float)
+                                      or not math.isfinite(threshold)):
             msg = f"{where}.RssiThreshold: expected a number in dBm, got {threshold!r}"
             raise ValueError(msg)
         target = entry.get("IsNavigationTarget", False)

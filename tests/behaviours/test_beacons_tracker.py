@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import json
 import math
 import random
 import statistics
@@ -85,6 +86,17 @@ class TestBeaconTracker:
         base = tracker.get("C3:00:00:00:00:01")
         assert base is not None and base.config is not None
         assert base.config.name == "Base" and not base.is_navigation_target
+
+    def test_a_threshold_that_is_not_finite_is_refused(self) -> None:
+        """RssiThreshold NaN (Python's json reads the NaN literal) or Infinity is a bad entry:
+        a NaN threshold would make arrival impossible without any message."""
+        tracker = BeaconTracker(clock=lambda: 0.0)
+        problems = tracker.apply_active_beacons(json.loads(
+            '[{"MacAddress": "C3:00:00:00:01:03", "RssiThreshold": NaN},'
+            ' {"MacAddress": "C3:00:00:00:01:04", "RssiThreshold": -Infinity}]'))
+        assert [p.split(":")[0] for p in problems] == [
+            "ActiveBeacons[0].RssiThreshold", "ActiveBeacons[1].RssiThreshold"]
+        assert tracker.configs() == []
 
     def test_detected_beacons_is_the_data_exchange_list(self) -> None:
         """DetectedBeacons entries carry the contract's PascalCase fields, strongest first."""

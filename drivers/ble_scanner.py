@@ -289,7 +289,12 @@ class BleBeaconScanner:
                 continue
             if self._scanner is not None:
                 log.warning("ble.stalled", silent_s=round(silent_s, 1))
-            await self._restart()
+            try:
+                await self._restart()
+            except Exception as exc:  # not one bleak documents: the watchdog must live on
+                self.counts["scan_errors"] += 1
+                self.last_error = describe_error(exc)
+                log.exception("ble.restart_crashed", error=self.last_error)
 
     async def _restart(self) -> None:
         """Stop, wait the backoff, start again; the backoff grows until adverts flow again."""

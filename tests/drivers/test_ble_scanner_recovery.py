@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import random
+from typing import Any
 
 import pytest
 from bleak.exc import BleakDBusError
@@ -150,3 +151,37 @@ class TestScannerFromSettings:
 
 async def _uuids(driver: BleBeaconScanner) -> list[str]:
     return list(driver.status()["uuids"])
+
+
+class TestScannerWatchdogSurvives:
+    def test_an_unexpected_error_from_a_restart_does_not_end_the_watchdog(self) -> None:
+        """A restart failing with an exception bleak does not document (RuntimeError) is
+        counted and reported, and the next restart brings the scan back."""
+        async def main() -> None:
+            air = _air()
+            sim_factory = air.scanner_factory()
+            made = 0
+
+            def factory(callback: Any) -> Any:
+                nonlocal made
+                made += 1
+                if made == 2:
+                    raise RuntimeError("dbus connection in a bad state")
+                return sim_factory(callback)
+
+            driver = BleBeaconScanner([UUID], scanner_factory=factory, stall_timeout_s=2.0)
+            seen: list[BeaconSighting] = []
+            driver.on_sighting(seen.append)
+            async with air.running():
+                await driver.start()
+                await asyncio.sleep(1)
+                air.stall()
+                await asyncio.sleep(4)
+                assert driver.counts["scan_errors"] == 1
+                assert "RuntimeError: dbus connection" in str(driver.status()["last_error"])
+                before = len(seen)
+                await asyncio.sleep(5)
+                assert driver.status()["scanning"] is True and len(seen) > before
+                await driver.close()
+
+        vclock.run(main())

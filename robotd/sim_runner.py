@@ -241,7 +241,7 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
     for r in robots.values():
         console.line(f"{r.spec.name}: profile {r.settings.get('robot.profile')}, "
                      f"control socket {r.socket_path}")
-    recorder = PathRecorder({n: r.body for n, r in robots.items()},
+    recorder = PathRecorder({n: r.body for n, r in robots.items()}, sample_s=_WATCH_PERIOD_S,
                             state_of=lambda n: robots[n].record.state)
     def on_script_event(event: dict[str, Any]) -> None:
         robot = str(event.pop("robot", "") or next(iter(robots)))
@@ -259,8 +259,7 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
         loop.add_signal_handler(signal.SIGINT, interrupted.set)
         loop.add_signal_handler(signal.SIGTERM, interrupted.set)
 
-    tasks = [asyncio.create_task(recorder.run(), name="paths")]
-    tasks += [asyncio.create_task(r.rig.run(), name=f"rig.{n}") for n, r in robots.items()]
+    tasks = [asyncio.create_task(r.rig.run(), name=f"rig.{n}") for n, r in robots.items()]
     daemon_tasks = {n: asyncio.create_task(r.daemon.run(), name=f"daemon.{n}")
                     for n, r in robots.items()}
     tasks.append(asyncio.create_task(player.run(), name="script"))
@@ -297,8 +296,10 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
         return False
 
     def tick() -> float | None:
+        recorder.sample(loop.time())  # the paths are sampled at the watch's rate
         return None if watch() else _WATCH_PERIOD_S
 
+    recorder.sample(start)
     await timer_chain(tick, _WATCH_PERIOD_S)
     elapsed = loop.time() - start
 

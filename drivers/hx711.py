@@ -196,11 +196,15 @@ class Hx711:
             with contextlib.suppress(asyncio.CancelledError):
                 await task
         lines, self._lines = self._lines, None
-        if lines is not None:
+        if lines is None:
+            return
+        try:
             lines.set_sck(True)  # leave it powered down
-            close = getattr(lines, "close", None)
-            if callable(close):
-                close()
+        except Exception as exc:  # the GPIO chip is gone: nothing left to power down
+            log.warning("hx711.power_down_failed", error=f"{type(exc).__name__}: {exc}")
+        close = getattr(lines, "close", None)
+        if callable(close):
+            close()
 
     async def stop(self) -> None:
         await self.close()

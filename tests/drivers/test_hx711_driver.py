@@ -348,3 +348,15 @@ class TestHx711LineErrors:
             assert abs(kg - 2.0) < 0.02
 
         vclock.run(main())
+
+    def test_close_with_the_gpio_chip_gone_does_not_raise(self) -> None:
+        """Stopping the daemon after the GPIO chip vanished still closes the driver."""
+        async def main() -> bool:
+            _, lines, hx = _rig()
+            await hx.start()
+            await _settle(hx, 2)
+            lines.lose_gpio()
+            await hx.close()
+            return hx.status()["running"]
+
+        assert vclock.run(main()) is False

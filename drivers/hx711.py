@@ -148,6 +148,9 @@ class Hx711:
                  calibration_factor: float = 107374.0, average_window: int = 8,
                  median_window: int = 5, outlier_kg: float = 1.0,
                  timeout_s: float = 1.0) -> None:
+        if sps not in (10, 80):
+            msg = f"hx711.sps: the HX711's RATE pin selects 10 or 80 SPS, got {sps}"
+            raise ValueError(msg)
         if calibration_factor == 0 or not math.isfinite(calibration_factor):
             msg = ("hx711.calibration_factor must be a finite number other than 0, "
                    f"got {calibration_factor}")

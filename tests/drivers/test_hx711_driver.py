@@ -316,6 +316,13 @@ class TestHx711TareAndCalibrationFaults:
 
         vclock.run(main())
 
+    @pytest.mark.parametrize("sps", [0, 40, 81])
+    def test_a_rate_the_chip_cannot_run_at_is_refused(self, sps: int) -> None:
+        """hx711.sps other than 10 or 80 (the config allows 10..80) is refused up front:
+        the driver would pace its reads for a rate the chip never runs at."""
+        with pytest.raises(ValueError, match="10 or 80 SPS"):
+            Hx711(lambda: SimHx711Lines(weight_kg=lambda: 0.0), sps=sps)
+
     @pytest.mark.parametrize("factor", [0.0, float("nan"), float("inf")])
     def test_an_unusable_factor_is_refused(self, factor: float) -> None:
         """The constructor and set_calibration_factor refuse 0, NaN and infinity."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 import pytest
 
@@ -89,3 +90,11 @@ class TestHx711Probe:
         load or no readings exit 2 naming the option, before the technician is asked anything."""
         assert vclock.run(hx711.run(_args(hx711, ["--sim", *argv]))) == 2
         assert argv[0] in capsys.readouterr().err
+
+    def test_a_config_rate_the_chip_cannot_run_at_is_a_usage_error(
+            self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        """hx711.sps = 40 passes the config's 10..80 range but no HX711 runs at it: exit 2."""
+        config = tmp_path / "robotd.toml"
+        config.write_text("[hx711]\nsps = 40\n")
+        assert vclock.run(hx711.run(_args(hx711, ["--sim", "--config", str(config)]))) == 2
+        assert "10 or 80 SPS" in capsys.readouterr().err

@@ -92,7 +92,10 @@ def failures(scenario: Scenario, robots: dict[str, RobotRecord], elapsed_s: floa
     return reasons
 
 
-def summary_figures(robots: dict[str, RobotRecord]) -> dict[str, Any]:
+def summary_figures(robots: dict[str, RobotRecord], scenario: Scenario | None = None,
+                    events: list[dict[str, Any]] | None = None) -> dict[str, Any]:
+    """Each robot's figures; ``arrival_<room>_m``: how far from that room's beacon it was
+    when it first reported arriving there."""
     out: dict[str, Any] = {}
     for name, r in robots.items():
         pose = r.body.pose
@@ -104,8 +107,32 @@ def summary_figures(robots: dict[str, RobotRecord]) -> dict[str, Any]:
         }
         if r.mean_cross_track_m is not None:
             fig["mean_cross_track_cm"] = round(r.mean_cross_track_m * 100, 2)
+        if scenario is not None and events:
+            mine = [e for e in events if e.get("robot", name) == name] if len(robots) > 1 \
+                else events
+            fig.update(_arrival_figures(scenario, mine))
         out[name] = fig
     return out
+
+
+def _arrival_figures(scenario: Scenario, events: list[dict[str, Any]]) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for e in events:
+        room = e.get("room")
+        if e.get("kind") != "arrival" or f"arrival_{room}_m" in out or "x_m" not in e:
+            continue
+        off = _beacon_distance_m(scenario, str(room), e)
+        if off is not None:
+            out[f"arrival_{room}_m"] = round(off, 2)
+    return out
+
+
+def _beacon_distance_m(scenario: Scenario, room: str, event: dict[str, Any]) -> float | None:
+    """How far the event's position is from the nearest beacon of ``room`` (None: none)."""
+    beacons = [b for b in scenario.world.beacons if b.room == room]
+    if not beacons:
+        return None
+    return min(math.hypot(event["x_m"] - b.x_m, event["y_m"] - b.y_m) for b in beacons)
 
 
 def _arrival_failures(scenario: Scenario, events: list[dict[str, Any]]) -> list[str]:
@@ -113,18 +140,15 @@ def _arrival_failures(scenario: Scenario, events: list[dict[str, Any]]) -> list[
     reasons = []
     for want in scenario.success.extra.get("arrivals", []):
         room, within = str(want.get("room")), float(want.get("within_m", 0.5))
-        beacons = [b for b in scenario.world.beacons if b.room == room]
         arrivals = [e for e in events if e.get("kind") == "arrival" and e.get("room") == room]
-        if not beacons:
+        off = _beacon_distance_m(scenario, room, arrivals[0]) if arrivals else None
+        if not any(b.room == room for b in scenario.world.beacons):
             reasons.append(f"arrivals: no beacon in room {room} in the world")
-        elif not arrivals:
+        elif off is None:
             reasons.append(f"never arrived at room {room}")
-        else:
-            e = arrivals[0]
-            off = min(math.hypot(e["x_m"] - b.x_m, e["y_m"] - b.y_m) for b in beacons)
-            if off > within:
-                reasons.append(f"arrived at room {room} {off:.2f} m from its beacon, "
-                               f"more than {within:g} m")
+        elif off > within:
+            reasons.append(f"arrived at room {room} {off:.2f} m from its beacon, "
+                           f"more than {within:g} m")
     return reasons
 
 

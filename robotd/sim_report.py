@@ -123,7 +123,11 @@ def draw_trajectory(
         if kind not in _EVENT_MARKERS or "x_m" not in event or "y_m" not in event:
             continue
         marker, col = _EVENT_MARKERS[kind]
-        ax.plot(event["x_m"], event["y_m"], marker=marker, color=col, ms=10, zorder=6,
+        # An arrival is where a script acts too (the load comes in): its star is drawn large,
+        # outlined and underneath, so both show.
+        big = kind == "arrival"
+        ax.plot(event["x_m"], event["y_m"], marker=marker, color=col, ms=20 if big else 10,
+                mec="black" if big else col, mew=0.8 if big else 1.0, zorder=5.5 if big else 6,
                 label=None if kind in seen else kind, ls="none")
         seen.add(kind)
         note = event.get("action") or event.get("state") or ""

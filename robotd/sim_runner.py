@@ -321,7 +321,7 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
     reasons = ["interrupted"] if interrupted.is_set() else \
         failures(scenario, records, elapsed, extra, events)
     ok = not reasons
-    figures = summary_figures(records)
+    figures = summary_figures(records, scenario, events)
     events.append({"t": loop.time(), "kind": "result", "ok": ok, "reasons": reasons,
                    "figures": figures})
     return SimResult(ok, reasons, elapsed, figures, events, recorder.tracks, seed,

@@ -45,9 +45,12 @@ class TestLaundryLoop:
         world = load_scenario("laundry-loop").world
         arrivals = {e["room"]: e for e in events if e["kind"] == "arrival"}
         assert set(arrivals) == {"103", "base"}
+        figures = events[-1]["figures"]["laundry-1"]
         for room, e in arrivals.items():
             beacon = next(b for b in world.beacons if b.room == room)
-            assert math.hypot(e["x_m"] - beacon.x_m, e["y_m"] - beacon.y_m) <= 0.5
+            off_m = math.hypot(e["x_m"] - beacon.x_m, e["y_m"] - beacon.y_m)
+            assert off_m <= 0.5
+            assert figures[f"arrival_{room}_m"] == pytest.approx(off_m, abs=0.005)  # summary
 
     def test_follows_the_line_closely(self, run: tuple[int, list[dict[str, Any]]]) -> None:
         """Mean cross-track error while moving is within 3 cm (the issue's target)."""

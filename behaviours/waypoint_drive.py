@@ -17,6 +17,7 @@ import structlog
 from behaviours.odometry import Odometry
 from hal.devices import Encoders, LinkDown, Motors
 from hal.readings import MotorCommand
+from hal.timer_sleep import timer_sleep
 from robotd.config.settings import Settings
 
 log = structlog.get_logger(__name__)
@@ -137,7 +138,7 @@ class WaypointDrive:
             omega = tuning.heading_gain * error
             half = omega * self.odometry.wheel_base_m / 2
             await self._send(wheel_command(speed - half, speed + half, tuning))
-            await asyncio.sleep(_PERIOD_S)
+            await timer_sleep(_PERIOD_S)
         await self._send(MotorCommand.stopped())
         await asyncio.sleep(0.3)  # let the wheels come to rest before the next leg
         pose = self.odometry.pose()
@@ -155,7 +156,7 @@ class WaypointDrive:
             speed = max(tuning.min_mps, min(tuning.turn_mps, abs(error) * 0.25))
             sign = 1 if error > 0 else -1
             await self._send(wheel_command(-sign * speed, sign * speed, tuning))
-            await asyncio.sleep(_PERIOD_S)
+            await timer_sleep(_PERIOD_S)
         await self._send(MotorCommand.stopped())
         await asyncio.sleep(0.2)
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 from enum import StrEnum
+from typing import NamedTuple
 
 from drivers.arduino.crc8 import crc8, crc8_joined
 
@@ -47,8 +48,7 @@ class Hello:
     protocol: int
 
 
-@dataclass(frozen=True, slots=True)
-class Telemetry:
+class Telemetry(NamedTuple):
     """An unsolicited ``NAME:field,field`` line (no SEQ), fields not yet interpreted."""
 
     name: str
@@ -74,7 +74,9 @@ class Unparsed:
 Line = Ack | Nak | Hello | Telemetry | Garbled | Unparsed
 
 _FORBIDDEN = re.compile(r"[\n\r*#]")
-_TELEMETRY = re.compile(r"([A-Z][A-Z0-9_]*):(.*)", re.DOTALL)
+_TELEMETRY_NAME = re.compile(r"[A-Z][A-Z0-9_]*")
+_NAMES_KEPT = 64
+_names_seen: set[str] = set()  # telemetry names found well-formed (ENCODER, IR, BAT, ...)
 
 
 def check_payload(payload: str, framing: Framing) -> None:
@@ -203,8 +205,12 @@ def _parse_body(text: str, raw: bytes) -> Line:
         return Hello(seq, firmware, int(version))
     if seq is not None:
         return Unparsed(f"unknown reply {text!r}", raw)
-    telemetry = _TELEMETRY.fullmatch(text)
-    if telemetry is None:
+    name, colon, rest = text.partition(":")
+    if name not in _names_seen:
+        if not colon or _TELEMETRY_NAME.fullmatch(name) is None:
+            return Unparsed(f"not a reply or telemetry: {text!r}", raw)
+        if len(_names_seen) < _NAMES_KEPT:
+            _names_seen.add(name)
+    elif not colon:
         return Unparsed(f"not a reply or telemetry: {text!r}", raw)
-    fields = tuple(telemetry.group(2).split(",")) if telemetry.group(2) else ()
-    return Telemetry(telemetry.group(1), fields)
+    return Telemetry(name, tuple(rest.split(",")) if rest else ())

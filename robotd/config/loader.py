@@ -9,8 +9,8 @@ from pathlib import Path
 from typing import Any
 
 from robotd.config.errors import ConfigError, ConfigProblem
-from robotd.config.schema import Section
-from robotd.config.sections import SECTIONS
+from robotd.config.schema import Order, Section
+from robotd.config.sections import ORDERS, SECTIONS
 
 Values = dict[str, dict[str, Any]]
 
@@ -39,7 +39,25 @@ def load_config(path: str | Path, *, overrides: str | Path | None = None) -> Val
                                 base=values, fill_defaults=False)
         for section, keys in over.items():
             values[section].update(keys)
+        problems = order_problems(values, str(over_path), _locate_keys(
+            over_path.read_text(encoding="utf-8").splitlines()))
+        if problems:
+            raise ConfigError(problems)
     return values
+
+
+def order_problems(values: Values, path: str, where: dict[tuple[str, str], int],
+                   orders: tuple[Order, ...] = ORDERS) -> list[ConfigProblem]:
+    """Limits out of order (sections.ORDERS), each at the line of the key that breaks it."""
+    problems = []
+    for order in orders:
+        problem = order.problem(lambda dotted: values[dotted.split(".")[0]][
+            dotted.split(".", 1)[1]])
+        if problem is not None:
+            section, key = problem[0].split(".", 1)
+            problems.append(ConfigProblem(path, where.get((section, key)), problem[0],
+                                          problem[1]))
+    return problems
 
 
 def load_config_text(
@@ -82,6 +100,8 @@ def load_config_text(
                 problems.append(ConfigProblem(path, line, dotted, error))
             else:
                 out[key] = checked
+    if fill_defaults and not problems and sections is SECTIONS:
+        problems += order_problems(values, path, where)
     if problems:
         problems.sort(key=lambda p: (p.line is None, p.line or 0))
         raise ConfigError(problems)

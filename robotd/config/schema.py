@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -83,7 +85,10 @@ class Option:
         try:
             value = tomllib.loads(f"v = {text}")["v"]
         except tomllib.TOMLDecodeError:
-            value = text  # a bare word is a string
+            try:  # what TOML spells only in lower case: NaN, Infinity, INF
+                value = float(text)
+            except ValueError:
+                value = text  # a bare word is a string
         return self.check(value)
 
 
@@ -98,6 +103,30 @@ class Section:
         object.__setattr__(self, "by_key", {o.key: o for o in self.options})
 
 
+@dataclass(frozen=True, slots=True)
+class Order:
+    """Keys (``section.key``) whose values must rise in this order, e.g. a lower and an upper
+    limit; ``strict``: no two alike."""
+
+    keys: tuple[str, ...]
+    strict: bool = True
+
+    def problem(self, get: Callable[[str], Any], changed: str | None = None
+                ) -> tuple[str, str] | None:
+        """(key, why) for the first pair out of order, or None. ``get`` reads a key's value;
+        the key named is ``changed`` when that one made the pair wrong, else the later one."""
+        for low, high in itertools.pairwise(self.keys):
+            lo, hi = get(low), get(high)
+            if lo < hi or (lo == hi and not self.strict):
+                continue
+            word = "below" if self.strict else "at most"
+            if changed == low:
+                return low, f"must be {word} {high} ({_num(hi)}), got {_num(lo)}"
+            word = "above" if self.strict else "at least"
+            return high, f"must be {word} {low} ({_num(lo)}), got {_num(hi)}"
+        return None
+
+
 def _show(value: Any) -> str:
     kinds = {bool: "a boolean", int: "an integer", float: "a number", str: "a string",
              list: "a list", dict: "a table"}
@@ -105,4 +134,4 @@ def _show(value: Any) -> str:
 
 
 def _num(value: float) -> str:
-    return f"{value:g}"
+    return f"{value:.12g}"

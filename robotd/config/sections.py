@@ -7,7 +7,7 @@ building any hardware.
 
 from __future__ import annotations
 
-from robotd.config.schema import Option, Section
+from robotd.config.schema import Option, Order, Section
 
 opt = Option
 
@@ -221,3 +221,15 @@ SECTIONS: dict[str, Section] = {
         )),
     )
 }
+
+# Limits that only make sense in order: check-config and `robotctl tune set` refuse a value
+# that breaks one (to widen a range, move the limit on the outside first).
+ORDERS: tuple[Order, ...] = (
+    Order(("supervisor.restart_base_s", "supervisor.restart_max_s"), strict=False),
+    Order(("drive.min_mps", "drive.cruise_mps"), strict=False),
+    Order(("line_follow.band_forward_px", "line_follow.band_gentle_px",
+           "line_follow.band_strong_px")),
+    Order(("line_follow.roi_top", "line_follow.roi_bottom")),
+    Order(("safety.stop_distance_cm", "safety.resume_distance_cm"), strict=False),
+    Order(("weight.min_kg", "weight.max_kg")),
+)

@@ -7,7 +7,7 @@ from collections.abc import Callable
 from typing import Any
 
 from robotd.config.schema import Option
-from robotd.config.sections import SECTIONS
+from robotd.config.sections import ORDERS, SECTIONS
 
 Values = dict[str, dict[str, Any]]
 Listener = Callable[[str, Any], None]
@@ -47,12 +47,23 @@ class Settings:
             raise KeyError(msg) from None
 
     def check(self, dotted: str, value: Any) -> Any:
-        """Validate a value for a key; return it normalised or raise ValueError with why."""
+        """Validate a value for a key (its type and range, and its order against the limits it
+        pairs with); return it normalised or raise ValueError with why."""
         option = self.option(dotted)
         checked, error = option.check(value)
         if error is not None:
             msg = f"{dotted}: {error}"
             raise ValueError(msg)
+
+        def get(key: str) -> Any:
+            return checked if key == dotted else self.get(key)
+
+        for order in ORDERS:
+            if dotted in order.keys:
+                problem = order.problem(get, changed=dotted)
+                if problem is not None:
+                    msg = f"{problem[0]}: {problem[1]}"
+                    raise ValueError(msg)
         return checked
 
     def set(self, dotted: str, value: Any) -> Any:

@@ -24,8 +24,10 @@ class TestSettings:
         with pytest.raises(ValueError, match=r"line_follow.kp: expected a finite number"):
             s.set("line_follow.kp", value)
         assert s.get("line_follow.kp") == 0.5
-        assert Settings.option("line_follow.kp").parse_text("nan") == (
-            None, "expected a finite number, got nan")
+        for text in ("nan", "NaN", "Infinity", "-INF"):
+            checked, error = Settings.option("line_follow.kp").parse_text(text)
+            assert checked is None
+            assert error is not None and error.startswith("expected a finite number, got ")
 
     def test_listeners_hear_changes_under_their_prefix(self) -> None:
         s = Settings(defaults())

@@ -45,6 +45,7 @@ class FollowConfig:
     kd: float
     fps: float
     bands_px: tuple[float, float, float]
+    bands_width_px: int  # the frame width the bands are in pixels of (camera.width)
     speed: float
     gentle_speed: float
     strong_speed: float
@@ -63,7 +64,8 @@ class FollowConfig:
             log.warning("line_follow.roi_invalid", roi_top=top, roi_bottom=bottom)
             top, bottom = _DEFAULT_ROI
         return cls(s["kp"], s["ki"], s["kd"], s["fps"], (bands[0], bands[1], bands[2]),
-                   s["speed"], s["gentle_speed"], s["strong_speed"], s["turn_speed"],
+                   settings.get("camera.width"), s["speed"], s["gentle_speed"],
+                   s["strong_speed"], s["turn_speed"],
                    s["max_integral"], s["lost_frames"], s["colour"],
                    TrackerParams(roi_top=top, roi_bottom=bottom, min_contrast=s["min_contrast"]))
 
@@ -102,6 +104,7 @@ class LineFollower:
         self.lost_count = 0
         self.lost_total = 0
         self.frame_timeouts = 0
+        self.bad_frames = 0
         self.link_down_count = 0
         self._ticks: deque[float] = deque(maxlen=_HISTORY)
         self._late_s: deque[float] = deque(maxlen=_HISTORY)
@@ -189,7 +192,9 @@ class LineFollower:
             (error - self._prev_error) / dt_s)
         self._prev_error = error
         forward_px, gentle_px, strong_px = cfg.bands_px
-        size = abs(error_px)
+        # The bands are pixels of a camera.width-wide frame; a camera that delivers another
+        # size (a UVC camera that ignores the size asked for) gets them scaled.
+        size = abs(error_px) * cfg.bands_width_px / max(1, width_px)
         if size > strong_px:
             self._band = "full_turn"
             self._integral = 0.0
@@ -219,6 +224,7 @@ class LineFollower:
             "lost_count": self.lost_count,
             "lost_total": self.lost_total,
             "frame_timeouts": self.frame_timeouts,
+            "bad_frames": self.bad_frames,
             "link_down": self.link_down_count,
             "late_p99_ms": round(_p99(self._late_s) * 1e3, 2),
             "latency_p99_ms": round(_p99(self._latency_s) * 1e3, 2),
@@ -282,8 +288,17 @@ class LineFollower:
         else:
             self.frames += 1
             self._last_seq = frame.seq
-            reading = self.tracker.track(frame.image)
-            width = frame.image.shape[1]
+            width = self._camera.width_px
+            try:
+                reading = self.tracker.track(frame.image)
+                width = frame.image.shape[1]
+            except ValueError as exc:  # a frame the tracker cannot read counts as lost
+                self.bad_frames += 1
+                if self.bad_frames == 1 or self.bad_frames % 100 == 0:
+                    log.warning("line_follow.bad_frame", error=str(exc),
+                                bad_frames=self.bad_frames)
+                reading = LineReading(0.0, 0.0, True, colour=self.tracker.colour,
+                                      reason="bad frame")
             dt_s = self.period_s if self._prev_t is None else frame.t_s - self._prev_t
             self._prev_t = frame.t_s
         self._reading = reading

@@ -148,6 +148,13 @@ class TestBands:
         follower.decide(seen(error_px), WIDTH, 1 / 13)
         assert follower.status()["band"] == band
 
+    def test_the_bands_are_pixels_of_the_configured_width(self) -> None:
+        """A camera that delivers 640 px frames when camera.width is 320: a 100 px error there
+        is 50 px of the configured frame, the gentle band, not the strong one."""
+        follower, *_ = make()
+        follower.decide(seen(100), 2 * WIDTH, 1 / 13)
+        assert follower.status()["band"] == "gentle"
+
     def test_the_bands_slow_the_robot_down_as_the_error_grows(self) -> None:
         """Mean wheel duty falls from band to band; a full turn spins on the spot."""
         means = []
@@ -266,6 +273,30 @@ class TestLostLine:
         assert motors.stops == 1
         assert follower.status()["state"] == "lost"
         assert follower.status()["lost_count"] == 21
+
+    def test_a_frame_the_tracker_cannot_read_counts_as_lost_and_the_loop_goes_on(self) -> None:
+        """A grey (2-D) frame: no exception out of the loop; lost frames, counted, then the
+        line comes back and is followed again."""
+        follower, camera, _, _ = make()
+
+        async def main() -> dict[str, Any]:
+            task = asyncio.create_task(follower.run())
+            await asyncio.sleep(0.5)
+            camera.image = np.full((HEIGHT, WIDTH), 200, np.uint8)
+            await asyncio.sleep(0.5)
+            camera.show(WIDTH / 2)
+            await asyncio.sleep(0.5)
+            assert not task.done()
+            status = follower.status()
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+            return status
+
+        status = vclock.run(main())
+        assert status["bad_frames"] >= 5
+        assert status["lost_total"] == status["bad_frames"]
+        assert status["state"] == "following"
 
     def test_a_camera_that_stops_delivering_counts_as_lost(self) -> None:
         """No fresh frames: each tick is a lost frame; the robot stops after 21."""

@@ -102,19 +102,24 @@ class TestLoadCheckClosedLoop:
 
 class TestLoadCheckFaults:
     def test_thresholds_tuned_out_of_order_are_not_applied(self) -> None:
-        """weight.min_kg tuned above weight.max_kg keeps the previous pair (4.2 kg stays
-        loaded, not overweight); once max_kg is raised past it, the settings' pair applies."""
+        """weight.min_kg tuned above weight.max_kg is refused by the settings and the check
+        keeps its pair (4.2 kg stays loaded, not overweight); raising max_kg first, then
+        min_kg, applies both. A pair out of order given to the check directly is not taken."""
         settings = Settings(defaults())
         check = LoadCheck.from_settings(None, settings)
         _feed(check, [4.2] * 12)
-        settings.set("weight.min_kg", 12.0)
+        with pytest.raises(ValueError, match=r"must be below weight\.max_kg"):
+            settings.set("weight.min_kg", 12.0)
+        with pytest.raises(ValueError, match=r"must be above weight\.min_kg"):
+            settings.set("weight.max_kg", 0.1)
         assert (check.min_kg, check.max_kg) == (0.5, 10.0)
         assert check.check_load() is LoadVerdict.LOADED
-        settings.set("weight.max_kg", 0.1)
-        assert check.check_load() is LoadVerdict.LOADED
         settings.set("weight.max_kg", 20.0)
+        settings.set("weight.min_kg", 12.0)
         assert (check.min_kg, check.max_kg) == (12.0, 20.0)
         assert check.check_load() is LoadVerdict.WAIT_LOAD
+        assert not check.set_thresholds(min_kg=30.0)
+        assert (check.min_kg, check.max_kg) == (12.0, 20.0)
 
     def test_a_load_cell_that_stops_answering_leaves_no_verdict(self) -> None:
         """When the HX711 stops delivering (DOUT stuck high) the weight becomes unknown

@@ -40,7 +40,7 @@ def render_example(sections: dict[str, Section] = SECTIONS) -> str:
 def _option(section: str, option: Option) -> str:
     facts = [option.kind]
     if option.choices:
-        facts.append("one of " + ", ".join(option.choices))
+        facts.append("one of " + ", ".join(map(str, option.choices)))
     if option.min is not None and option.kind in ("int", "float"):
         facts.append(f">= {option.min:g}")
     if option.max is not None and option.kind in ("int", "float"):

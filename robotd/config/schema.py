@@ -24,7 +24,7 @@ class Option:
     help: str
     min: float | None = None
     max: float | None = None
-    choices: tuple[str, ...] | None = None
+    choices: tuple[str, ...] | tuple[int, ...] | None = None
     tunable: bool = False
     required: bool = False
 
@@ -38,6 +38,8 @@ class Option:
         if kind == "int":
             if isinstance(value, bool) or not isinstance(value, int):
                 return None, f"expected an integer, got {_show(value)}"
+            if self.choices is not None and value not in self.choices:
+                return None, f"expected one of {', '.join(map(str, self.choices))}, got {value}"
             return self._bounded(value)
         if kind == "float":
             if isinstance(value, bool) or not isinstance(value, int | float):

@@ -197,7 +197,7 @@ SECTIONS: dict[str, Section] = {
             opt("data_gpio", "int", 5, "GPIO line wired to DOUT.", min=0, max=511),
             opt("clock_gpio", "int", 6, "GPIO line wired to PD_SCK.", min=0, max=511),
             opt("gain", "str", "A128", "Channel and gain.", choices=("A128", "A64", "B32")),
-            opt("sps", "int", 10, "Output rate the RATE pin selects (10 or 80).", min=10, max=80),
+            opt("sps", "int", 10, "Output rate the RATE pin selects.", choices=(10, 80)),
             opt("tare_offset", "int", 0, "Raw reading of the empty bin (robotd probe hx711).",
               min=-8388608, max=8388607, tunable=True),
             opt("calibration_factor", "float", 107374.0,

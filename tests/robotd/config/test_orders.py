@@ -26,6 +26,12 @@ class TestFromTheFile:
         assert "line_follow.band_gentle_px: must be above line_follow.band_forward_px (200)" \
             in str(info.value)
 
+    def test_an_integer_with_a_few_allowed_values_names_them(self) -> None:
+        """The HX711's RATE pin gives 10 or 80 SPS: 40 is refused by check-config already."""
+        with pytest.raises(ConfigError) as info:
+            load_config_text("[hx711]\nsps = 40\n", "h.toml")
+        assert str(info.value) == "h.toml:2: hx711.sps: expected one of 10, 80, got 40"
+
     def test_equal_limits_pass_where_the_order_is_not_strict(self) -> None:
         """A restart delay that starts at its cap is a fixed delay: allowed."""
         values = load_config_text(

@@ -127,10 +127,10 @@ def cmd_probe(args: argparse.Namespace) -> int:
         parser.add_argument("--json", action="store_true", help="print one JSON object")
     options = parser.parse_args(args.options)
     from robotd.logs import configure_logging
+    from robotd.probes import run_probe
 
     configure_logging("warning")
-    code: int = asyncio.run(module.run(options))
-    return code
+    return run_probe(module.run, options)
 
 
 def cmd_run(args: argparse.Namespace) -> int:

@@ -29,7 +29,6 @@ def run_standalone(prog: str, doc: str | None,
 
     A probe with a ``--sim`` option runs on the virtual-time loop when it is given.
     """
-    from robotd import vclock
     from robotd.logs import configure_logging
 
     parser = argparse.ArgumentParser(prog=prog, description=doc,
@@ -37,6 +36,16 @@ def run_standalone(prog: str, doc: str | None,
     add_arguments(parser)
     args = parser.parse_args(argv)
     configure_logging(level="warning")
+    return run_probe(run, args)
+
+
+def run_probe(run: Callable[[argparse.Namespace], Coroutine[Any, Any, int]],
+              args: argparse.Namespace) -> int:
+    """Run a probe: on the virtual-time loop with ``--sim`` (a simulated device needs no wall
+    clock: the answer comes at once and the same every time; a bit-banged simulated HX711 on
+    the real clock would lose reads to the interpreter's pauses), else on a real loop."""
+    from robotd import vclock
+
     if getattr(args, "sim", False):
         return int(vclock.run(run(args)))
     return asyncio.run(run(args))

@@ -93,8 +93,9 @@ class TestHx711Probe:
 
     def test_a_config_rate_the_chip_cannot_run_at_is_a_usage_error(
             self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-        """hx711.sps = 40 passes the config's 10..80 range but no HX711 runs at it: exit 2."""
+        """hx711.sps = 40: no HX711 runs at it: exit 2, naming the line and the two rates."""
         config = tmp_path / "robotd.toml"
         config.write_text("[hx711]\nsps = 40\n")
         assert vclock.run(hx711.run(_args(hx711, ["--sim", "--config", str(config)]))) == 2
-        assert "10 or 80 SPS" in capsys.readouterr().err
+        assert "robotd.toml:2: hx711.sps: expected one of 10, 80, got 40" \
+            in capsys.readouterr().err

@@ -224,6 +224,9 @@ class BleBeaconScanner:
         if not self._alive_since_restart:
             self._alive_since_restart = True
             self._backoff_s = self._restart_base_s
+            if self.last_error is not None:  # the status shows a live problem, the log all
+                log.info("ble.recovered", after_error=self.last_error)
+                self.last_error = None
         try:
             frame = parse_ibeacon(adv.manufacturer_data)
             if frame is None:

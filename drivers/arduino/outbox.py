@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import collections
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum, IntEnum
 
@@ -93,6 +94,7 @@ class Outbox:
         self._heartbeat: Command | None = None
         self._normal: collections.deque[Command] = collections.deque()
         self._waiter: asyncio.Future[None] | None = None  # get() waiting for a command
+        self.on_put: Callable[[], None] | None = None  # told after each put (the sender)
 
     def __len__(self) -> int:
         slots = (self._stop, self._hello, self._motor, self._heartbeat)
@@ -124,6 +126,8 @@ class Outbox:
         waiter = self._waiter
         if waiter is not None and not waiter.done():
             waiter.set_result(None)
+        if self.on_put is not None:
+            self.on_put()
 
     def _supersede(self, old: Command | None, detail: str) -> None:
         if old is not None:

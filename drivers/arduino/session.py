@@ -14,11 +14,20 @@ import asyncio
 import collections
 import contextlib
 from collections.abc import Callable
-from typing import Any, NamedTuple, TypeVar
+from dataclasses import dataclass
+from typing import Any, Literal, TypeVar
 
 import structlog
 
 from drivers.arduino.config import LinkConfig
+from drivers.arduino.events import (
+    REPLY_BYTES,
+    Event,
+    Evidence,
+    Preempted,
+    rank,
+    worth_fast_resend,
+)
 from drivers.arduino.framing import (
     SEQ_MODULO,
     Ack,
@@ -42,39 +51,22 @@ log = structlog.get_logger(__name__)
 
 T = TypeVar("T")
 
-# Fast resends per command are also bounded by count, so a line that garbles everything
-# cannot make the sender spin when the wire takes no time (the in-memory pipe).
-MAX_FAST_RESENDS = 32
 # A well-formed command the MCU refuses (NAK:PARSE/RANGE) is sent again this often at most.
 MAX_REFUSAL_RESENDS = 2
-# Slack for USB serial adapters that hold bytes back before passing them on (FTDI: 16 ms).
-USB_LATENCY_S = 0.02
-# Bytes of the longest reply (``#255 NAK:PARSE*CC\n``), to know when a reply is due.
-REPLY_BYTES = 18
 
 
-class Preempted:
-    """Mailbox marker: STOP wants the line now."""
+@dataclass(slots=True)
+class InFlight:
+    """The command on the line, and how its exchange has gone so far."""
 
-
-class Evidence(NamedTuple):
-    """Mailbox marker: our frame may be lost (garbled line, NAK:CRC, reboot, later telemetry).
-
-    ``definite``: resend at once. ``intact``: an intact telemetry line, which tells only once
-    the reply is overdue, since the MCU answers a frame before it sends further telemetry.
-    """
-
-    definite: bool = False
-    intact: bool = False
-
-
-Event = Ack | Hello | Nak | Preempted | Evidence
-
-
-class InFlight(NamedTuple):
     command: Command
     seq: int | None
     frame: bytes
+    first_s: float  # first transmission
+    last_s: float  # latest transmission
+    timeouts: int = 0
+    fast: int = 0  # resends on evidence, before the timeout
+    refusals: int = 0
 
 
 class Session:
@@ -92,7 +84,9 @@ class Session:
         self.next_seq = next_seq
         self.inflight: InFlight | None = None
         self._events: list[Event] = []
-        self._waiter: asyncio.Future[None] | None = None
+        self._decide_due = False  # _decide is scheduled
+        self._pump_due = False  # _pump is scheduled
+        self._closed = False
         self._deadline_s = 0.0
         self._deadline_timer: asyncio.TimerHandle | None = None
         self._loop = asyncio.get_running_loop()
@@ -109,7 +103,8 @@ class Session:
     def start(self) -> None:
         if not self.receiver.attach((self.reader, self.writer)):
             self._spawn(self.receiver.pump(self.reader))
-        self._spawn(self._send_loop())
+        self.outbox.on_put = self._on_put
+        self._on_put()  # what was queued before this connection
 
     def start_keepalive(self) -> None:
         """Heartbeat and silence watchdog; only crc firmware answers HB."""
@@ -137,9 +132,17 @@ class Session:
         return await asyncio.shield(self.broken)
 
     async def close(self) -> None:
+        self._closed = True
+        if self.outbox.on_put == self._on_put:
+            self.outbox.on_put = None
         if self._deadline_timer is not None:
             self._deadline_timer.cancel()
             self._deadline_timer = None
+        inflight, self.inflight = self.inflight, None
+        if inflight is not None:  # nobody can tell whether it ran
+            inflight.command.settle(Outcome.LINK_DOWN, seq=inflight.seq,
+                                    resends=inflight.timeouts + inflight.fast,
+                                    detail="link went down in flight")
         for task in self._tasks:
             task.cancel()
         await asyncio.gather(*self._tasks, return_exceptions=True)
@@ -193,14 +196,36 @@ class Session:
     def _post(self, event: Event) -> None:
         if self.inflight is not None:
             self._events.append(event)
-            if self._waiter is not None:
-                _wake(self._waiter)
+            self._decide_soon()
+
+    def _decide_soon(self) -> None:
+        if not self._decide_due:
+            self._decide_due = True
+            self._loop.call_soon(self._decide)
 
     # -- sending -----------------------------------------------------------------------------
-    async def _send_loop(self) -> None:
-        while True:
-            command = await self.outbox.get()
-            await self._exchange(command)
+    # The sender is driven by callbacks, not a task: the outbox (a command was queued), the
+    # receiver (a reply or evidence arrived) and one deadline timer each schedule the next
+    # step with call_soon, where a task would have been woken, so steps run in the same
+    # order as a task's would; no coroutine is resumed for the twenty-odd commands a second.
+    # Frames are at most 64 bytes with one in flight, so no writer drain is ever due.
+    def _on_put(self) -> None:
+        """A command was queued: send it on the loop's next step if the line is free."""
+        if self.inflight is None and not self._pump_due and not self._closed:
+            self._pump_due = True
+            self._loop.call_soon(self._pump)
+
+    def _pump(self) -> None:
+        """Send the most urgent queued command while none is in flight."""
+        self._pump_due = False
+        try:
+            while self.inflight is None and not self._closed:
+                command = self.outbox.pop()
+                if command is None:
+                    return
+                self._begin(command)
+        except Exception as exc:  # a sender bug: give the connection up, as a task would
+            self._connection_ended(exc)
 
     def _take_seq(self) -> int | None:
         if self.framing is Framing.PLAIN:
@@ -209,112 +234,105 @@ class Session:
         self.next_seq = (seq + 1) % SEQ_MODULO
         return seq
 
-    def _transmit(self, frame: bytes, kind: Kind) -> bool:
-        """Write ``frame``; True when the port holds bytes back (then drain the writer)."""
+    def _transmit(self, frame: bytes, kind: Kind) -> None:
         self.writer.write(frame)
         if kind is Kind.MOTOR or kind is Kind.HEARTBEAT:
             self.last_drive_tx_s = self._loop.time()
-        return self.writer.transport.get_write_buffer_size() > 0
 
-    async def _exchange(self, command: Command) -> None:
+    def _begin(self, command: Command) -> None:
         seq = self._take_seq()
         try:
             frame = encode_command(command.payload, seq, self.framing)
         except ValueError as exc:
             command.settle(Outcome.NAK, seq=seq, detail=str(exc))
             return
-        inflight = InFlight(command, seq, frame)
+        now = self._loop.time()
         self._events.clear()
-        self.inflight = inflight
-        first_s = last_s = self._loop.time()
-        if self._transmit(frame, command.kind):
-            await self.writer.drain()
+        self.inflight = InFlight(command, seq, frame, now, now)
+        self._transmit(frame, command.kind)
         self.counters.sent += 1
-        timeouts = fast = refusals = 0
+        self._wake_at(now + self.config.ack_timeout_s)
+
+    def _decide(self) -> None:
+        """Act on what came in for the frame in flight (or on its reply being overdue)."""
+        self._decide_due = False
         try:
-            while True:
-                event = await self._next_event(last_s + self.config.ack_timeout_s)
-                now = self._loop.time()
-                if isinstance(event, Ack | Hello):
-                    self._acked(inflight, event, timeouts + fast, now - first_s)
-                    return
-                if isinstance(event, Nak) and event.reason != "CRC" and (
-                        refusals >= MAX_REFUSAL_RESENDS or not well_formed(command.payload)
-                        or self.framing is Framing.PLAIN):
-                    command.settle(Outcome.NAK, seq=seq, resends=timeouts + fast,
-                                   detail=f"NAK:{event.reason}")
-                    log.warning("link.nak", seq=seq, payload=command.payload,
-                                reason=event.reason)
-                    return
-                if isinstance(event, Preempted):
-                    self.counters.superseded += 1
-                    command.settle(Outcome.SUPERSEDED, seq=seq, resends=timeouts + fast,
-                                   detail="preempted by STOP")
-                    return
-                if isinstance(event, Nak) and event.reason != "CRC":
-                    refusals += 1  # a valid command refused: damage the CRC did not catch
-                    fast += 1
-                elif event is None:
-                    if timeouts >= self.config.max_resends or now - first_s >= (
-                            self.config.give_up_s - 1e-9):
-                        self._lost(inflight, timeouts + fast)
-                        return
-                    timeouts += 1
-                elif not self._worth_fast_resend(event, fast, now - last_s, now - first_s,
-                                                 len(frame)):
-                    continue
-                else:
-                    fast += 1
-                if self._transmit(frame, command.kind):
-                    await self.writer.drain()
-                self.counters.resent += 1
-                last_s = self._loop.time()
-                log.debug("link.resent", seq=seq, payload=command.payload,
-                          timeouts=timeouts, fast=fast)
-        finally:
-            self.inflight = None
-            if command.future is not None:  # cancelled with the connection: did it run?
-                command.settle(Outcome.LINK_DOWN, seq=seq, resends=timeouts + fast,
-                               detail="link went down in flight")
+            while (inflight := self.inflight) is not None and self._decide_once(inflight):
+                pass
+        except Exception as exc:  # a sender bug: give the connection up, as a task would
+            self._connection_ended(exc)
 
-    def _worth_fast_resend(self, event: Event, fast: int, since_last_s: float,
-                           since_first_s: float, frame_bytes: int) -> bool:
-        if self.framing is Framing.PLAIN or fast >= MAX_FAST_RESENDS:
+    def _decide_once(self, inflight: InFlight) -> bool:
+        """One event's worth; True when the next event is to be looked at at once."""
+        event = self._next_event(inflight.last_s + self.config.ack_timeout_s)
+        if event is False:
+            return False  # nothing yet: the deadline timer or the next line calls again
+        command, seq = inflight.command, inflight.seq
+        now = self._loop.time()
+        resends = inflight.timeouts + inflight.fast
+        if isinstance(event, Ack | Hello):
+            self._acked(inflight, event, resends, now - inflight.first_s)
+            self._finish()
             return False
-        if since_first_s >= self.config.give_up_s:
+        if isinstance(event, Nak) and event.reason != "CRC" and (
+                inflight.refusals >= MAX_REFUSAL_RESENDS or not well_formed(command.payload)
+                or self.framing is Framing.PLAIN):
+            command.settle(Outcome.NAK, seq=seq, resends=resends, detail=f"NAK:{event.reason}")
+            log.warning("link.nak", seq=seq, payload=command.payload, reason=event.reason)
+            self._finish()
             return False
-        if isinstance(event, Nak) or (isinstance(event, Evidence) and event.definite):
-            return True
-        # Other lines only tell something once the reply to our frame was due.
-        due_s = (frame_bytes + REPLY_BYTES) * self._byte_s
-        if isinstance(event, Evidence) and event.intact:
-            # Lines the MCU sent just before our frame reached it come one round trip later.
-            recent_rtt_s = min(self._recent_rtt_s) if self._recent_rtt_s else 0.0
-            due_s = max(due_s, recent_rtt_s) + USB_LATENCY_S
-        return since_last_s >= due_s
+        if isinstance(event, Preempted):
+            self.counters.superseded += 1
+            command.settle(Outcome.SUPERSEDED, seq=seq, resends=resends,
+                           detail="preempted by STOP")
+            self._finish()
+            return False
+        if isinstance(event, Nak) and event.reason != "CRC":
+            inflight.refusals += 1  # a valid command refused: damage the CRC did not catch
+            inflight.fast += 1
+        elif event is None:
+            if inflight.timeouts >= self.config.max_resends or now - inflight.first_s >= (
+                    self.config.give_up_s - 1e-9):
+                self._lost(inflight, resends)
+                self._finish()
+                return False
+            inflight.timeouts += 1
+        elif self.framing is Framing.PLAIN or not worth_fast_resend(
+                event, fast=inflight.fast, since_last_s=now - inflight.last_s,
+                since_first_s=now - inflight.first_s, give_up_s=self.config.give_up_s,
+                reply_due_s=(len(inflight.frame) + REPLY_BYTES) * self._byte_s,
+                recent_rtt_s=min(self._recent_rtt_s) if self._recent_rtt_s else 0.0):
+            return True  # tells nothing yet: look again (the reply may be overdue by now)
+        else:
+            inflight.fast += 1
+        self._transmit(inflight.frame, command.kind)
+        self.counters.resent += 1
+        inflight.last_s = self._loop.time()
+        log.debug("link.resent", seq=seq, payload=command.payload,
+                  timeouts=inflight.timeouts, fast=inflight.fast)
+        self._wake_at(inflight.last_s + self.config.ack_timeout_s)
+        return False
 
-    async def _next_event(self, deadline_s: float) -> Event | None:
-        """The most telling event before ``deadline_s`` (ACK beats NAK beats the rest)."""
-        while not self._events:
-            if deadline_s - self._loop.time() <= CLOCK_SLACK_S:
-                return None
-            # A bare future (cheaper than wait_for: no extra task) and one deadline timer for
-            # the session that moves itself on, instead of a timer set and cancelled for each
-            # of twenty commands a second.
-            waiter: asyncio.Future[None] = self._loop.create_future()
-            self._waiter = waiter
-            self._wake_at(deadline_s)
-            try:
-                await waiter
-            finally:
-                self._waiter = None
+    def _finish(self) -> None:
+        """The frame in flight is done with: on to the next queued command at once."""
+        self.inflight = None
+        self._pump()
+
+    def _next_event(self, deadline_s: float) -> Event | Literal[False] | None:
+        """The most telling event (ACK beats NAK beats the rest); None when ``deadline_s``
+        passed with none; False when there is none yet."""
+        if not self._events:
+            return None if deadline_s - self._loop.time() <= CLOCK_SLACK_S else False
         events, self._events = self._events, []
         if len(events) > 1:
-            events.sort(key=_rank)
+            events.sort(key=rank)
         return events[0]
 
     def _wake_at(self, deadline_s: float) -> None:
-        """Wake the waiter at ``deadline_s`` (the timer already set fires first, moves on)."""
+        """Decide again at ``deadline_s`` (the timer already set fires first, moves on).
+
+        One deadline timer for the session that moves itself on, instead of a timer set
+        and cancelled for each of twenty commands a second."""
         self._deadline_s = deadline_s
         timer = self._deadline_timer
         if timer is not None:
@@ -325,12 +343,12 @@ class Session:
 
     def _deadline_passed(self) -> None:
         timer, self._deadline_timer = self._deadline_timer, None
-        if self._waiter is None or timer is None:
+        if self.inflight is None or timer is None:
             return
         if self._deadline_s > timer.when():  # a later deadline was set meanwhile
             self._deadline_timer = self._loop.call_at(self._deadline_s, self._deadline_passed)
             return
-        _wake(self._waiter)
+        self._decide_soon()
 
     def _acked(self, inflight: InFlight, reply: Ack | Hello, resends: int,
                elapsed_s: float) -> None:
@@ -350,18 +368,3 @@ class Session:
                                 detail="no acknowledgement")
         log.warning("link.lost", seq=inflight.seq, payload=inflight.command.payload,
                     resends=resends)
-
-
-def _wake(waiter: asyncio.Future[None]) -> None:
-    if not waiter.done():
-        waiter.set_result(None)
-
-
-def _rank(event: Event) -> int:
-    if isinstance(event, Ack | Hello):
-        return 0
-    if isinstance(event, Nak) and event.reason != "CRC":
-        return 1
-    if isinstance(event, Preempted):
-        return 2
-    return 3

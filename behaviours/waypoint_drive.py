@@ -88,11 +88,13 @@ class WaypointDrive:
         self.settings = settings
         self.waits_for_link = 0
         self._link_up = asyncio.Event()
-        if motors.connected:
+        self._up = motors.connected  # what _link_up says, read without a call each step
+        if self._up:
             self._link_up.set()
         motors.on_link_change(self._on_link)
 
     def _on_link(self, connected: bool) -> None:
+        self._up = connected
         if connected:
             self._link_up.set()
         else:
@@ -100,7 +102,7 @@ class WaypointDrive:
 
     async def _send(self, command: MotorCommand) -> None:
         while True:
-            if not self._link_up.is_set():
+            if not self._up:
                 self.waits_for_link += 1
                 log.warning("drive.waiting_for_link")
                 await self._link_up.wait()
@@ -109,6 +111,7 @@ class WaypointDrive:
                 await self.motors.drive(command)
                 return
             except LinkDown:
+                self._up = False
                 self._link_up.clear()
 
     async def stop(self) -> None:

@@ -110,8 +110,10 @@ class Outbox:
             self._supersede(self._hello, "replaced by a newer HELLO")
             self._hello = command
         elif kind is Kind.MOTOR:
-            self._supersede(self._motor, "replaced by a newer MOTOR")
-            self._supersede(self._heartbeat, "a MOTOR feeds the deadman too")
+            if self._motor is not None:  # twenty a second: usually sent already
+                self._supersede(self._motor, "replaced by a newer MOTOR")
+            if self._heartbeat is not None:
+                self._supersede(self._heartbeat, "a MOTOR feeds the deadman too")
             self._motor, self._heartbeat = command, None
         elif kind is Kind.HEARTBEAT:
             if self._motor is not None or self._heartbeat is not None:

@@ -20,7 +20,8 @@ from typing import Any
 
 import structlog
 
-from behaviours.line_tracker import LineReading, LineTracker, TrackerParams, parse_colour
+from behaviours.line_colours import parse_colour
+from behaviours.line_tracker import LineReading, LineTracker, TrackerParams
 from hal.deadline import DeadlineSleeper
 from hal.devices import Camera, DeviceUnavailable, LinkDown, Motors
 from hal.readings import Frame, MotorCommand

@@ -12,7 +12,6 @@ that found it, at their mean row (the median when one row is off the others).
 
 from __future__ import annotations
 
-import colorsys
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -22,23 +21,8 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-DEFAULT_COLOUR = "black"
+from behaviours.line_colours import DEFAULT_COLOUR, LineColour, line_colour, parse_colour
 
-# A colour is a kind of score: "dark" (dark and grey on a light floor), "light" (bright and
-# grey), or "chroma": the wanted channels (B=0, G=1, R=2) stand out over the others.
-_NAMED: dict[str, tuple[str, tuple[int, ...]]] = {
-    "black": ("dark", ()),
-    "dark": ("dark", ()),
-    "white": ("light", ()),
-    "red": ("chroma", (2,)),
-    "green": ("chroma", (1,)),
-    "blue": ("chroma", (0,)),
-    "yellow": ("chroma", (1, 2)),
-    "cyan": ("chroma", (0, 1)),
-    "magenta": ("chroma", (0, 2)),
-}
-_HUES = {"red": 0.0, "yellow": 60.0, "green": 120.0, "cyan": 180.0, "blue": 240.0,
-         "magenta": 300.0}
 # Contrast needed, as a multiple of TrackerParams.min_contrast: a grey line on a grey floor
 # differs less than a coloured one, and dark shadows must not pass for a black line.
 _THRESHOLD_SCALE = {"dark": 1.5, "light": 0.5, "chroma": 1.0}
@@ -90,40 +74,6 @@ class TrackerParams:
             raise ValueError(msg)
 
 
-@dataclass(frozen=True, slots=True)
-class _Colour:
-    name: str
-    kind: str
-    channels: tuple[int, ...]
-
-
-def parse_colour(name: str | None) -> str:
-    """Normalise a FollowColor value (a name or ``#RRGGBB``); ValueError says what is known."""
-    if name is None or not name.strip():
-        return DEFAULT_COLOUR
-    text = name.strip().lower()
-    if text in _NAMED:
-        return "black" if text == "dark" else text
-    if text.startswith("#") and len(text) == 7:
-        try:
-            r, g, b = (int(text[i:i + 2], 16) / 255 for i in (1, 3, 5))
-        except ValueError:
-            pass
-        else:
-            hue, sat, val = colorsys.rgb_to_hsv(r, g, b)
-            if sat < 0.3:
-                return "black" if val < 0.5 else "white"
-            deg = hue * 360
-            return min(_HUES, key=lambda n: min(abs(deg - _HUES[n]), 360 - abs(deg - _HUES[n])))
-    msg = f"line colour {name!r}: expected one of {', '.join(sorted(_NAMED))} or #RRGGBB"
-    raise ValueError(msg)
-
-
-def _colour(name: str) -> _Colour:
-    kind, channels = _NAMED[name]
-    return _Colour(name, kind, channels)
-
-
 class LineTracker:
     """Finds the line of one colour in BGR frames; remembers where it was last seen.
 
@@ -134,8 +84,8 @@ class LineTracker:
 
     def __init__(self, params: TrackerParams | None = None, colour: str | None = None) -> None:
         self.params = params or TrackerParams()
-        self._colour = _colour(parse_colour(colour))
-        self._fallback: _Colour | None = None
+        self._colour = line_colour(parse_colour(colour))
+        self._fallback: LineColour | None = None
         self._handover_left = 0
         self._last_x: float | None = None
         self._misses = 0
@@ -150,7 +100,7 @@ class LineTracker:
 
     def set_colour(self, name: str | None) -> None:
         """Follow another colour; the old one is still taken until the new one shows up."""
-        new = _colour(parse_colour(name))
+        new = line_colour(parse_colour(name))
         if new.name == self._colour.name:
             return
         self._fallback = self._colour
@@ -209,7 +159,7 @@ class LineTracker:
         cv2.split(rows, self._work.planes)
         return self._work.planes, step
 
-    def _find(self, planes: list[Plane], step: int, colour: _Colour,
+    def _find(self, planes: list[Plane], step: int, colour: LineColour,
               full_width: int) -> LineReading:
         centre = (full_width - 1) / 2
         work = self._work
@@ -245,7 +195,7 @@ class LineTracker:
         threshold = self.params.min_contrast * _THRESHOLD_SCALE[colour.kind]
         return self._pick(k, width, threshold, colour, step, full_width)
 
-    def _pick(self, k: int, width: int, threshold: float, colour: _Colour,
+    def _pick(self, k: int, width: int, threshold: float, colour: LineColour,
               step: int, full_width: int) -> LineReading:
         p = self.params
         centre = (full_width - 1) / 2
@@ -313,7 +263,7 @@ class LineTracker:
         return LineReading(line_x - centre, confidence, False, line_x, line_w, at_edge,
                            candidates, colour.name, "", row_px)
 
-    def _lost(self, centre: float, colour: _Colour, reason: str) -> LineReading:
+    def _lost(self, centre: float, colour: LineColour, reason: str) -> LineReading:
         last = 0.0 if self._last_x is None else self._last_x - centre
         return LineReading(last, 0.0, True, None, 0.0, False, 0, colour.name, reason)
 

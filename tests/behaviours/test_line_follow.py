@@ -4,138 +4,23 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 import pytest
+from follow_doubles import (
+    HEIGHT,
+    LOST,
+    WIDTH,
+    make,
+    run_for,
+    seen,
+)
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from behaviours.line_follow import LineFollower, LineLostError
-from behaviours.line_tracker import LineReading
-from hal.devices import LinkDown
-from hal.readings import Frame, LinkStats, MotorCommand
+from behaviours.line_follow import LineLostError
 from robotd import vclock
-from robotd.config.loader import defaults
-from robotd.config.settings import Settings
-
-WIDTH, HEIGHT = 320, 240
-
-
-def line_image(column: float | None) -> np.ndarray:  # type: ignore[type-arg]
-    """A light floor with a 30 px dark line centred on ``column`` (None: bare floor)."""
-    image = np.full((HEIGHT, WIDTH, 3), 200, np.uint8)
-    if column is not None:
-        lo, hi = max(0, round(column) - 15), min(WIDTH, round(column) + 15)
-        image[:, lo:hi] = 30
-    return image
-
-
-class FreshCamera:
-    """A camera with a new frame whenever asked; the test sets what it shows."""
-
-    name = "camera"
-    width_px = WIDTH
-    height_px = HEIGHT
-
-    def __init__(self, column: float | None = WIDTH / 2) -> None:
-        self.image = line_image(column)
-        self.seq = 0
-        self.frozen = False
-
-    def show(self, column: float | None) -> None:
-        self.image = line_image(column)
-
-    async def start(self) -> None:
-        return None
-
-    async def close(self) -> None:
-        return None
-
-    async def stop(self) -> None:
-        return None
-
-    def status(self) -> dict[str, Any]:
-        return {}
-
-    def latest(self) -> Frame | None:
-        if not self.frozen:
-            self.seq += 1
-        return Frame(self.image, self.seq, asyncio.get_running_loop().time())
-
-    async def next_reading(self) -> Frame:
-        await asyncio.Event().wait()  # a frozen camera never delivers
-        raise AssertionError
-
-
-class RecordingMotors:
-    """Motors that record commands with their loop time; can be unplugged or made slow."""
-
-    name = "motors"
-
-    def __init__(self) -> None:
-        self.commands: list[tuple[float, MotorCommand]] = []
-        self.stops = 0
-        self.connected = True
-        self.delay_s = 0.0
-
-    async def start(self) -> None:
-        return None
-
-    async def close(self) -> None:
-        return None
-
-    def unplug(self) -> None:
-        self.connected = False
-
-    def plug_in(self) -> None:
-        self.connected = True
-
-    async def drive(self, command: MotorCommand) -> None:
-        if self.delay_s:
-            await asyncio.sleep(self.delay_s)
-        if not self.connected:
-            raise LinkDown("motor board link is down")
-        self.commands.append((asyncio.get_running_loop().time(), command))
-
-    async def stop(self) -> None:
-        self.stops += 1
-
-    def on_link_change(self, callback: Callable[[bool], None]) -> None:
-        return None
-
-    def link_stats(self) -> LinkStats:
-        return LinkStats(connected=self.connected)
-
-    def status(self) -> dict[str, Any]:
-        return {}
-
-
-def make(**overrides: Any) -> tuple[LineFollower, FreshCamera, RecordingMotors, Settings]:
-    settings = Settings(defaults())
-    for key, value in overrides.items():
-        settings.set(f"line_follow.{key}", value)
-    camera, motors = FreshCamera(), RecordingMotors()
-    return LineFollower(camera, motors, settings), camera, motors, settings
-
-
-def seen(error_px: float) -> LineReading:
-    return LineReading(error_px, 1.0, False, WIDTH / 2 + error_px)
-
-
-LOST = LineReading(0.0, 0.0, True, reason="no line")
-
-
-async def run_for(follower: LineFollower, seconds: float) -> BaseException | None:
-    task = asyncio.create_task(follower.run())
-    await asyncio.sleep(seconds)
-    if task.done():
-        return task.exception()
-    task.cancel()
-    with contextlib.suppress(asyncio.CancelledError):
-        await task
-    return None
 
 
 class TestBands:
@@ -305,124 +190,3 @@ class TestLostLine:
         error = vclock.run(run_for(follower, 5.0))
         assert isinstance(error, LineLostError)
         assert follower.frame_timeouts == 21
-
-
-class TestLoop:
-    def test_ticks_keep_the_13_fps_period_on_loop_time(self) -> None:
-        """Commands go out every 1/13 s, on a grid that does not drift."""
-        follower, _, motors, _ = make()
-        vclock.run(run_for(follower, 9.99))
-        times = np.array([t for t, _ in motors.commands])
-        assert len(times) == 130
-        assert np.allclose(np.diff(times), 1 / 13, atol=1e-9)
-        assert times[-1] == pytest.approx(129 / 13)
-        assert follower.overruns == 0
-        assert follower.status()["fps"] == pytest.approx(13.0)
-
-    def test_slow_ticks_are_counted_as_overruns_and_the_grid_is_kept(self) -> None:
-        """A drive() taking 100 ms overruns a 77 ms period; later ticks stay on the grid."""
-        follower, _, motors, _ = make()
-        motors.delay_s = 0.1
-        vclock.run(run_for(follower, 2.0))
-        assert follower.overruns > 5
-        assert follower.status()["overruns"] == follower.overruns
-
-    def test_the_rate_is_tunable_live(self) -> None:
-        """line_follow.fps = 20 while running: ticks 50 ms apart from then on."""
-        follower, _, motors, settings = make()
-
-        async def main() -> None:
-            task = asyncio.create_task(follower.run())
-            await asyncio.sleep(1.0)
-            settings.set("line_follow.fps", 20)
-            await asyncio.sleep(1.0)
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
-
-        vclock.run(main())
-        gaps = np.diff([t for t, _ in motors.commands][-10:])
-        assert np.allclose(gaps, 0.05, atol=1e-9)
-
-    def test_the_loop_rides_out_a_motor_link_outage(self) -> None:
-        """LinkDown for 1 s: counted and logged, the loop goes on, commands resume."""
-        follower, _, motors, _ = make()
-
-        async def main() -> None:
-            task = asyncio.create_task(follower.run())
-            await asyncio.sleep(1.0)
-            motors.unplug()
-            await asyncio.sleep(1.0)
-            motors.plug_in()
-            await asyncio.sleep(1.0)
-            assert not task.done()
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
-
-        vclock.run(main())
-        assert follower.link_down_count == 13
-        times = [t for t, _ in motors.commands]
-        assert any(t > 2.0 for t in times)
-        assert motors.stops == 1
-
-    def test_cancelling_stops_the_wheels(self) -> None:
-        """The state leaving line following cancels the task: STOP goes out."""
-        follower, _, motors, _ = make()
-        vclock.run(run_for(follower, 0.5))
-        assert motors.stops == 1
-        assert follower.status()["state"] == "stopped"
-
-    def test_status_has_the_figures_a_technician_reads(self) -> None:
-        """error_px, fps, overruns, lost count, latency and the last command."""
-        follower, camera, _, _ = make()
-        camera.show(WIDTH / 2 + 40)
-        vclock.run(run_for(follower, 1.0))
-        status = follower.status()
-        assert status["error_px"] == pytest.approx(40, abs=1.5)
-        for key in ("fps", "overruns", "lost_count", "lost_total", "latency_p99_ms",
-                    "late_p99_ms", "command", "colour", "band", "state"):
-            assert key in status
-
-
-class TestColour:
-    def test_the_servers_colour_is_followed_and_null_restores_the_default(self) -> None:
-        """FollowColor 'Red' -> red; null -> the configured line_follow.colour."""
-        follower, *_ = make(colour="blue")
-        assert follower.tracker.colour == "blue"
-        assert follower.set_follow_colour("Red")
-        assert follower.tracker.colour == "red"
-        assert follower.set_follow_colour(None)
-        assert follower.tracker.colour == "blue"
-
-    def test_an_unknown_colour_is_ignored_and_the_robot_keeps_going(self) -> None:
-        """FollowColor 'purple': logged, refused, the current colour stays."""
-        follower, *_ = make()
-        assert not follower.set_follow_colour("purple")
-        assert follower.tracker.colour == "black"
-
-    def test_the_configured_colour_is_tunable_live_without_a_server_colour(self) -> None:
-        """tune set line_follow.colour red: followed at once (the server named none)."""
-        follower, _, _, settings = make()
-        unwatch = settings.watch("line_follow", follower._on_setting)
-        settings.set("line_follow.colour", "red")
-        assert follower.tracker.colour == "red"
-        unwatch()
-
-
-class TestLayering:
-    @pytest.mark.parametrize("module", ["behaviours/line_follow.py",
-                                        "behaviours/line_tracker.py"])
-    def test_the_behaviour_imports_no_driver_and_no_simulator(self, module: str) -> None:
-        """Behaviours see hal interfaces only: no drivers, no hal.sim, no frame capture."""
-        import ast
-        from pathlib import Path
-
-        root = Path(__file__).resolve().parents[2]
-        tree = ast.parse((root / module).read_text())
-        names = [alias.name for node in ast.walk(tree) if isinstance(node, ast.Import)
-                 for alias in node.names]
-        names += [node.module or "" for node in ast.walk(tree)
-                  if isinstance(node, ast.ImportFrom)]
-        assert not [n for n in names if n.startswith(("drivers", "hal.sim", "picamera2"))]
-        assert "VideoCapture" not in (root / module).read_text()

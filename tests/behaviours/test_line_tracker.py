@@ -9,7 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from behaviours.line_tracker import LineTracker, TrackerParams, parse_colour
+from behaviours.line_colours import parse_colour
+from behaviours.line_tracker import LineTracker, TrackerParams
 from hal.sim.body import DiffDriveBody
 from hal.sim.camera_model import CameraMount, SimCamera
 from hal.sim.geometry import Pose, segments_array

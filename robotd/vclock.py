@@ -286,14 +286,34 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
                     except BaseException as exc:
                         self._callback_failed(handle, exc)
                 handle = None  # breaks a cycle when a callback raised
-            # Virtual time, callbacks ready and no timer due: the next turn would only poll
-            # (every Nth) and run them, so it is done here, at a fraction of a turn's cost.
-            if (not ready or self._stopping or self.speed is not None
-                    or (scheduled and scheduled[0][0] < end_s)):
+            # Virtual time: when the next turn would be the usual one, it is done here, at a
+            # fraction of a turn's cost (same order, same polls): callbacks ready and no timer
+            # due (it would only poll, every Nth turn, and run them), or nothing ready and a
+            # short jump to the next timer with no poll due.
+            if self._stopping or self.speed is not None:
+                return
+            if ready:
+                if scheduled and scheduled[0][0] < end_s:
+                    return
+                self._unpolled_turns += 1
+                if self._unpolled_turns >= _READY_POLL_EVERY:
+                    self._poll_real(0.0)
+                continue
+            while scheduled and scheduled[0][2]._cancelled:
+                self._timer_cancelled_count -= 1
+                _heappop(scheduled)[2]._scheduled = False
+            if (not inline or not scheduled or self._holds > 0  # bench_sim --turns counts turns
+                    or self._unpolled_turns + 1 >= _READY_POLL_EVERY
+                    or (jump_s := scheduled[0][0] - self._virtual_s) >= _POLL_BEFORE_JUMP_S):
                 return
             self._unpolled_turns += 1
-            if self._unpolled_turns >= _READY_POLL_EVERY:
-                self._poll_real(0.0)
+            if jump_s > 0.0:
+                self._virtual_s += jump_s
+            end_s = self._virtual_s + self._clock_resolution
+            while scheduled and scheduled[0][0] < end_s:
+                timer = _heappop(scheduled)[2]
+                timer._scheduled = False
+                ready.append(timer)
 
     def _run_handles(self, ready: collections.deque[Any]) -> None:
         """The callbacks ready now, through Handle._run (debug mode; bench_sim --turns)."""

@@ -88,8 +88,9 @@ async def over_pty_other_process(count: int) -> dict[str, Any]:
 
 
 async def sim_cost(seconds: int) -> tuple[float, float]:
-    """CPU seconds per simulated second, and loop turns per simulated second, of a link fed
-    MOTOR at 13 Hz (the line follower's rate) in virtual time."""
+    """CPU seconds per simulated second, and loop passes (_run_once calls; a pass runs the
+    usual turns after it itself) per simulated second, of a link fed MOTOR at 13 Hz (the line
+    follower's rate) in virtual time."""
     mcu = FakeMcu(RecordingPlant())
     ports = SimSerialPorts()
     ports.attach("/dev/ttyACM0", mcu)
@@ -164,7 +165,7 @@ def main() -> int:
           lambda: asyncio.run(over_pty_in_process(max(100, n // 4), corrupt_pct=2.0)))
     cpu_per_s, turns_per_s = vclock.run(sim_cost(120))
     print(f"simulator cost, MOTOR at 13 Hz: {cpu_per_s * 1000:.2f} ms CPU and "
-          f"{turns_per_s:.0f} loop turns per simulated second (link alone: x{1 / cpu_per_s:.0f})")
+          f"{turns_per_s:.0f} loop passes per simulated second (link alone: x{1 / cpu_per_s:.0f})")
     frames = 200_000
     damaged, escaped = crc_escape_rate(frames)
     print(f"CRC-8 at 2 % bit noise: {damaged} of {frames} MOTOR frames damaged, {escaped} "

@@ -122,13 +122,15 @@ def _robot_settings(scenario: Scenario, spec: RobotSpec, config_path: str | None
 
 def _apply(values: dict[str, dict[str, Any]], table: dict[str, Any], where: str,
            problems: list[ConfigProblem]) -> None:
-    checker = Settings(values)
+    checker: Settings | None = None  # made when there is something to check (a deep copy)
     for section, keys in table.items():
         if not isinstance(keys, dict):
             problems.append(ConfigProblem(where, None, section, "expected a table"))
             continue
         for key, value in keys.items():
             dotted = f"{section}.{key}"
+            if checker is None:
+                checker = Settings(values)
             try:
                 values[section][key] = checker.check(dotted, value)
             except (KeyError, ValueError) as exc:

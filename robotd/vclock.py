@@ -17,7 +17,6 @@ import asyncio
 import collections
 import contextlib
 import contextvars
-import heapq
 import itertools
 import selectors
 import threading
@@ -25,6 +24,7 @@ import time
 from asyncio import events, format_helpers
 from collections.abc import Callable, Iterator
 from concurrent.futures import Executor
+from heapq import heapify, heappop, heappush
 from typing import Any, TypeVar, TypeVarTuple
 
 T = TypeVar("T")
@@ -218,7 +218,7 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
             timer._repr = None
             timer._source_traceback = None
             timer._when = when
-        _heappush(self._scheduled, (when, next(self._timer_order), timer))
+        heappush(self._scheduled, (when, next(self._timer_order), timer))
         timer._scheduled = True
         return timer  # type: ignore[no-any-return]
 
@@ -234,13 +234,13 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
                     entry[2]._scheduled = False
                 else:
                     live.append(entry)
-            heapq.heapify(live)
+            heapify(live)
             self._scheduled = scheduled = live
             self._timer_cancelled_count = 0
         else:
             while scheduled and scheduled[0][2]._cancelled:
                 self._timer_cancelled_count -= 1
-                heapq.heappop(scheduled)[2]._scheduled = False
+                heappop(scheduled)[2]._scheduled = False
 
         ready = self._ready
         busy = bool(ready) or self._stopping
@@ -263,7 +263,7 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
             self._process_events(self._selector.select(timeout))
             end_s = self.time() + self._clock_resolution
         while scheduled and scheduled[0][0] < end_s:
-            timer = _heappop(scheduled)[2]
+            timer = heappop(scheduled)[2]
             timer._scheduled = False
             ready.append(timer)
 
@@ -286,10 +286,8 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
                     except BaseException as exc:
                         self._callback_failed(handle, exc)
                 handle = None  # breaks a cycle when a callback raised
-            # Virtual time: when the next turn would be the usual one, it is done here, at a
-            # fraction of a turn's cost (same order, same polls): callbacks ready and no timer
-            # due (it would only poll, every Nth turn, and run them), or nothing ready and a
-            # short jump to the next timer with no poll due.
+            # Virtual time: the next turn, when it is the usual one, is done here (same order,
+            # same polls): callbacks ready and no timer due, or a short jump, no poll due.
             if self._stopping or self.speed is not None:
                 return
             if ready:
@@ -301,7 +299,7 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
                 continue
             while scheduled and scheduled[0][2]._cancelled:
                 self._timer_cancelled_count -= 1
-                _heappop(scheduled)[2]._scheduled = False
+                heappop(scheduled)[2]._scheduled = False
             if (not inline or not scheduled or self._holds > 0  # bench_sim --turns counts turns
                     or self._unpolled_turns + 1 >= _READY_POLL_EVERY
                     or (jump_s := scheduled[0][0] - self._virtual_s) >= _POLL_BEFORE_JUMP_S):
@@ -311,7 +309,7 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
                 self._virtual_s += jump_s
             end_s = self._virtual_s + self._clock_resolution
             while scheduled and scheduled[0][0] < end_s:
-                timer = _heappop(scheduled)[2]
+                timer = heappop(scheduled)[2]
                 timer._scheduled = False
                 ready.append(timer)
 
@@ -369,8 +367,6 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
 
 
 _new_handle: Callable[[type[events.Handle]], Any] = object.__new__
-_heappop = heapq.heappop
-_heappush = heapq.heappush
 
 
 class _Timer(events.TimerHandle):

@@ -70,7 +70,7 @@ class InFlight:
 
 
 class Session:
-    """Serves one open port until it breaks; ``run()`` raises LinkBroken or OSError then."""
+    """Serves one open port until it breaks; ``broken`` then holds why (LinkBroken, OSError)."""
 
     def __init__(self, streams: StreamPair, config: LinkConfig, outbox: Outbox,
                  counters: LinkCounters, on_telemetry: Callable[[Telemetry], None],

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import random
+import statistics
 
 from hal.sim.body import BodyParams, DiffDriveBody
 from hal.sim.geometry import Pose
@@ -89,11 +90,8 @@ class TestDiffDriveBody:
         assert math.isclose(facing_person.front_range_cm(), (1.0 - 0.2 - 0.18) * 100,
                             abs_tol=0.01)
 
-    def test_slip_noise_is_exactly_what_rng_gauss_draws(self) -> None:
-        """The inline slip draws of a random.Random equal a subclass's own gauss() calls."""
-
-        class OwnGauss(random.Random):
-            """A subclass: the body leaves its gauss() alone."""
+    def test_slip_noise_does_not_depend_on_how_often_the_body_is_touched(self) -> None:
+        """Synced every 37 ms with range reads between, or only at PWM changes: same path."""
 
         class Clock:
             t_s = 0.0
@@ -102,15 +100,28 @@ class TestDiffDriveBody:
                 return self.t_s
 
         clocks = (Clock(), Clock())
-        bodies = [DiffDriveBody(_world(), Pose(1, 1, 0.3), rng=rng, clock=clock)
-                  for rng, clock in zip((random.Random(4), OwnGauss(4)), clocks, strict=True)]
+        bodies = [DiffDriveBody(_world(), Pose(1, 1, 0.3), rng=random.Random(4), clock=clock)
+                  for clock in clocks]
         for i in range(200):
-            for body, clock in zip(bodies, clocks, strict=True):
+            for n, (body, clock) in enumerate(zip(bodies, clocks, strict=True)):
                 clock.t_s += 0.037
                 if i % 20 == 0:
                     body.apply_pwm(90 + i % 7, 100, True, True)
-                if i % 3 == 0:
-                    body.front_range_cm()  # one draw: the next slip pair starts mid-pair
-                body.sync()
+                if n == 0:
+                    if i % 3 == 0:
+                        body.front_range_cm()  # draws from rng, not from the slip noise
+                    body.sync()
         assert bodies[0].pose == bodies[1].pose
         assert bodies[0].encoder_ticks() == bodies[1].encoder_ticks()
+
+    def test_slip_factors_have_the_configured_spread(self) -> None:
+        """Each wheel's ground travel per step is off by N(0, slip_std), as rng.gauss drew."""
+        slips = []
+        for seed in range(4):
+            body = DiffDriveBody(_world(), Pose(0.5, 2, 0), BodyParams(slip_std=0.02),
+                                 rng=random.Random(seed))
+            body.apply_pwm(150, 150, True, True)
+            _run(body, 0.5)
+            slips += body._slips  # the drawn block itself
+        assert abs(statistics.fmean(slips) - 1) < 0.002
+        assert abs(statistics.stdev(slips) - 0.02) < 0.001

@@ -38,6 +38,7 @@ class Odometry:
         self.m_per_tick = 2 * math.pi * wheel_radius_m / ticks_per_rev
         self.max_step_ticks = max_step_ticks
         self._x = self._y = self._theta = 0.0
+        self._pose: OdometryPose | None = None  # built when read, until the robot moves
         self._last: tuple[int, int] | None = None
         self.distance_m = 0.0
         self.rebases = 0
@@ -45,6 +46,7 @@ class Odometry:
 
     def reset(self, x_m: float = 0.0, y_m: float = 0.0, theta_rad: float = 0.0) -> None:
         self._x, self._y, self._theta = x_m, y_m, theta_rad
+        self._pose = None
         self._last = None
 
     def rebase(self) -> None:
@@ -76,6 +78,10 @@ class Odometry:
         self._y += d * math.sin(mid)
         self._theta = math.atan2(math.sin(self._theta + dtheta), math.cos(self._theta + dtheta))
         self.distance_m += abs(d)
+        self._pose = None
 
     def pose(self) -> OdometryPose:
-        return OdometryPose(self._x, self._y, self._theta)
+        pose = self._pose
+        if pose is None:
+            pose = self._pose = OdometryPose(self._x, self._y, self._theta)
+        return pose

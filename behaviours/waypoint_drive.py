@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import structlog
 
 from behaviours.odometry import Odometry
-from hal.devices import Encoders, LinkDown, Motors
+from hal.devices import Encoders, LinkDown, ListenableEncoders, Motors
 from hal.readings import MotorCommand
 from hal.timer_sleep import timer_sleep
 from robotd.config.settings import Settings
@@ -68,6 +68,15 @@ class OdometryTracker:
         latest = self.encoders.latest()
         if latest is not None:
             self.odometry.update(latest)
+        if isinstance(self.encoders, ListenableEncoders):
+            # Updated where each reading arrives: no task wake-up per reading. Without the
+            # link no readings come; the first one after it returns carries the motion.
+            stop = self.encoders.listen(self.odometry.update)
+            try:
+                await asyncio.Event().wait()  # until cancelled
+            finally:
+                stop()
+            return
         while True:
             try:
                 reading = await self.encoders.next_reading()

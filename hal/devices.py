@@ -76,6 +76,17 @@ class Encoders(Protocol):
 
 
 @runtime_checkable
+class ListenableEncoders(Encoders, Protocol):
+    """Encoders that also call ``callback(reading)`` as each reading arrives.
+
+    For a consumer that only has to keep up with every reading (odometry): no task is woken
+    per reading. ``listen`` returns the function that stops the calls.
+    """
+
+    def listen(self, callback: Callable[[EncoderReading], object]) -> Callable[[], None]: ...
+
+
+@runtime_checkable
 class RangeSensor(Protocol):
     def latest(self) -> RangeReading | None: ...
     async def next_reading(self) -> RangeReading: ...

@@ -63,6 +63,10 @@ class Feed(Generic[T]):
     def latest(self) -> T | None:
         return self._latest.latest()
 
+    def listen(self, callback: Callable[[T], object]) -> Callable[[], None]:
+        """Call ``callback(reading)`` as each reading arrives; returns the unsubscriber."""
+        return self._latest.listen(callback)
+
     def next_reading(self) -> Coroutine[Any, Any, T]:
         """Awaitable: the next reading (LinkDown when the link goes down first)."""
         return self._latest.next()  # its coroutine itself: one frame less per reading

@@ -2,14 +2,19 @@
 
 from __future__ import annotations
 
+import asyncio
 import math
+from collections.abc import Callable
 
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
 from behaviours.odometry import Odometry
+from behaviours.waypoint_drive import OdometryTracker
+from hal.latest import LatestValue
 from hal.readings import EncoderReading
+from robotd import vclock
 
 TICKS_PER_M = 360 / (2 * math.pi * 0.035)
 
@@ -64,3 +69,38 @@ class TestOdometry:
             left, right = left - dl, right - dr
             odo.update(EncoderReading(left, right, 0.0))
         assert math.hypot(odo.pose().x_m, odo.pose().y_m) < 1e-6
+
+
+class TestOdometryTracker:
+    def test_listenable_encoders_update_odometry_as_each_reading_arrives(self) -> None:
+        """With encoders that call back, the odometry moves on publish, before any task runs."""
+
+        class Feed:
+            def __init__(self) -> None:
+                self.value: LatestValue[EncoderReading] = LatestValue()
+
+            def latest(self) -> EncoderReading | None:
+                return self.value.latest()
+
+            async def next_reading(self) -> EncoderReading:
+                return await self.value.next()
+
+            def listen(self, callback: Callable[[EncoderReading], object]) -> Callable[[], None]:
+                return self.value.listen(callback)
+
+        async def main() -> tuple[float, float]:
+            feed, odo = Feed(), _odo()
+            feed.value.publish(EncoderReading(0, 0, 0.0))
+            task = asyncio.create_task(OdometryTracker(feed, odo).run())
+            await asyncio.sleep(0)
+            ticks = round(0.5 * TICKS_PER_M)
+            feed.value.publish(EncoderReading(ticks, ticks, 0.05))
+            moved = odo.pose().x_m
+            task.cancel()
+            await asyncio.gather(task, return_exceptions=True)
+            feed.value.publish(EncoderReading(2 * ticks, 2 * ticks, 0.1))
+            return moved, odo.pose().x_m
+
+        moved, after_cancel = vclock.run(main())
+        assert moved == pytest.approx(0.5, abs=0.002)
+        assert after_cancel == moved  # cancelled: no longer listening

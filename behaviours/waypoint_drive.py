@@ -44,10 +44,20 @@ class DriveTuning:
                    s["turn_mps"], s["heading_gain"], s["tolerance_m"])
 
 
+# Commands are immutable and a drive repeats a few hundred of them: each is built once.
+_COMMANDS: dict[tuple[int, int, bool, bool], MotorCommand] = {}
+_COMMANDS_KEPT = 4096
+
+
 def wheel_command(left_mps: float, right_mps: float, tuning: DriveTuning) -> MotorCommand:
     """Wheel speeds (m/s, signed) as PWM and direction, past the motors' deadband."""
-    return MotorCommand(_pwm(left_mps, tuning), _pwm(right_mps, tuning), left_mps >= 0,
-                        right_mps >= 0)
+    key = (_pwm(left_mps, tuning), _pwm(right_mps, tuning), left_mps >= 0, right_mps >= 0)
+    command = _COMMANDS.get(key)
+    if command is None:
+        command = MotorCommand(*key)
+        if len(_COMMANDS) < _COMMANDS_KEPT:
+            _COMMANDS[key] = command
+    return command
 
 
 def _pwm(speed: float, tuning: DriveTuning) -> int:

@@ -30,7 +30,7 @@ from hal.timer_chain import timer_chain
 from robotd import vclock
 from robotd.config import ConfigError, load_config
 from robotd.config.errors import ConfigProblem
-from robotd.config.loader import defaults
+from robotd.config.loader import defaults, order_problems
 from robotd.config.settings import Settings
 from robotd.logs import configure_logging
 from robotd.sim_checks import (
@@ -113,6 +113,8 @@ def _robot_settings(scenario: Scenario, spec: RobotSpec, config_path: str | None
         user = load_config(config_path)  # raises ConfigError with every problem
         for section, keys in user.items():
             values[section].update(keys)
+    if not problems:  # limits in order, once every table is in (each alone may be half-way)
+        problems = order_problems(values, f"{scenario.source} [config]", {})
     if problems:
         raise ConfigError(problems)
     values["hal"]["backend"] = "sim"
@@ -122,20 +124,20 @@ def _robot_settings(scenario: Scenario, spec: RobotSpec, config_path: str | None
 
 def _apply(values: dict[str, dict[str, Any]], table: dict[str, Any], where: str,
            problems: list[ConfigProblem]) -> None:
-    checker: Settings | None = None  # made when there is something to check (a deep copy)
     for section, keys in table.items():
         if not isinstance(keys, dict):
             problems.append(ConfigProblem(where, None, section, "expected a table"))
             continue
         for key, value in keys.items():
             dotted = f"{section}.{key}"
-            if checker is None:
-                checker = Settings(values)
             try:
-                values[section][key] = checker.check(dotted, value)
-            except (KeyError, ValueError) as exc:
-                message = str(exc.args[0] if exc.args else exc).removeprefix(f"{dotted}: ")
-                problems.append(ConfigProblem(where, None, dotted, message))
+                checked, error = Settings.option(dotted).check(value)
+            except KeyError as exc:
+                error = str(exc.args[0]).removeprefix(f"{dotted}: ")
+            if error is not None:
+                problems.append(ConfigProblem(where, None, dotted, error))
+            else:
+                values[section][key] = checked
 
 
 async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole,

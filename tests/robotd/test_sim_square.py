@@ -103,6 +103,25 @@ class TestSimCommandLine:
         assert main(["sim", str(scenario), "--quiet"]) == 2
         assert "drive.cruise_mps: expected a number" in capsys.readouterr().out
 
+    def test_limits_in_a_scenario_are_checked_in_order_once_all_are_set(
+        self, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    ) -> None:
+        """min_kg 12 before max_kg 20 is a valid pair (each alone would not be against the
+        defaults); min_kg 12 with the default max_kg 10 is refused, naming both."""
+        from importlib import resources
+
+        text = (resources.files("hal.sim") / "scenarios" / "square.toml").read_text()
+        good = tmp_path / "good.toml"
+        good.write_text(text.replace('[config.robot]\n', '[config.weight]\nmin_kg = 12\n'
+                                                         'max_kg = 20\n[config.robot]\n'))
+        assert main(["sim", str(good), "--quiet"]) == 0
+        bad = tmp_path / "bad.toml"
+        bad.write_text(text.replace('[config.robot]\n', '[config.weight]\nmin_kg = 12\n'
+                                                        '[config.robot]\n'))
+        assert main(["sim", str(bad), "--quiet"]) == 2
+        assert "weight.max_kg: must be above weight.min_kg (12), got 10" in \
+            capsys.readouterr().out
+
 
 class TestSimavrOption:
     def test_the_emulated_firmware_needs_the_wall_clock(

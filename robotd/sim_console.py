@@ -59,16 +59,24 @@ class SimConsole:
             self._progress_shown = False
 
     def summary(self, *, scenario: str, ok: bool, reasons: list[str], sim_s: float,
-                figures: dict[str, Any], report_dir: str | None) -> None:
-        """Always printed, even with --quiet: the result and why."""
+                figures: dict[str, Any], report_dir: str | None,
+                run_wall_s: float | None = None) -> None:
+        """Always printed, even with --quiet: the result and why. ``run_wall_s``: the wall
+        time of the simulation itself (robots started, run, stopped), without loading the
+        simulator and drawing the report - what the speed factor is of."""
         self._clear_progress()
         wall = max(1e-9, self.wall_s())
         out = self.stream
         print(f"\nscenario {scenario}: {'SUCCESS' if ok else 'FAILED'}", file=out)
         for reason in reasons:
             print(f"  - {reason}", file=out)
-        print(f"  virtual time {sim_s:.1f} s, wall time {wall:.2f} s, "
-              f"speed x{sim_s / wall:.0f}", file=out)
+        if run_wall_s is None:
+            print(f"  virtual time {sim_s:.1f} s, wall time {wall:.2f} s, "
+                  f"speed x{sim_s / wall:.0f}", file=out)
+        else:
+            run = max(1e-9, run_wall_s)
+            print(f"  virtual time {sim_s:.1f} s, wall time {wall:.2f} s (simulation {run:.2f} s,"
+                  f" speed x{sim_s / run:.0f}; loading and report {wall - run:.2f} s)", file=out)
         for robot, fig in figures.items():
             parts = ", ".join(f"{k} {v}" for k, v in fig.items())
             print(f"  {robot}: {parts}", file=out)

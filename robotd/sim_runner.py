@@ -14,6 +14,7 @@ import functools
 import random
 import signal
 import tempfile
+import time
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
@@ -93,10 +94,12 @@ def run_sim(args: argparse.Namespace) -> int:
             return 2
     # The robots' state stores, control sockets and the fleet database live here for the run.
     with tempfile.TemporaryDirectory(prefix="robotd-sim-") as workdir:
+        started = time.perf_counter()
         result = vclock.run(_run(args, scenario, console, Path(workdir)), speed=speed)
+        run_wall_s = time.perf_counter() - started
     if isinstance(result, int):
         return result
-    return _report(args, scenario, result, console)
+    return _report(args, scenario, result, console, run_wall_s)
 
 
 def _robot_settings(scenario: Scenario, spec: RobotSpec, config_path: str | None) -> Settings:
@@ -345,7 +348,7 @@ class SimResult:
 
 
 def _report(args: argparse.Namespace, scenario: Scenario, result: SimResult,
-            console: SimConsole) -> int:
+            console: SimConsole, run_wall_s: float) -> int:
     report_dir = getattr(args, "report", None)
     if report_dir:
         out = Path(report_dir)
@@ -355,7 +358,8 @@ def _report(args: argparse.Namespace, scenario: Scenario, result: SimResult,
                         f"{'success' if result.ok else 'FAILED'}")
     console.summary(scenario=scenario.name, ok=result.ok, reasons=result.reasons,
                     sim_s=result.sim_s, figures=result.figures,
-                    report_dir=str(Path(report_dir)) if report_dir else None)
+                    report_dir=str(Path(report_dir)) if report_dir else None,
+                    run_wall_s=run_wall_s)
     if result.interrupted:
         return 130
     return 0 if result.ok else 1

@@ -172,16 +172,18 @@ class LineTracker:
                 return self._lost(centre, colour, "too dark")
             # Grey lines only: saturation beyond what noise gives counts against the pixel:
             # tint = max(spread - _GREY_TINT, 0), in uint8 (max >= min: no wrap-around).
+            # (The tint as a full plane, not a scalar: numpy's array-array loops are the
+            # vectorised ones; likewise cv2 converts uint8 to float faster than numpy.)
             tint = np.minimum(planes[0], planes[1], out=work.tint)
             np.minimum(tint, planes[2], out=tint)
             np.subtract(value, tint, out=tint)
-            np.maximum(tint, _GREY_TINT, out=tint)
-            tint -= _GREY_TINT
+            np.maximum(tint, work.grey_tint, out=tint)
+            np.subtract(tint, work.grey_tint, out=tint)
             if colour.kind == "dark":
-                np.add(value, tint, out=raw, dtype=np.float32)
+                cv2.add(value, tint, dst=raw, dtype=cv2.CV_32F)
                 np.subtract(floor, raw, out=raw)
             else:
-                np.subtract(value, tint, out=raw, dtype=np.float32)
+                cv2.subtract(value, tint, dst=raw, dtype=cv2.CV_32F)
                 raw -= _background(value, cv2.MORPH_OPEN)
         else:
             floor = _background(_reduce(cv2.max, planes), cv2.MORPH_CLOSE)
@@ -277,6 +279,7 @@ class _Workspace:
         self.planes = [np.empty((rows, width), np.uint8) for _ in range(3)]
         self.value = np.empty((rows, width), np.uint8)
         self.tint = np.empty((rows, width), np.uint8)
+        self.grey_tint = np.full((rows, width), _GREY_TINT, np.uint8)
         self.raw = np.empty((rows, width), np.float32)
         # The score's rows laid end to end with zero columns either side, so runs never
         # cross rows and 1-D operations find them all at once; then their 3-tap sums.

@@ -82,7 +82,8 @@ class Command:
 
 
 class Outbox:
-    """Commands waiting to be sent; ``get()`` hands out the most urgent one."""
+    """Commands waiting to be sent; ``pop()`` hands out the most urgent one, and ``on_put``
+    tells the sender when there is one."""
 
     def __init__(self, limit: int) -> None:
         self.limit = limit
@@ -93,7 +94,6 @@ class Outbox:
         self._motor: Command | None = None
         self._heartbeat: Command | None = None
         self._normal: collections.deque[Command] = collections.deque()
-        self._waiter: asyncio.Future[None] | None = None  # get() waiting for a command
         self.on_put: Callable[[], None] | None = None  # told after each put (the sender)
 
     def __len__(self) -> int:
@@ -125,9 +125,6 @@ class Outbox:
             while len(self._normal) > self.limit:
                 self._normal.popleft().settle(Outcome.DROPPED, detail="queue full")
                 self.dropped += 1
-        waiter = self._waiter
-        if waiter is not None and not waiter.done():
-            waiter.set_result(None)
         if self.on_put is not None:
             self.on_put()
 
@@ -168,18 +165,6 @@ class Outbox:
         if self._normal:
             return self._normal.popleft()
         return None
-
-    async def get(self) -> Command:
-        while True:
-            command = self.pop()
-            if command is not None:
-                return command
-            # A bare future, not an asyncio.Event: one less coroutine per command.
-            self._waiter = asyncio.get_running_loop().create_future()
-            try:
-                await self._waiter
-            finally:
-                self._waiter = None
 
     def clear(self, outcome: Outcome, detail: str = "") -> None:
         """Settle every queued command with ``outcome`` (the link went down)."""

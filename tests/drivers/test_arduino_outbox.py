@@ -100,7 +100,7 @@ class TestOutbox:
         vclock.run(main())
 
     def test_clear_settles_everything_with_the_outcome(self) -> None:
-        """On link down every queued command ends LINK_DOWN; get() then waits."""
+        """On link down every queued command ends LINK_DOWN and the outbox is empty."""
 
         async def main() -> None:
             box = Outbox(limit=10)

@@ -89,7 +89,7 @@ class LineTracker:
         self._handover_left = 0
         self._last_x: float | None = None
         self._misses = 0
-        self._rows: tuple[int, npt.NDArray[np.intp]] | None = None
+        self._picks_height = 0  # the frame height the scan rows were picked for (0: none)
         self._picks = np.zeros(0, np.intp)
         self._pick_rows: list[int] = []
         self._work = _Workspace(0, 0)
@@ -110,7 +110,7 @@ class LineTracker:
     def set_params(self, params: TrackerParams) -> None:
         """Take new ROI and thresholds (live tuning)."""
         self.params = params
-        self._rows = None
+        self._picks_height = 0
 
     def reset(self) -> None:
         """Forget the last position (a new run starts from the image centre)."""
@@ -141,16 +141,16 @@ class LineTracker:
     def _strip(self, image: npt.NDArray[np.uint8]) -> tuple[list[Plane], int]:
         """The scan rows as uint8 planes (B, G, R), at most _MAX_WORK_PX wide, and the step."""
         h, w = image.shape[:2]
-        if self._rows is None or self._rows[0] != h:
+        if self._picks_height != h:
             p = self.params
             top = min(h - 1, int(p.roi_top * h))
             bottom = max(top + 1, min(h, int(p.roi_bottom * h)))
             picks = np.linspace(top, bottom - 1, min(p.rows, bottom - top)).astype(np.intp)
-            self._rows = (h, picks)
+            self._picks_height = h
             self._picks = picks
             self._pick_rows = picks.tolist()
         step = max(1, -(-w // _MAX_WORK_PX))
-        rows: Plane = image[self._rows[1]]
+        rows: Plane = image[self._picks]
         if step > 1:  # mean of each column group: keeps sub-pixel detail, halves the noise
             rows = cv2.resize(rows, (w // step, rows.shape[0]), interpolation=cv2.INTER_AREA)
         k, width = rows.shape[:2]

@@ -29,7 +29,6 @@ from robotd.config.settings import Settings
 
 log = structlog.get_logger(__name__)
 
-_DEFAULT_ROI = (TrackerParams().roi_top, TrackerParams().roi_bottom)
 _HISTORY = 512  # ticks kept for the fps, jitter and latency figures
 
 
@@ -58,17 +57,16 @@ class FollowConfig:
 
     @classmethod
     def from_settings(cls, settings: Settings) -> FollowConfig:
+        """The section as it stands: the settings keep the bands rising and the ROI's top
+        above its bottom (config.sections.ORDERS), in the file and in live tuning."""
         s = settings.section("line_follow")
-        bands = sorted((s["band_forward_px"], s["band_gentle_px"], s["band_strong_px"]))
-        top, bottom = s["roi_top"], s["roi_bottom"]
-        if bottom <= top:
-            log.warning("line_follow.roi_invalid", roi_top=top, roi_bottom=bottom)
-            top, bottom = _DEFAULT_ROI
-        return cls(s["kp"], s["ki"], s["kd"], s["fps"], (bands[0], bands[1], bands[2]),
+        return cls(s["kp"], s["ki"], s["kd"], s["fps"],
+                   (s["band_forward_px"], s["band_gentle_px"], s["band_strong_px"]),
                    settings.get("camera.width"), s["speed"], s["gentle_speed"],
                    s["strong_speed"], s["turn_speed"],
                    s["max_integral"], s["lost_frames"], s["colour"],
-                   TrackerParams(roi_top=top, roi_bottom=bottom, min_contrast=s["min_contrast"]))
+                   TrackerParams(roi_top=s["roi_top"], roi_bottom=s["roi_bottom"],
+                                 min_contrast=s["min_contrast"]))
 
 
 class LineFollower:

@@ -35,12 +35,11 @@ def load_config(path: str | Path, *, overrides: str | Path | None = None) -> Val
     values = load_config_text(text, str(path))
     if overrides is not None and Path(overrides).exists():
         over_path = Path(overrides)
-        over = load_config_text(over_path.read_text(encoding="utf-8"), str(over_path),
-                                base=values, fill_defaults=False)
+        over_text = over_path.read_text(encoding="utf-8")
+        over = load_config_text(over_text, str(over_path), base=values, fill_defaults=False)
         for section, keys in over.items():
             values[section].update(keys)
-        problems = order_problems(values, str(over_path), _locate_keys(
-            over_path.read_text(encoding="utf-8").splitlines()))
+        problems = order_problems(values, str(over_path), _locate_keys(over_text.splitlines()))
         if problems:
             raise ConfigError(problems)
     return values
@@ -49,14 +48,17 @@ def load_config(path: str | Path, *, overrides: str | Path | None = None) -> Val
 def order_problems(values: Values, path: str, where: dict[tuple[str, str], int],
                    orders: tuple[Order, ...] = ORDERS) -> list[ConfigProblem]:
     """Limits out of order (sections.ORDERS), each at the line of the key that breaks it."""
+    def get(dotted: str) -> Any:
+        section, key = dotted.split(".", 1)
+        return values[section][key]
+
     problems = []
     for order in orders:
-        problem = order.problem(lambda dotted: values[dotted.split(".")[0]][
-            dotted.split(".", 1)[1]])
+        problem = order.problem(get)
         if problem is not None:
-            section, key = problem[0].split(".", 1)
-            problems.append(ConfigProblem(path, where.get((section, key)), problem[0],
-                                          problem[1]))
+            dotted, why = problem
+            section, key = dotted.split(".", 1)
+            problems.append(ConfigProblem(path, where.get((section, key)), dotted, why))
     return problems
 
 

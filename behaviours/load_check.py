@@ -83,7 +83,7 @@ class LoadCheck:
         def tuned(dotted: str, value: Any) -> None:
             key = dotted.rpartition(".")[2]
             if key in ("min_kg", "max_kg"):
-                # Both from the settings: once the pair is in order again, all of it applies.
+                # Both from the settings, which keep the pair in order (config ORDERS).
                 check.set_thresholds(min_kg=float(settings.get("weight.min_kg")),
                                      max_kg=float(settings.get("weight.max_kg")))
             elif key in keys:

@@ -22,6 +22,7 @@ from hal.readings import Frame
 from hal.sim.body import DiffDriveBody
 from hal.sim.geometry import Pose, segment_distances
 from hal.sim.world import PaintedLine, World
+from hal.timer_chain import timer_chain
 
 F32Array = npt.NDArray[Any]  # float32; cv2 returns loosely typed arrays
 U8Image = npt.NDArray[Any]  # uint8 BGR
@@ -180,30 +181,19 @@ class SimCamera:
 
     # --- internals ----------------------------------------------------------------------------
     async def _run(self) -> None:
-        # Each capture is a timer callback that sets the next one: one loop turn a frame, where
-        # a task sleeping between frames would cost two (the simulator turns the loop a lot).
+        # Each capture is a timer callback that sets the next one (hal.timer_chain): one loop
+        # turn a frame, where a task sleeping between frames would cost two.
         loop = asyncio.get_running_loop()
         period_s = 1.0 / self.mount.fps
         deadline = loop.time() + period_s
-        failed: asyncio.Future[None] = loop.create_future()
-        timer: asyncio.TimerHandle | None = None
 
-        def capture() -> None:
-            nonlocal deadline, timer
-            try:
-                self._capture()
-            except Exception as exc:  # ends the capture task with it, as a failing loop would
-                failed.set_exception(exc)
-                return
+        def capture() -> float:
+            nonlocal deadline
+            self._capture()
             deadline += period_s
-            timer = loop.call_later(max(0.0, deadline - loop.time()), capture)
+            return max(0.0, deadline - loop.time())
 
-        timer = loop.call_later(max(0.0, deadline - loop.time()), capture)
-        try:
-            await failed
-        finally:
-            if timer is not None:
-                timer.cancel()
+        await timer_chain(capture, max(0.0, deadline - loop.time()))
 
     def _capture(self) -> None:
         loop = asyncio.get_running_loop()

@@ -140,7 +140,7 @@ class LineFollower:
         sleeper = DeadlineSleeper(loop)
         next_tick = loop.time()
         log.info("line_follow.start", fps=self._cfg.fps, colour=self.tracker.colour,
-                 precise_ticks=sleeper.precise)
+                 precise_ticks=sleeper.precise, tracker_kernel=self.tracker.kernel)
         try:
             while True:
                 now = loop.time()

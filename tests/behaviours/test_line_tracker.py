@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from behaviours.line_colours import parse_colour
+from behaviours.line_scan import KERNEL_ENV, KERNELS
 from behaviours.line_tracker import LineTracker, TrackerParams
 from hal.sim.body import DiffDriveBody
 from hal.sim.camera_model import CameraMount, SimCamera
@@ -17,6 +18,14 @@ from hal.sim.geometry import Pose, segments_array
 from hal.sim.world import PaintedLine, World
 
 CENTRE_PX = 159.5
+
+
+@pytest.fixture(autouse=True, params=KERNELS)
+def kernel(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
+    """Every test runs with both ways of scanning the rows (behaviours/line_scan.py)."""
+    name: str = request.param
+    monkeypatch.setenv(KERNEL_ENV, name)
+    return name
 
 
 def camera_over(*lines: PaintedLine, mount: CameraMount | None = None,

@@ -51,13 +51,22 @@ static void window_extreme(const float *in, float *out, int n, int radius, int t
     for (int i = 0; i < m; i++)
         padded[i] = i < radius || i >= radius + n ? edge : in[i - radius];
     for (int i = 0; i < m; i++) {
-        float v = padded[i], prev = from_start[i - 1 < 0 ? 0 : i - 1];
-        from_start[i] = i % k == 0 ? v : take_max ? (v > prev ? v : prev) : (v < prev ? v : prev);
+        float v = padded[i];
+        if (i % k == 0) {
+            from_start[i] = v;
+        } else {
+            float prev = from_start[i - 1];
+            from_start[i] = take_max ? (v > prev ? v : prev) : (v < prev ? v : prev);
+        }
     }
     for (int i = m - 1; i >= 0; i--) {
-        float v = padded[i], next = to_end[i + 1 < m ? i + 1 : i];
-        to_end[i] = i == m - 1 || (i + 1) % k == 0 ? v
-                    : take_max ? (v > next ? v : next) : (v < next ? v : next);
+        float v = padded[i];
+        if (i == m - 1 || (i + 1) % k == 0) {
+            to_end[i] = v;
+        } else {
+            float next = to_end[i + 1];
+            to_end[i] = take_max ? (v > next ? v : next) : (v < next ? v : next);
+        }
     }
     for (int j = 0; j < n; j++) {
         float a = to_end[j], b = from_start[j + k - 1];
@@ -195,6 +204,45 @@ static int find_runs(RunList *list, int span, int gap_px)
     return emit(list);
 }
 
+/* The row indices, copied out of the sequence before anything else, each item fetched with
+ * its bounds checked: a list can change under us while Python code runs (an __index__, a
+ * finalizer run by the garbage collector). NULL with an exception set. */
+static Py_ssize_t *read_rows(PyObject *rows_obj, Py_ssize_t *count)
+{
+    if (!PySequence_Check(rows_obj) || PyUnicode_Check(rows_obj)) {
+        PyErr_SetString(PyExc_TypeError, "line scan: rows must be a sequence of row indices");
+        return NULL;
+    }
+    Py_ssize_t n = PySequence_Size(rows_obj);
+    if (n < 0)
+        return NULL;
+    Py_ssize_t *rows = PyMem_Malloc(sizeof(Py_ssize_t) * (size_t)(n ? n : 1));
+    if (rows == NULL) {
+        PyErr_NoMemory();
+        return NULL;
+    }
+    for (Py_ssize_t i = 0; i < n; i++) {
+        PyObject *item = PySequence_GetItem(rows_obj, i); /* IndexError if it shrank */
+        if (item == NULL)
+            goto fail;
+        if (PyBool_Check(item) || !PyIndex_Check(item)) {
+            PyErr_Format(PyExc_TypeError, "line scan: rows[%zd] is %.100s, not a row index", i,
+                         Py_TYPE(item)->tp_name);
+            Py_DECREF(item);
+            goto fail;
+        }
+        rows[i] = PyNumber_AsSsize_t(item, PyExc_IndexError);
+        Py_DECREF(item);
+        if (rows[i] == -1 && PyErr_Occurred())
+            goto fail;
+    }
+    *count = n;
+    return rows;
+fail:
+    PyMem_Free(rows);
+    return NULL;
+}
+
 static PyObject *scan(PyObject *self, PyObject *args)
 {
     PyObject *image_obj, *rows_obj;
@@ -204,30 +252,44 @@ static PyObject *scan(PyObject *self, PyObject *args)
     if (!PyArg_ParseTuple(args, "OOiiidiiii", &image_obj, &rows_obj, &kind, &wanted_mask,
                           &others_mask, &level, &grey_tint, &blocks, &radius, &gap_px))
         return NULL;
-    Py_buffer view;
-    if (PyObject_GetBuffer(image_obj, &view, PyBUF_STRIDES) < 0)
+    Py_ssize_t count;
+    Py_ssize_t *rows = read_rows(rows_obj, &count);
+    if (rows == NULL)
         return NULL;
-    PyObject *result = NULL, *rows_seq = NULL, *runs = NULL;
+    Py_buffer view;
+    if (PyObject_GetBuffer(image_obj, &view, PyBUF_STRIDES | PyBUF_FORMAT) < 0) {
+        PyMem_Free(rows);
+        return NULL;
+    }
+    PyObject *result = NULL, *runs = NULL;
     uint8_t *value = NULL;
     float *work = NULL;
     int *edges = NULL;
-    if (view.ndim != 3 || view.itemsize != 1 || view.shape[2] != 3 || view.strides[2] != 1 ||
-        view.strides[1] != 3 || view.shape[1] < 4 || view.shape[1] > 1 << 20) {
+    if (view.ndim != 3 || view.itemsize != 1 || (view.format && strcmp(view.format, "B")) ||
+        view.shape[2] != 3 || view.strides[2] != 1 || view.strides[1] != 3 ||
+        view.shape[1] < 4 || view.shape[1] > 1 << 20) {
         PyErr_SetString(PyExc_ValueError,
-                        "line scan: expected uint8 BGR rows (h, w, 3), pixels packed");
+                        "line scan: expected uint8 BGR rows (h, w, 3), 4 <= w <= 2**20, "
+                        "pixels packed");
         goto done;
     }
     if (kind < KIND_DARK || kind > KIND_CHROMA || blocks < 2 || blocks > view.shape[1] ||
-        radius < 0 || !(level > 0.0)) {
-        PyErr_SetString(PyExc_ValueError, "line scan: bad kind, block count, radius or level");
+        radius < 0 || radius > blocks || grey_tint < 0 || grey_tint > 255 || !(level > 0.0)) {
+        PyErr_SetString(PyExc_ValueError,
+                        "line scan: bad kind, block count, radius, grey tint or level");
         goto done;
     }
-    rows_seq = PySequence_Fast(rows_obj, "line scan: rows must be a sequence of row indices");
-    if (rows_seq == NULL)
-        goto done;
+    const Py_ssize_t height = view.shape[0];
+    for (Py_ssize_t r = 0; r < count; r++) {
+        if (rows[r] < 0 || rows[r] >= height) {
+            PyErr_Format(PyExc_IndexError,
+                         "line scan: row %zd (rows[%zd]) outside the image's 0..%zd", rows[r],
+                         r, height - 1);
+            goto done;
+        }
+    }
     const int width = (int)view.shape[1];
     const int span = width + 2 * PAD;
-    const Py_ssize_t height = view.shape[0];
     value = malloc((size_t)width * 2);
     work = malloc(sizeof(float) * ((size_t)blocks * 8 + (size_t)radius * 6 + (size_t)span * 2));
     edges = malloc(sizeof(int) * ((size_t)blocks + 1));
@@ -248,16 +310,8 @@ static PyObject *scan(PyObject *self, PyObject *args)
     memset(bright, 0, sizeof(float) * (size_t)blocks); /* read, not used, unless light */
     RunList list = {runs, sums, level, 0, -1, 0};
     double floor_sum = 0.0;
-    Py_ssize_t count = PySequence_Fast_GET_SIZE(rows_seq);
     for (Py_ssize_t r = 0; r < count; r++) {
-        Py_ssize_t y = PyLong_AsSsize_t(PySequence_Fast_GET_ITEM(rows_seq, r));
-        if (y == -1 && PyErr_Occurred())
-            goto done;
-        if (y < 0 || y >= height) {
-            PyErr_Format(PyExc_IndexError, "line scan: row %zd outside the image", y);
-            goto done;
-        }
-        const uint8_t *px = (const uint8_t *)view.buf + y * view.strides[0];
+        const uint8_t *px = (const uint8_t *)view.buf + rows[r] * view.strides[0];
         value_and_tint(px, value, tint, width, grey_tint);
         block_means(value, edges, blocks, coarse);
         background(coarse, tmp, morphed, floor_px, blocks, radius, 1, scratch);
@@ -276,7 +330,7 @@ done:
     free(work);
     free(edges);
     Py_XDECREF(runs);
-    Py_XDECREF(rows_seq);
+    PyMem_Free(rows);
     PyBuffer_Release(&view);
     return result;
 }

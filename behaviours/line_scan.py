@@ -46,6 +46,8 @@ _BACKGROUND_FRAC = 0.17  # background window, fraction of the width: wider than 
 _GAP_PX = 3  # gaps this narrow inside a run are noise
 _PAD = 2  # zero columns either side of each row, so runs never cross rows
 _KINDS = {"dark": 0, "light": 1, "chroma": 2}
+_NOT_BUILT = ("the C line scan was not built: install a C compiler and Python's headers (gcc, "
+              "python3-dev), then reinstall robotd (in a checkout: .venv/bin/pip install -e .)")
 
 
 class RowScan(Protocol):
@@ -66,8 +68,7 @@ def built_kernel() -> str:
         msg = f"{KERNEL_ENV}={wanted!r}: expected one of {', '.join(KERNELS)}"
         raise ValueError(msg)
     if wanted == "c" and _line_scan is None:
-        msg = (f"{KERNEL_ENV}=c but the C line scan was not built: install a C compiler and "
-               "Python's headers (python3-dev), then pip install -e . again")
+        msg = f"{KERNEL_ENV}=c but {_NOT_BUILT}"
         raise ValueError(msg)
     return wanted or ("c" if _line_scan is not None else "numpy")
 
@@ -76,9 +77,6 @@ def row_scan(kernel: str | None = None) -> RowScan:
     """A scanner using ``kernel`` ("c" or "numpy"; None: ``built_kernel()``)."""
     name = kernel or built_kernel()
     if name == "c":
-        if _line_scan is None:
-            msg = "the C line scan was not built (see behaviours/line_scan.py)"
-            raise ValueError(msg)
         return CRowScan()
     if name == "numpy":
         return NumpyRowScan()
@@ -97,9 +95,13 @@ def _window(blocks: int) -> int:
 
 
 class CRowScan:
-    """The scan in C (behaviours/_line_scan.c)."""
+    """The scan in C (behaviours/_line_scan.c). Rows: indices 0 <= row < the image's height."""
 
     kernel = "c"
+
+    def __init__(self) -> None:
+        if _line_scan is None:
+            raise ValueError(_NOT_BUILT)
 
     def scan(self, image: npt.NDArray[np.uint8], rows: Sequence[int], colour: LineColour,
              level: float) -> tuple[float, list[Run]]:
@@ -123,6 +125,8 @@ class NumpyRowScan:
 
     def scan(self, image: npt.NDArray[np.uint8], rows: Sequence[int], colour: LineColour,
              level: float) -> tuple[float, list[Run]]:
+        if len(rows) == 0:
+            return 0.0, []
         if rows is not self._rows:  # the tracker keeps its rows: index with them as an array
             self._rows, self._row_index = rows, np.asarray(rows, np.intp)
         strip = image[self._row_index]

@@ -7,4 +7,4 @@ it, and the tracker scans rows with numpy (behaviours/line_scan.py says which it
 from setuptools import Extension, setup
 
 setup(ext_modules=[Extension("behaviours._line_scan", ["behaviours/_line_scan.c"],
-                             extra_compile_args=["-std=c99"], optional=True)])
+                             extra_compile_args=["-std=c99"], libraries=["m"], optional=True)])

@@ -5,8 +5,9 @@
     robotd probe camera --source file --file run.avi --colour red
     robotd probe camera --save frame.png         # keep the last frame to look at
 
-Prints frame size, measured frame rate, mean brightness and what the line tracker sees in the
-last frame (error in pixels, confidence, or why it is lost). ``--sim`` renders frames of a
+Prints frame size, measured frame rate, mean brightness, what the line tracker sees in the
+last frame (error in pixels, confidence, or why it is lost) and how long the tracker takes on
+it on this machine (and whether its row scan is the C one). ``--sim`` renders frames of a
 straight line with the simulated camera instead of opening a device. Exit 0 when frames came
 (even with no line in view), 1 when the camera is unavailable or delivered nothing.
 """
@@ -16,7 +17,9 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import statistics
 import sys
+import time
 from typing import Any
 
 import cv2
@@ -88,6 +91,8 @@ async def run(args: argparse.Namespace) -> int:
         return 1
     reading = tracker.track(last.image)
     report["line"] = {"colour": reading.colour, "lost": reading.lost,
+                      "tracker_kernel": tracker.kernel,
+                      "tracker_ms": round(_tracker_ms(tracker, last.image), 3),
                       "error_px": None if reading.lost else round(reading.error_px, 1),
                       "confidence": round(reading.confidence, 2),
                       "width_px": round(reading.width_px, 1), "at_edge": reading.at_edge,
@@ -161,11 +166,22 @@ def _figures(source: str, width: int, height: int, frames: int, elapsed_s: float
             "failed_reads": status.get("failed_reads", 0), "last": last}
 
 
+def _tracker_ms(tracker: LineTracker, image: Any, runs: int = 21) -> float:
+    """The tracker's time on this frame on this machine: the median of ``runs``."""
+    times = []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        tracker.track(image)
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times) * 1e3
+
+
 def _print(report: dict[str, Any]) -> None:
     print(f"{report['source']} camera: {report['width_px']}x{report['height_px']}, "
           f"{report['frames']} frames at {report['fps_measured']} FPS, mean brightness "
           f"{report['mean_brightness']}, failed reads {report['failed_reads']}")
     line = report["line"]
+    print(f"tracker: {line['tracker_ms']} ms per frame ({line['tracker_kernel']} row scan)")
     if line["lost"]:
         print(f"line ({line['colour']}): not found ({line['reason']})")
     else:

@@ -42,6 +42,8 @@ class TestCameraProbe:
         assert isinstance(line, dict)
         assert not line["lost"]
         assert line["error_px"] == pytest.approx(26.7, abs=2)
+        assert line["tracker_kernel"] in ("c", "numpy")
+        assert line["tracker_ms"] > 0
 
     def test_a_recorded_video_with_the_wrong_colour_says_lost(
             self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

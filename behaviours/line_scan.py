@@ -173,20 +173,21 @@ class NumpyRowScan:
         above = flat > level
         # Where runs begin and end (one past their last cell). From here on the work is on
         # a few runs, where plain Python costs less than numpy's calls.
-        edges = ((above[1:] != above[:-1]).nonzero()[0] + 1).tolist()
+        edges = (above[1:] != above[:-1]).nonzero()[0].tolist()  # each one before the edge
         if not edges:
             return []
-        begin, end = _close_gaps(edges[0::2], edges[1::2], span)
-        bounds = [x for pair in zip(begin, end, strict=True) for x in pair]
-        mass = np.add.reduceat(flat, bounds)[0::2].tolist()
-        sides = flat[[x for b in bounds for x in (b - 1, b)]].tolist()
+        begin, end = _close_gaps([b + 1 for b in edges[0::2]], [e + 1 for e in edges[1::2]],
+                                 span)
+        mass = np.add.reduceat(flat, [x for pair in zip(begin, end, strict=True)
+                                      for x in pair])[0::2].tolist()
+        at = flat.item
         runs = []
-        for i, (b, e) in enumerate(zip(begin, end, strict=True)):
-            b0, b1, e0, e1 = sides[4 * i:4 * i + 4]
+        for b, e, run_mass in zip(begin, end, mass, strict=True):
+            b0, b1, e0, e1 = at(b - 1), at(b), at(e - 1), at(e)
             middle = ((b - 1 + (level - b0) / (b1 - b0)) + (e - 1 + (level - e0) / (e1 - e0))) / 2
             row = b // span
             origin = row * span + _PAD
-            runs.append((row, b - origin, e - origin, middle - origin, mass[i]))
+            runs.append((row, b - origin, e - origin, middle - origin, run_mass))
         return runs
 
 

@@ -112,12 +112,15 @@ def _robot_settings(scenario: Scenario, spec: RobotSpec, config_path: str | None
     problems: list[ConfigProblem] = []
     _apply(values, scenario.config, f"{scenario.source} [config]", problems)
     _apply(values, spec.config, f"{scenario.source} [robot.config]", problems)
+    where = f"{scenario.source} [config]"
     if config_path:
-        user = load_config(config_path)  # raises ConfigError with every problem
+        # Only the keys the file sets: its defaults must not undo the scenario's config.
+        user = load_config(config_path, fill_defaults=False)  # ConfigError: every problem
         for section, keys in user.items():
             values[section].update(keys)
+        where = f"{scenario.source} [config] with {config_path}"
     if not problems:  # limits in order, once every table is in (each alone may be half-way)
-        problems = order_problems(values, f"{scenario.source} [config]", {})
+        problems = order_problems(values, where, {})
     if problems:
         raise ConfigError(problems)
     values["hal"]["backend"] = "sim"

@@ -25,14 +25,19 @@ def defaults(sections: dict[str, Section] = SECTIONS) -> Values:
     return {name: {o.key: o.default for o in s.options} for name, s in sections.items()}
 
 
-def load_config(path: str | Path, *, overrides: str | Path | None = None) -> Values:
-    """Read and check ``path`` (and an overrides file over it); raise ConfigError."""
+def load_config(path: str | Path, *, overrides: str | Path | None = None,
+                fill_defaults: bool = True) -> Values:
+    """Read and check ``path`` (and an overrides file over it); raise ConfigError.
+
+    ``fill_defaults=False``: only the keys the file sets (to lay over other values, whose
+    caller then checks the limits in order on the whole).
+    """
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError([ConfigProblem(str(path), None, "file", f"cannot read: {exc}")]) from exc
-    values = load_config_text(text, str(path))
+    values = load_config_text(text, str(path), fill_defaults=fill_defaults)
     if overrides is not None and Path(overrides).exists():
         over_path = Path(overrides)
         over_text = over_path.read_text(encoding="utf-8")

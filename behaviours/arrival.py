@@ -2,12 +2,14 @@
 
 The seed reports arrival when a navigation-target beacon's RSSI is at or above its threshold.
 A bare comparison toggles with every few dB of noise near the threshold, so the decision has
-hysteresis: a beacon counts as reached once its smoothed RSSI is at or above
-``threshold + enter_margin_db`` and stops counting once it has stayed below
-``threshold - exit_margin_db`` for ``exit_hold_s`` of sightings (or at once when the beacon is
-lost or stops being a target). The hold matters for a robot parked near the threshold
+hysteresis: a beacon counts as reached once its smoothed RSSI has stayed at or above
+``threshold + enter_margin_db`` for ``enter_hold_s`` of sightings, and stops counting once it
+has stayed below ``threshold - exit_margin_db`` for ``exit_hold_s`` (or at once when the beacon
+is lost or stops being a target). The exit hold matters for a robot parked near the threshold
 distance: there the smoothed RSSI still wanders by about 1 dB, and a 3 dB band alone toggled
-IsInTarget every few seconds.
+IsInTarget every few seconds. The entry hold keeps one noisy stretch from stopping the robot
+early: with 4 dB of noise per advert a robot following a line past a room's beacon stopped
+0.66 m from it in one approach out of 40 where it stops within 0.45 m otherwise.
 """
 
 from __future__ import annotations
@@ -29,18 +31,22 @@ class Arrival:
     Args:
         tracker: the tracked beacons with the server's configuration applied.
         enter_margin_db, exit_margin_db: the hysteresis band around each beacon's threshold.
+        enter_hold_s: how long (in sighting time) a beacon must stay at or above the entry
+            level before it counts as reached; 0 enters at the first sighting there.
         exit_hold_s: how long (in sighting time) a reached beacon must stay below the exit
             level before it stops counting; 0 leaves at the first sighting below it.
         default_threshold_dbm: for a target beacon whose configuration has no threshold.
     """
 
     def __init__(self, tracker: BeaconTracker, *, enter_margin_db: float = 0.0,
-                 exit_margin_db: float = 3.0, exit_hold_s: float = 2.0,
-                 default_threshold_dbm: float = -70.0) -> None:
+                 exit_margin_db: float = 3.0, enter_hold_s: float = 0.5,
+                 exit_hold_s: float = 2.0, default_threshold_dbm: float = -70.0) -> None:
         self.tracker = tracker
         self.enter_margin_db = enter_margin_db
         self.exit_margin_db = exit_margin_db
+        self.enter_hold_s = enter_hold_s
         self.exit_hold_s = exit_hold_s
+        self._above_since_s: dict[str, float] = {}
         self._below_since_s: dict[str, float] = {}
         self.default_threshold_dbm = default_threshold_dbm
         self._reached: set[str] = set()
@@ -51,7 +57,7 @@ class Arrival:
     @classmethod
     def from_settings(cls, tracker: BeaconTracker, settings: SettingsView) -> Arrival:
         """Built from the ``ble`` section; tuned margins apply at the next update."""
-        keys = ("enter_margin_db", "exit_margin_db", "exit_hold_s")
+        keys = ("enter_margin_db", "exit_margin_db", "enter_hold_s", "exit_hold_s")
         arrival = cls(tracker, **{k: settings.get(f"ble.{k}") for k in keys},
                       default_threshold_dbm=settings.get("ble.default_rssi_threshold_dbm"))
 
@@ -80,6 +86,7 @@ class Arrival:
     def update(self) -> bool:
         """Re-evaluate from the tracker's current state; returns ``IsInTarget``."""
         reached: set[str] = set()
+        above_since: dict[str, float] = {}
         below_since: dict[str, float] = {}
         for b in self.tracker.tracked():
             config = b.config
@@ -91,7 +98,11 @@ class Arrival:
             rssi = b.smoothed_rssi_dbm
             if b.mac not in self._reached:
                 if rssi >= threshold + self.enter_margin_db:
-                    reached.add(b.mac)
+                    since_s = self._above_since_s.get(b.mac, b.last_seen_s)
+                    if b.last_seen_s - since_s >= self.enter_hold_s:
+                        reached.add(b.mac)
+                    else:
+                        above_since[b.mac] = since_s
             elif rssi >= threshold - self.exit_margin_db:
                 reached.add(b.mac)
             else:
@@ -100,6 +111,7 @@ class Arrival:
                     reached.add(b.mac)
                     below_since[b.mac] = since_s
         self._reached = reached
+        self._above_since_s = above_since
         self._below_since_s = below_since
         in_target = bool(reached)
         if in_target != self._in_target:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import math
 import random
 
 from hypothesis import given, settings
@@ -38,7 +39,8 @@ class TestArrival:
     def test_in_target_at_threshold_and_out_below_the_exit_margin(self) -> None:
         """Enter at RSSI >= threshold; stay down to threshold - exit margin; leave below."""
         tracker = _tracker()
-        arrival = Arrival(tracker, enter_margin_db=0.0, exit_margin_db=3.0, exit_hold_s=0.0)
+        arrival = Arrival(tracker, enter_margin_db=0.0, exit_margin_db=3.0, enter_hold_s=0.0,
+                          exit_hold_s=0.0)
         steps = [(-66, False), (-65, True), (-67, True), (-68, True), (-69, False),
                  (-66, False), (-65, True)]
         for t, (rssi, expected) in enumerate(steps):
@@ -57,7 +59,7 @@ class TestArrival:
     def test_target_without_threshold_uses_the_default(self) -> None:
         """A target the server gave no RssiThreshold uses default_threshold_dbm."""
         tracker = _tracker(threshold=None)
-        arrival = Arrival(tracker, default_threshold_dbm=-60.0)
+        arrival = Arrival(tracker, default_threshold_dbm=-60.0, enter_hold_s=0.0)
         _see(tracker, -62, 0.0)
         assert arrival.update() is False
         _see(tracker, -60, 1.0)
@@ -66,7 +68,7 @@ class TestArrival:
     def test_lost_beacon_or_cleared_target_ends_arrival(self) -> None:
         """Arrival ends when the beacon is removed or the server clears the target flag."""
         tracker = _tracker()
-        arrival = Arrival(tracker)
+        arrival = Arrival(tracker, enter_hold_s=0.0)
         changes: list[bool] = []
         arrival.on_change(changes.append)
         _see(tracker, -50, 0.0)
@@ -160,6 +162,7 @@ class TestArrivalFromSettings:
         arrival = Arrival.from_settings(tracker, settings)
         assert (tracker.path_loss_exponent, tracker.removal_timeout_s) == (2.0, 10.0)
         assert (arrival.enter_margin_db, arrival.exit_margin_db) == (0.0, 3.0)
+        assert (arrival.enter_hold_s, arrival.exit_hold_s) == (0.5, 2.0)
         settings.set("ble.exit_margin_db", 5)
         settings.set("ble.path_loss_exponent", 2.5)
         settings.set("ble.default_rssi_threshold_dbm", -72)
@@ -181,7 +184,7 @@ class TestArrivalParkedNearTheThreshold:
             tracker = BeaconTracker(scanner, smoothing_s=1.0)
             tracker.apply_config([BeaconConfig(TARGET, rssi_threshold_dbm=-65.0,
                                                is_navigation_target=True)])
-            arrival = Arrival(tracker, exit_hold_s=exit_hold_s)
+            arrival = Arrival(tracker, enter_hold_s=0.0, exit_hold_s=exit_hold_s)
             async with air.running():
                 await scanner.start()
                 for _ in range(6000):
@@ -197,7 +200,7 @@ class TestArrivalParkedNearTheThreshold:
         """Below the exit level for less than exit_hold_s of sightings keeps the arrival;
         staying there that long ends it; a lost beacon ends it at once."""
         tracker = _tracker()
-        arrival = Arrival(tracker, exit_hold_s=2.0)
+        arrival = Arrival(tracker, enter_hold_s=0.0, exit_hold_s=2.0)
         for t, rssi, expected in [(0.0, -60, True), (1.0, -70, True), (2.0, -66, True),
                                   (3.0, -70, True), (4.5, -70, True), (5.0, -70, False),
                                   (6.0, -60, True)]:
@@ -205,3 +208,49 @@ class TestArrivalParkedNearTheThreshold:
             assert arrival.update() is expected, (t, rssi)
         tracker.prune(30.0)
         assert arrival.update() is False
+
+
+class TestArrivalEntryHold:
+    def test_entry_needs_the_rssi_at_its_level_for_the_hold(self) -> None:
+        """At the level for less than enter_hold_s of sightings is not an arrival; a sighting
+        below starts the hold again; held that long, it is."""
+        tracker = _tracker()
+        arrival = Arrival(tracker, enter_hold_s=0.5)
+        for t, rssi, expected in [(0.0, -60, False), (0.3, -60, False), (0.4, -70, False),
+                                  (0.5, -60, False), (0.9, -64, False), (1.0, -65, True)]:
+            _see(tracker, rssi, t)
+            assert arrival.update() is expected, (t, rssi)
+        assert arrival.changes == 1
+
+    def test_a_robot_passing_a_beacon_stops_near_it_despite_the_noise(self) -> None:
+        """A robot driving past a room's beacon 0.35 m to its side at 0.3 m/s, through the
+        sim's 4 dB noise, threshold -54 dBm (0.56 m at n = 2), 40 seeds: with the 0.5 s entry
+        hold it arrives every time, within 0.45 m of the beacon. Without it the first
+        sighting (nothing to smooth yet) or a noisy stretch stops it early: 2 m away in the
+        worst seed."""
+        async def approach(seed: int, enter_hold_s: float) -> float | None:
+            world = World.from_table({"width_m": 8, "height_m": 4, "beacons": [
+                {"mac": TARGET, "uuid": UUID, "major": 1, "minor": 103, "x_m": 5.0,
+                 "y_m": 2.0, "tx_power_dbm": -59}]})
+            body = DiffDriveBody(world, Pose(3.0, 2.35, 0.0))
+            air = SimBleAir(body, rng=random.Random(seed))
+            scanner = BleBeaconScanner([UUID], scanner_factory=air.scanner_factory())
+            tracker = BeaconTracker(scanner, smoothing_s=1.0)
+            tracker.apply_config([BeaconConfig(TARGET, rssi_threshold_dbm=-54.0,
+                                               is_navigation_target=True)])
+            arrival = Arrival(tracker, enter_hold_s=enter_hold_s)
+            async with air.running():
+                await scanner.start()
+                while body.pose.x_m < 6.0 and not arrival.update():
+                    body.pose = Pose(body.pose.x_m + 0.03, 2.35, 0.0)
+                    await asyncio.sleep(0.1)
+                await scanner.close()
+            if not arrival.is_in_target:
+                return None
+            return math.hypot(body.pose.x_m - 5.0, 0.35)
+
+        held = [vclock.run(approach(seed, 0.5)) for seed in range(40)]
+        bare = [vclock.run(approach(seed, 0.0)) for seed in range(40)]
+        assert None not in held and None not in bare
+        assert max(d for d in held if d is not None) <= 0.45
+        assert max(d for d in bare if d is not None) > 1.0

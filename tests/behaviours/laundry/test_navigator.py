@@ -84,7 +84,7 @@ def _rig(state: str = "idle", machine: TableMachine | None = None
     machine = machine or TableMachine(state)
     ctx.attach(machine)
     tracker = BeaconTracker(smoothing_s=0)
-    arrival = Arrival(tracker)
+    arrival = Arrival(tracker, enter_hold_s=0.0)  # one sighting at the level is an arrival
     nav = Navigator(ctx, tracker, arrival, lambda c: colours.append(str(c)))
     return nav, machine, tracker, colours
 

@@ -87,6 +87,7 @@ class LineTracker:
         self._misses = 0
         self._picks_height = 0  # the frame height the scan rows were picked for (0: none)
         self._pick_rows: list[int] = []
+        self._strip_rows: list[int] = []  # the scan rows in a frame averaged down
         self._scan = row_scan(kernel)
 
     @property
@@ -122,10 +123,10 @@ class LineTracker:
         if image.ndim != 3 or image.shape[2] != 3 or image.shape[0] < 2 or image.shape[1] < 8:
             msg = f"line tracker: expected a BGR image (h, w, 3), got shape {image.shape}"
             raise ValueError(msg)
-        strip, rows, step = self._rows(image)
-        reading = self._find(strip, rows, step, self._colour, image.shape[1])
+        strip, rows = self._rows(image)
+        reading = self._find(strip, rows, self._colour, image.shape[1])
         if reading.lost and self._fallback is not None and self._handover_left > 0:
-            reading = self._find(strip, rows, step, self._fallback, image.shape[1])
+            reading = self._find(strip, rows, self._fallback, image.shape[1])
         if self._fallback is not None:
             self._handover_left -= 1
             if self._handover_left <= 0 or (not reading.lost and reading.colour == self.colour):
@@ -138,9 +139,9 @@ class LineTracker:
         return reading
 
     # --- internals ----------------------------------------------------------------------------
-    def _rows(self, image: npt.NDArray[np.uint8]) -> tuple[npt.NDArray[np.uint8], list[int], int]:
-        """The frame (or its scan rows, averaged down to at most _MAX_WORK_PX wide), the scan
-        rows in it, and the column step."""
+    def _rows(self, image: npt.NDArray[np.uint8]) -> tuple[npt.NDArray[np.uint8], list[int]]:
+        """The frame (or its scan rows, averaged down to at most _MAX_WORK_PX wide) and the
+        scan rows in it."""
         h, w = image.shape[:2]
         if self._picks_height != h:
             p = self.params
@@ -149,27 +150,29 @@ class LineTracker:
             picks = np.linspace(top, bottom - 1, min(p.rows, bottom - top)).astype(np.intp)
             self._picks_height = h
             self._pick_rows = picks.tolist()
-        step = max(1, -(-w // _MAX_WORK_PX))
+            self._strip_rows = list(range(len(self._pick_rows)))
+        step = -(-w // _MAX_WORK_PX)
         if step == 1:
-            return image, self._pick_rows, 1
+            return image, self._pick_rows
         # The mean of each column group keeps sub-pixel detail and halves the noise.
         rows = cv2.resize(image[self._pick_rows], (w // step, len(self._pick_rows)),
                           interpolation=cv2.INTER_AREA).astype(np.uint8, copy=False)
-        return rows, list(range(len(self._pick_rows))), step
+        return rows, self._strip_rows
 
-    def _find(self, image: npt.NDArray[np.uint8], rows: list[int], step: int,
-              colour: LineColour, full_width: int) -> LineReading:
+    def _find(self, image: npt.NDArray[np.uint8], rows: list[int], colour: LineColour,
+              full_width: int) -> LineReading:
         threshold = self.params.min_contrast * _THRESHOLD_SCALE[colour.kind]
         # 3 * threshold: the runs are of 3-tap sums
         floor, runs = self._scan.scan(image, rows, colour, 3 * threshold)
         if floor < _TOO_DARK:
             return self._lost((full_width - 1) / 2, colour, "too dark")
-        return self._pick(runs, len(rows), image.shape[1], threshold, colour, step, full_width)
+        return self._pick(runs, len(rows), image.shape[1], threshold, colour, full_width)
 
     def _pick(self, runs: list[Run], k: int, width: int, threshold: float, colour: LineColour,
-              step: int, full_width: int) -> LineReading:
+              full_width: int) -> LineReading:
         p = self.params
         centre = (full_width - 1) / 2
+        scale = full_width / width  # frame pixels per work column (wide frames averaged down)
         narrowest, widest = max(2, p.min_width_frac * width), p.max_width_frac * width
         runs = [run for run in runs if narrowest <= run[2] - run[1] <= widest]
         if not runs:
@@ -180,7 +183,7 @@ class LineTracker:
             candidates = max(row.count(r) for r in set(row))
             near = self._last_x if self._last_x is not None and self._misses < 10 else centre
             chosen = _one_line(np.array(row), np.array([(b + e - 1) / 2 for _, b, e, _, _ in runs]),
-                               (near - (step - 1) / 2) / step, width / 8, (k + 2) // 3)
+                               (near + 0.5) / scale - 0.5, width / 8, (k + 2) // 3)
             runs = [runs[i] for i in chosen.tolist()]
             row = [run[0] for run in runs]
         found = len(runs)
@@ -192,12 +195,12 @@ class LineTracker:
         # across a wide line under uneven light - 0.08 px mean error at 640 x 480 against
         # 0.05.)
         x_px, row_px = _centre([run[3] for run in runs], rows_px, found == k)
-        line_x = x_px * step + (step - 1) / 2
+        line_x = (x_px + 0.5) * scale - 0.5
         widths = [e - b for _, b, e, _, _ in runs]
-        line_w = _median_of(widths) * step
+        line_w = _median_of(widths) * scale
         # Seen cut off by the image border: its visible part's centre is within half its
         # width (plus the smoothing's spread) of the border.
-        reach = line_w / 2 + 2 * step
+        reach = line_w / 2 + 2 * scale
         at_edge = line_x < reach or line_x > full_width - 1 - reach
         contrast = _median_of([run[4] / w for run, w in zip(runs, widths, strict=True)]) / 3
         confidence = min(1.0, contrast / (2 * threshold)) * found / k

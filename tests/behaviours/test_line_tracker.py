@@ -124,6 +124,19 @@ class TestFindsTheLine:
         assert LineTracker(p).track(image).x_px == pytest.approx(LEFT_PX + 9.5, abs=0.05)
 
 
+    @pytest.mark.parametrize("width", [641, 1280, 1300, 1640, 2592])
+    def test_wide_frames_are_read_averaged_down_and_placed_back_exactly(self,
+                                                                       width: int) -> None:
+        """Frames over 640 px are averaged down to at most 640 columns; the position is
+        mapped back by the true ratio (1640 / 547, not 3): a stripe is where it is, to 0.05 px,
+        at the left, middle and right (it was up to 1.8 px off at 1640 and 2592)."""
+        for frac in (0.1, 0.5, 0.85):
+            image = np.full((240, width, 3), 200, np.uint8)
+            left = int(width * frac)
+            image[:, left:left + 40] = 40
+            assert LineTracker().track(image).x_px == pytest.approx(left + 19.5, abs=0.05)
+
+
 LEFT_PX = 120
 
 

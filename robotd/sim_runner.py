@@ -29,9 +29,7 @@ from hal.sim.scenario import RobotSpec, Scenario, ScenarioError, load_scenario, 
 from hal.sim.tracks import PathRecorder, TrackPoint
 from hal.timer_chain import timer_chain
 from robotd import vclock
-from robotd.config import ConfigError, load_config
-from robotd.config.errors import ConfigProblem
-from robotd.config.loader import defaults, order_problems
+from robotd.config import ConfigError
 from robotd.config.settings import Settings
 from robotd.logs import configure_logging
 from robotd.sim_checks import (
@@ -41,6 +39,7 @@ from robotd.sim_checks import (
     request_failures,
     summary_figures,
 )
+from robotd.sim_config import robot_settings
 from robotd.sim_console import SimConsole
 from robotd.sim_devices import SimRig, open_sim_rig
 from robotd.sim_report import draw_trajectory, write_events
@@ -100,50 +99,6 @@ def run_sim(args: argparse.Namespace) -> int:
     if isinstance(result, int):
         return result
     return _report(args, scenario, result, console, run_wall_s)
-
-
-def _robot_settings(scenario: Scenario, spec: RobotSpec, config_path: str | None) -> Settings:
-    values = defaults()
-    values["robot"]["profile"] = scenario.profile
-    if "fleet" in scenario.raw:
-        from robotd.sim_fleet import FLEET_URL
-
-        values["fleet"]["url"] = FLEET_URL
-    problems: list[ConfigProblem] = []
-    _apply(values, scenario.config, f"{scenario.source} [config]", problems)
-    _apply(values, spec.config, f"{scenario.source} [robot.config]", problems)
-    where = f"{scenario.source} [config]"
-    if config_path:
-        # Only the keys the file sets: its defaults must not undo the scenario's config.
-        user = load_config(config_path, fill_defaults=False)  # ConfigError: every problem
-        for section, keys in user.items():
-            values[section].update(keys)
-        where = f"{scenario.source} [config] with {config_path}"
-    if not problems:  # limits in order, once every table is in (each alone may be half-way)
-        problems = order_problems(values, where, {})
-    if problems:
-        raise ConfigError(problems)
-    values["hal"]["backend"] = "sim"
-    values["robot"]["name"] = spec.name
-    return Settings(values, source=scenario.source)
-
-
-def _apply(values: dict[str, dict[str, Any]], table: dict[str, Any], where: str,
-           problems: list[ConfigProblem]) -> None:
-    for section, keys in table.items():
-        if not isinstance(keys, dict):
-            problems.append(ConfigProblem(where, None, section, "expected a table"))
-            continue
-        for key, value in keys.items():
-            dotted = f"{section}.{key}"
-            try:
-                checked, error = Settings.option(dotted).check(value)
-            except KeyError as exc:
-                error = str(exc.args[0]).removeprefix(f"{dotted}: ")
-            if error is not None:
-                problems.append(ConfigProblem(where, None, dotted, error))
-            else:
-                values[section][key] = checked
 
 
 async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole,
@@ -222,7 +177,7 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
                           float(fleet_table.get("washing_s", 30.0)))
             await fleet.start()
         for index, spec in enumerate(scenario.robots):
-            settings = _robot_settings(scenario, spec, getattr(args, "config", None))
+            settings = robot_settings(scenario, spec, getattr(args, "config", None))
             body = DiffDriveBody(scenario.world, Pose(spec.x_m, spec.y_m, spec.heading_rad),
                                  spec.body, rng=random.Random(f"{seed}:{spec.name}:body"),
                                  payload_kg=spec.payload_kg, clock=loop.time)

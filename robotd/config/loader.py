@@ -50,6 +50,11 @@ def load_config(path: str | Path, *, overrides: str | Path | None = None,
     return values
 
 
+def key_lines(path: str | Path) -> dict[tuple[str, str], int]:
+    """The line of each (section, key) a config file sets, for messages about them."""
+    return _locate_keys(Path(path).read_text(encoding="utf-8").splitlines())
+
+
 def order_problems(values: Values, path: str, where: dict[tuple[str, str], int],
                    orders: tuple[Order, ...] = ORDERS) -> list[ConfigProblem]:
     """Limits out of order (sections.ORDERS), each at the line of the key that breaks it."""

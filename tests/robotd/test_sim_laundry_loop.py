@@ -68,27 +68,3 @@ class TestLaundryLoop:
         assert [(e["room"], e["follow_color"]) for e in legs] == [("103", None),
                                                                    ("base", "red")]
 
-
-class TestConfigLaidOver:
-    def test_a_config_file_changes_only_the_keys_it_sets(self, tmp_path: Any) -> None:
-        """`robotd sim --config`: the file's own keys win, the scenario's others stay (the
-        file's defaults once emptied the route: the robot never left idle)."""
-        from robotd.sim_runner import _robot_settings
-
-        config = tmp_path / "robot.toml"
-        config.write_text("[ble]\nsmoothing_s = 2.0\n")
-        scenario = load_scenario("laundry-loop")
-        settings = _robot_settings(scenario, scenario.robots[0], str(config))
-        assert settings.get("ble.smoothing_s") == 2.0
-        assert settings.get("laundry.route") == ["103", "base"]
-        assert settings.get("ble.uuids") == ["E2C56DB5-DFFB-48D2-B060-D0F5A71096E0"]
-
-    def test_limits_are_checked_on_the_merged_config(self, tmp_path: Any) -> None:
-        from robotd.config import ConfigError
-        from robotd.sim_runner import _robot_settings
-
-        config = tmp_path / "robot.toml"
-        config.write_text("[weight]\nmin_kg = 50.0\n")
-        scenario = load_scenario("laundry-loop")
-        with pytest.raises(ConfigError, match=f"with {config}"):
-            _robot_settings(scenario, scenario.robots[0], str(config))

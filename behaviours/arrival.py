@@ -7,9 +7,10 @@ hysteresis: a beacon counts as reached once its smoothed RSSI has stayed at or a
 has stayed below ``threshold - exit_margin_db`` for ``exit_hold_s`` (or at once when the beacon
 is lost or stops being a target). The exit hold matters for a robot parked near the threshold
 distance: there the smoothed RSSI still wanders by about 1 dB, and a 3 dB band alone toggled
-IsInTarget every few seconds. The entry hold keeps one noisy stretch from stopping the robot
-early: with 4 dB of noise per advert a robot following a line past a room's beacon stopped
-0.66 m from it in one approach out of 40 where it stops within 0.45 m otherwise.
+IsInTarget every few seconds. The entry hold keeps the first sighting (nothing to smooth it
+yet) or one noisy stretch from stopping the robot early: driving past a room's beacon through
+4 dB of noise per advert, the bare comparison stopped it up to 2 m early, held 0.5 s never
+more than 0.40 m from the beacon (docs/beacons-and-weight.md).
 """
 
 from __future__ import annotations

@@ -76,7 +76,7 @@ class _Store:
     def delete(self, key: str) -> None: ...
 
 
-def _rig(state: str = "idle", machine: TableMachine | None = None
+def _rig(state: str = "idle", machine: TableMachine | None = None, enter_hold_s: float = 0.0
          ) -> tuple[Navigator, TableMachine, BeaconTracker, list[str]]:
     colours: list[str] = []
     ctx = RobotContext(Devices(), Settings(defaults()), _Store(),
@@ -84,7 +84,7 @@ def _rig(state: str = "idle", machine: TableMachine | None = None
     machine = machine or TableMachine(state)
     ctx.attach(machine)
     tracker = BeaconTracker(smoothing_s=0)
-    arrival = Arrival(tracker, enter_hold_s=0.0)  # one sighting at the level is an arrival
+    arrival = Arrival(tracker, enter_hold_s=enter_hold_s)  # 0: one sighting is an arrival
     nav = Navigator(ctx, tracker, arrival, lambda c: colours.append(str(c)))
     return nav, machine, tracker, colours
 
@@ -208,3 +208,33 @@ class TestNavigator:
         assert fired == ["go_room", "go_base", "arrived_base"]
         assert state == "mission.at_base"
 
+
+    def test_sent_back_to_base_beside_it_arrives_once_the_entry_hold_has_passed(self) -> None:
+        """With the entry hold (0.5 s of sightings): sent back to base while beside its
+        beacon, the robot arrives once the beacon has held its level that long - not at
+        once, and not never."""
+
+        async def main() -> tuple[list[str], list[str], str]:
+            machine = QueuedMachine()
+            nav, _, tracker, _ = _rig(machine=machine, enter_hold_s=0.5)
+            await nav.apply(_to("101"))
+
+            async def advertise() -> None:  # the base beacon beside it, 10 adverts a second
+                while True:
+                    _sight(tracker, "AA:00:00:00:00:01", -50)
+                    await asyncio.sleep(0.1)
+
+            tasks = [asyncio.create_task(advertise()), asyncio.create_task(nav.arrival.run())]
+            await asyncio.sleep(0.05)
+            await nav.apply(_to("base"))
+            await asyncio.sleep(0.3)
+            early = list(machine.fired)
+            await asyncio.sleep(0.5)
+            for task in tasks:
+                task.cancel()
+            return early, machine.fired, machine.state
+
+        early, fired, state = vclock.run(main())
+        assert early == ["go_room", "go_base"]
+        assert fired == ["go_room", "go_base", "arrived_base"]
+        assert state == "mission.at_base"

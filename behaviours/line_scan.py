@@ -26,6 +26,7 @@ from typing import Any, Protocol
 import cv2
 import numpy as np
 import numpy.typing as npt
+import structlog
 
 from behaviours.line_colours import LineColour
 
@@ -34,6 +35,7 @@ try:
 except ImportError:  # not built: no C compiler or Python headers where it was installed
     _line_scan = None  # type: ignore[assignment]
 
+log = structlog.get_logger(__name__)
 Plane = npt.NDArray[Any]  # uint8 or float32 rows (cv2 returns loosely typed arrays)
 Run = tuple[int, int, int, float, float]
 """A run: scan row (its index), begin and end column (end exclusive; the 3-tap sums reach one
@@ -62,15 +64,16 @@ class RowScan(Protocol):
 
 
 def built_kernel() -> str:
-    """The kernel trackers use: ``ROBOTD_LINE_KERNEL`` if set, else C if it was built."""
+    """The kernel trackers use: ``ROBOTD_LINE_KERNEL`` if set (a value that cannot be used
+    is logged and ignored: a diagnostic knob must not keep the robot from starting), else C
+    if it was built."""
+    built = "c" if _line_scan is not None else "numpy"
     wanted = os.environ.get(KERNEL_ENV, "").strip().lower()
-    if wanted and wanted not in KERNELS:
-        msg = f"{KERNEL_ENV}={wanted!r}: expected one of {', '.join(KERNELS)}"
-        raise ValueError(msg)
-    if wanted == "c" and _line_scan is None:
-        msg = f"{KERNEL_ENV}=c but {_NOT_BUILT}"
-        raise ValueError(msg)
-    return wanted or ("c" if _line_scan is not None else "numpy")
+    if not wanted or wanted == built or wanted == "numpy":
+        return wanted or built
+    why = _NOT_BUILT if wanted == "c" else f"expected one of {', '.join(KERNELS)}"
+    log.warning("line_tracker.kernel_env_ignored", value=wanted, using=built, why=why)
+    return built
 
 
 def row_scan(kernel: str | None = None) -> RowScan:

@@ -167,7 +167,8 @@ def _figures(source: str, width: int, height: int, frames: int, elapsed_s: float
 
 
 def _tracker_ms(tracker: LineTracker, image: Any, runs: int = 21) -> float:
-    """The tracker's time on this frame on this machine: the median of ``runs``."""
+    """The tracker's time on this frame on this machine: the median of ``runs`` in a row
+    (warm caches; bench/bench_line_tracker.py times it cold, as after a capture)."""
     times = []
     for _ in range(runs):
         t0 = time.perf_counter()
@@ -181,7 +182,8 @@ def _print(report: dict[str, Any]) -> None:
           f"{report['frames']} frames at {report['fps_measured']} FPS, mean brightness "
           f"{report['mean_brightness']}, failed reads {report['failed_reads']}")
     line = report["line"]
-    print(f"tracker: {line['tracker_ms']} ms per frame ({line['tracker_kernel']} row scan)")
+    print(f"tracker: {line['tracker_ms']} ms per frame, warm ({line['tracker_kernel']} row "
+          "scan; right after a capture about twice that)")
     if line["lost"]:
         print(f"line ({line['colour']}): not found ({line['reason']})")
     else:

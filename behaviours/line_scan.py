@@ -69,7 +69,7 @@ def built_kernel() -> str:
     if it was built."""
     built = "c" if _line_scan is not None else "numpy"
     wanted = os.environ.get(KERNEL_ENV, "").strip().lower()
-    if not wanted or wanted == built or wanted == "numpy":
+    if not wanted or wanted in (built, "numpy"):
         return wanted or built
     why = _NOT_BUILT if wanted == "c" else f"expected one of {', '.join(KERNELS)}"
     log.warning("line_tracker.kernel_env_ignored", value=wanted, using=built, why=why)

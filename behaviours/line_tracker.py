@@ -182,9 +182,9 @@ class LineTracker:
         if len(set(row)) < len(row):  # a row with several runs
             candidates = max(row.count(r) for r in set(row))
             near = self._last_x if self._last_x is not None and self._misses < 10 else centre
-            chosen = _one_line(np.array(row), np.array([(b + e - 1) / 2 for _, b, e, _, _ in runs]),
+            chosen = _one_line(row, [(b + e - 1) / 2 for _, b, e, _, _ in runs],
                                (near + 0.5) / scale - 0.5, width / 8, (k + 2) // 3)
-            runs = [runs[i] for i in chosen.tolist()]
+            runs = [runs[i] for i in chosen]
             row = [run[0] for run in runs]
         found = len(runs)
         if found < max(1, (k + 2) // 3):
@@ -216,8 +216,8 @@ class LineTracker:
         return LineReading(last, 0.0, True, None, 0.0, False, 0, colour.name, reason)
 
 
-def _one_line(row: npt.NDArray[np.intp], mid: npt.NDArray[np.float64], near: float, reach: float,
-              min_rows: int) -> npt.NDArray[np.intp]:
+def _one_line(row: list[int], mid: list[float], near: float, reach: float,
+              min_rows: int) -> list[int]:
     """Runs of several lines: pick one line and its run in each row.
 
     The line is the one nearest ``near`` among runs that line up with runs in at least
@@ -225,17 +225,18 @@ def _one_line(row: npt.NDArray[np.intp], mid: npt.NDArray[np.float64], near: flo
     keeps its run nearest that line, if within ``reach``. Choosing each row on its own
     could mix two lines into a position between them.
     """
-    apart = np.abs(mid[:, None] - mid[None, :]) <= reach
-    support = np.array([np.unique(row[m]).size for m in apart])
-    lines = support >= min_rows
-    pool = np.flatnonzero(lines) if lines.any() else np.arange(mid.size)
-    anchor = float(mid[pool[np.argmin(np.abs(mid[pool] - near))]])
-    distance = np.abs(mid - anchor)
-    order = np.lexsort((distance, row))
-    first = np.ones(order.size, bool)
-    first[1:] = row[order][1:] != row[order][:-1]
-    chosen = order[first]
-    return np.sort(chosen[distance[chosen] <= reach])
+    # A few dozen runs at most: plain Python (numpy's per-call cost made this 0.2 ms).
+    runs = range(len(mid))
+    support = [len({row[j] for j in runs if abs(mid[j] - mid[i]) <= reach}) for i in runs]
+    pool = [i for i in runs if support[i] >= min_rows] or list(runs)
+    anchor = mid[min(pool, key=lambda i: abs(mid[i] - near))]
+    nearest: dict[int, int] = {}  # row -> its run nearest the anchor, within reach
+    for i in runs:
+        distance = abs(mid[i] - anchor)
+        if distance <= reach and (row[i] not in nearest
+                                  or distance < abs(mid[nearest[row[i]]] - anchor)):
+            nearest[row[i]] = i
+    return sorted(nearest.values())
 
 
 def _centre(xs: list[float], rows: list[int], evenly: bool) -> tuple[float, float]:

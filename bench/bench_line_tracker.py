@@ -154,6 +154,24 @@ def bench_tracker(mount: CameraMount, count: int, passes: int) -> None:
             print(f"  accuracy {label:15s}: found 0/{count}")
 
 
+def bench_two_lines(mount: CameraMount, count: int, passes: int) -> None:
+    """Frames with a second line 7 cm beside the followed one (a branch, a lane handover):
+    the tracker then also picks one line from the runs."""
+    branch = PaintedLine("branch", ((0.0, LINE_Y_M + 0.07), (6.0, LINE_Y_M + 0.07)), "black",
+                         0.025)
+    images = [f for f, _ in render_frames(mount, count, seed=7, extra=(branch,))]
+    tracker = LineTracker()
+
+    def ours(image: Any) -> Any:
+        tracker.reset()
+        return tracker.track(image)
+
+    naive, mine = time_per_frame([naive_track, ours], images, passes)
+    print(f"  two lines in view ({count} frames): scan-row p50 "
+          f"{statistics.median(mine) * 1e3:.3f} ms (p99 {pct(mine, 99) * 1e3:.3f}), naive "
+          f"{statistics.median(naive) * 1e3:.3f} ms")
+
+
 def bench_hard_cases(count: int) -> None:
     """Frames the naive tracker was not built for: right answers out of ``count`` each."""
     branch = PaintedLine("branch", ((0.0, LINE_Y_M + 0.07), (6.0, LINE_Y_M + 0.07)), "black",
@@ -202,6 +220,7 @@ def main() -> int:
     if opts.part in ("all", "tracker"):
         for mount in (CameraMount(), CameraMount(width_px=640, height_px=480)):
             bench_tracker(mount, opts.frames, opts.passes)
+            bench_two_lines(mount, min(opts.frames, 100), opts.passes)
         bench_hard_cases(min(opts.frames, 100))
     if opts.part in ("all", "loop"):
         from bench_line_loop import bench_loop  # imports this module: not at the top

@@ -132,6 +132,13 @@ class TestBadInput:
             assert_same(CRowScan().scan(image, rows, black, 0.9), expected)  # type: ignore[arg-type]
         assert CRowScan().scan(image, [], black, 0.9) == (0.0, [])
         assert NumpyRowScan().scan(image, [], black, 0.9) == (0.0, [])
+        for scan in (CRowScan(), NumpyRowScan()):  # the numpy kernel refuses alike
+            with pytest.raises(IndexError, match=r"outside|rows -1"):
+                scan.scan(image, [-1, 5], black, 0.9)
+            with pytest.raises(IndexError, match=r"outside|240 rows"):
+                scan.scan(image, [5, 240], black, 0.9)
+            with pytest.raises(ValueError, match="level"):
+                scan.scan(image, [5, 6], black, 0.0)
         with pytest.raises(IndexError, match=r"row 240 \(rows\[1\]\) outside the image's 0..239"):
             _line_scan.scan(image, [1, 240], 0, 0, 7, 0.9, 24, 40, 3, 3)
         with pytest.raises(IndexError, match="outside"):

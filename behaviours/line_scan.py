@@ -123,22 +123,17 @@ class NumpyRowScan:
 
     def __init__(self) -> None:
         self._work = _Workspace(0, 0)
-        self._rows: Sequence[int] = ()
-        self._row_index = np.zeros(0, np.intp)
-        self._row_span = (0, 0)
 
     def scan(self, image: npt.NDArray[np.uint8], rows: Sequence[int], colour: LineColour,
              level: float) -> tuple[float, list[Run]]:
         if len(rows) == 0:
             return 0.0, []
-        if rows is not self._rows:  # the tracker keeps its rows: index with them as an array
-            self._rows, self._row_index = rows, np.asarray(rows, np.intp)
-            self._row_span = (int(self._row_index.min()), int(self._row_index.max()))
-        if self._row_span[0] < 0 or self._row_span[1] >= image.shape[0] or not level > 0:
-            msg = (f"line scan: rows {self._row_span[0]}..{self._row_span[1]} in an image of "
-                   f"{image.shape[0]} rows, level {level} (must be > 0)")
+        low, high = min(rows), max(rows)
+        if low < 0 or high >= image.shape[0] or not level > 0:
+            msg = (f"line scan: rows {low}..{high} in an image of {image.shape[0]} rows, "
+                   f"level {level} (must be > 0)")
             raise IndexError(msg) if level > 0 else ValueError(msg)
-        strip = image[self._row_index]
+        strip = image[np.asarray(rows, np.intp)]
         if self._work.shape != strip.shape[:2]:
             self._work = _Workspace(*strip.shape[:2])
         work = self._work

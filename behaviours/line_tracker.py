@@ -9,6 +9,7 @@ mean of the rows' middles, at their mean row (the median when one row is off the
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import cv2
@@ -87,7 +88,6 @@ class LineTracker:
         self._misses = 0
         self._picks_height = 0  # the frame height the scan rows were picked for (0: none)
         self._pick_rows: list[int] = []
-        self._strip_rows: list[int] = []  # the scan rows in a frame averaged down
         self._scan = row_scan(kernel)
 
     @property
@@ -139,7 +139,8 @@ class LineTracker:
         return reading
 
     # --- internals ----------------------------------------------------------------------------
-    def _rows(self, image: npt.NDArray[np.uint8]) -> tuple[npt.NDArray[np.uint8], list[int]]:
+    def _rows(self, image: npt.NDArray[np.uint8]
+              ) -> tuple[npt.NDArray[np.uint8], Sequence[int]]:
         """The frame (or its scan rows, averaged down to at most _MAX_WORK_PX wide) and the
         scan rows in it."""
         h, w = image.shape[:2]
@@ -150,16 +151,15 @@ class LineTracker:
             picks = np.linspace(top, bottom - 1, min(p.rows, bottom - top)).astype(np.intp)
             self._picks_height = h
             self._pick_rows = picks.tolist()
-            self._strip_rows = list(range(len(self._pick_rows)))
         step = -(-w // _MAX_WORK_PX)
         if step == 1:
             return image, self._pick_rows
         # The mean of each column group keeps sub-pixel detail and halves the noise.
         rows = cv2.resize(image[self._pick_rows], (w // step, len(self._pick_rows)),
                           interpolation=cv2.INTER_AREA).astype(np.uint8, copy=False)
-        return rows, self._strip_rows
+        return rows, range(len(self._pick_rows))
 
-    def _find(self, image: npt.NDArray[np.uint8], rows: list[int], colour: LineColour,
+    def _find(self, image: npt.NDArray[np.uint8], rows: Sequence[int], colour: LineColour,
               full_width: int) -> LineReading:
         threshold = self.params.min_contrast * _THRESHOLD_SCALE[colour.kind]
         # 3 * threshold: the runs are of 3-tap sums

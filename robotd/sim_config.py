@@ -11,9 +11,9 @@ from __future__ import annotations
 from typing import Any
 
 from hal.sim.scenario import RobotSpec, Scenario
-from robotd.config import ConfigError, load_config
+from robotd.config import ConfigError
 from robotd.config.errors import ConfigProblem
-from robotd.config.loader import defaults, key_lines, order_problems
+from robotd.config.loader import defaults, lay_over, order_problems
 from robotd.config.settings import Settings
 
 
@@ -25,15 +25,12 @@ def robot_settings(scenario: Scenario, spec: RobotSpec, config_path: str | None)
     problems: list[ConfigProblem] = []
     _apply(values, scenario.config, f"{scenario.source} [config]", problems)
     _apply(values, spec.config, f"{scenario.source} [robot.config]", problems)
-    where, lines = f"{scenario.source} [config]", {}
-    if config_path:  # its own keys only: its defaults must not undo the scenario's config
-        for section, keys in load_config(config_path, fill_defaults=False).items():
-            values[section].update(keys)
-        where, lines = config_path, key_lines(config_path)
-    if not problems:  # limits in order, once every table is in (each alone may be half-way)
-        problems = order_problems(values, where, lines)
+    if not problems and not config_path:  # limits in order, once every table is in
+        problems = order_problems(values, f"{scenario.source} [config]", {})
     if problems:
         raise ConfigError(problems)
+    if config_path:  # its own keys only: its defaults must not undo the scenario's config
+        lay_over(values, config_path)
     values["hal"]["backend"] = "sim"
     values["robot"]["name"] = spec.name
     values["fleet"]["url"] = ""  # never the server a robot's own config file names

@@ -25,34 +25,33 @@ def defaults(sections: dict[str, Section] = SECTIONS) -> Values:
     return {name: {o.key: o.default for o in s.options} for name, s in sections.items()}
 
 
-def load_config(path: str | Path, *, overrides: str | Path | None = None,
-                fill_defaults: bool = True) -> Values:
-    """Read and check ``path`` (and an overrides file over it); raise ConfigError.
-
-    ``fill_defaults=False``: only the keys the file sets (to lay over other values, whose
-    caller then checks the limits in order on the whole).
-    """
+def load_config(path: str | Path, *, overrides: str | Path | None = None) -> Values:
+    """Read and check ``path`` (and an overrides file over it); raise ConfigError."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError([ConfigProblem(str(path), None, "file", f"cannot read: {exc}")]) from exc
-    values = load_config_text(text, str(path), fill_defaults=fill_defaults)
+    values = load_config_text(_read(path), str(path))
     if overrides is not None and Path(overrides).exists():
-        over_path = Path(overrides)
-        over_text = over_path.read_text(encoding="utf-8")
-        over = load_config_text(over_text, str(over_path), base=values, fill_defaults=False)
-        for section, keys in over.items():
-            values[section].update(keys)
-        problems = order_problems(values, str(over_path), _locate_keys(over_text.splitlines()))
-        if problems:
-            raise ConfigError(problems)
+        lay_over(values, overrides)
     return values
 
 
-def key_lines(path: str | Path) -> dict[tuple[str, str], int]:
-    """The line of each (section, key) a config file sets, for messages about them."""
-    return _locate_keys(Path(path).read_text(encoding="utf-8").splitlines())
+def lay_over(values: Values, path: str | Path) -> None:
+    """Lay the keys a config file sets over ``values`` (each replaces the value before it;
+    the file's defaults do not) and check the limits in order on the result, each at the
+    file's line of the key that breaks it; raise ConfigError."""
+    path = Path(path)
+    text = _read(path)
+    for section, keys in load_config_text(text, str(path), fill_defaults=False).items():
+        values[section].update(keys)
+    problems = order_problems(values, str(path), _locate_keys(text.splitlines()))
+    if problems:
+        raise ConfigError(problems)
+
+
+def _read(path: Path) -> str:
+    try:
+        return path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError([ConfigProblem(str(path), None, "file", f"cannot read: {exc}")]) from exc
 
 
 def order_problems(values: Values, path: str, where: dict[tuple[str, str], int],
@@ -76,7 +75,6 @@ def load_config_text(
     text: str,
     path: str = "<config>",
     *,
-    base: Values | None = None,
     fill_defaults: bool = True,
     sections: dict[str, Section] = SECTIONS,
 ) -> Values:
@@ -86,7 +84,6 @@ def load_config_text(
     raw = _parse_tolerant(lines, path, problems)
     where = _locate_keys(lines)
     values: Values = defaults(sections) if fill_defaults else {}
-    del base  # overrides are checked on their own; merged by the caller
     for section_name, table in raw.items():
         section = sections.get(section_name)
         if section is None:

@@ -84,6 +84,15 @@ def naive_track(image: Any) -> tuple[float, float] | None:
     return m["m10"] / m["m00"], m["m01"] / m["m00"]
 
 
+def fresh_scene(tracker: LineTracker) -> Callable[[Any], Any]:
+    """The tracker on one frame as a fresh scene: no help from the previous position."""
+    def track(image: Any) -> Any:
+        tracker.reset()
+        return tracker.track(image)
+
+    return track
+
+
 def time_per_frame(funcs: list[Callable[[Any], Any]], images: list[Any], passes: int
                    ) -> list[list[float]]:
     """Each frame's best time over ``passes`` runs, for each function. The functions take
@@ -109,13 +118,7 @@ def bench_tracker(mount: CameraMount, count: int, passes: int) -> None:
     trackers = {kernel: LineTracker(kernel=kernel) for kernel in kernels}
 
     def ours(kernel: str) -> Callable[[Any], Any]:
-        tracker = trackers[kernel]
-
-        def track(image: Any) -> Any:
-            tracker.reset()  # every frame is a fresh scene: no help from the previous position
-            return tracker.track(image)
-
-        return track
+        return fresh_scene(trackers[kernel])
 
     errors: dict[str, list[float]] = {name: [] for name in [*kernels, "naive"]}
     found = dict.fromkeys(errors, 0)
@@ -160,13 +163,7 @@ def bench_two_lines(mount: CameraMount, count: int, passes: int) -> None:
     branch = PaintedLine("branch", ((0.0, LINE_Y_M + 0.07), (6.0, LINE_Y_M + 0.07)), "black",
                          0.025)
     images = [f for f, _ in render_frames(mount, count, seed=7, extra=(branch,))]
-    tracker = LineTracker()
-
-    def ours(image: Any) -> Any:
-        tracker.reset()
-        return tracker.track(image)
-
-    naive, mine = time_per_frame([naive_track, ours], images, passes)
+    naive, mine = time_per_frame([naive_track, fresh_scene(LineTracker())], images, passes)
     print(f"  two lines in view ({count} frames): scan-row p50 "
           f"{statistics.median(mine) * 1e3:.3f} ms (p99 {pct(mine, 99) * 1e3:.3f}), naive "
           f"{statistics.median(naive) * 1e3:.3f} ms")

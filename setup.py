@@ -1,10 +1,10 @@
-"""The C line scan (behaviours/_line_scan.c); everything else is in pyproject.toml.
+"""The C line scan (behaviours/line/_line_scan.c); everything else is in pyproject.toml.
 
 optional=True: where there is no C compiler or no Python headers the install goes on without
-it, and the tracker scans rows with numpy (behaviours/line_scan.py says which it uses).
+it, and the tracker scans rows with numpy (behaviours/line/scan.py says which it uses).
 """
 
 from setuptools import Extension, setup
 
-setup(ext_modules=[Extension("behaviours._line_scan", ["behaviours/_line_scan.c"],
+setup(ext_modules=[Extension("behaviours.line._line_scan", ["behaviours/line/_line_scan.c"],
                              extra_compile_args=["-std=c99"], libraries=["m"], optional=True)])

@@ -1,1 +1,1 @@
-"""behaviours."""
+"""The robot framework (machine, tables, context, profiles, services); capabilities below."""

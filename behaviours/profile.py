@@ -16,8 +16,8 @@ StateTask = Callable[[RobotContext], Awaitable[None]]
 
 PROFILES: dict[str, str] = {
     "idle": "behaviours.profile:IdleProfile",
-    "square": "behaviours.square_profile:SquareProfile",
-    "laundry": "behaviours.laundry.profile:LaundryProfile",
+    "square": "behaviours.profiles.square.profile:SquareProfile",
+    "laundry": "behaviours.profiles.laundry.profile:LaundryProfile",
 }
 """Profile name (``robot.profile``) -> ``module:Class``; the class is built with no arguments."""
 

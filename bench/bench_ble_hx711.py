@@ -24,14 +24,14 @@ from collections.abc import AsyncIterator, Callable
 
 import structlog
 
-from behaviours.beacons import BeaconTracker
+from behaviours.beacons.tracker import BeaconTracker
 from drivers.ble_scanner import BleBeaconScanner, build_ibeacon, parse_ibeacon
 from drivers.hx711 import Gain, Hx711, clock_out
-from hal.sim.ble_model import SimBleAir
-from hal.sim.body import DiffDriveBody
-from hal.sim.geometry import Pose
-from hal.sim.hx711_model import SimHx711Lines
-from hal.sim.world import World
+from hal.sim.devices.ble_model import SimBleAir
+from hal.sim.devices.hx711_model import SimHx711Lines
+from hal.sim.world.body import DiffDriveBody
+from hal.sim.world.floor_plan import World
+from hal.sim.world.geometry import Pose
 
 UUID = "fda50693-a4e2-4fb1-afcf-c6eb07647825"
 

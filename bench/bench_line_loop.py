@@ -28,10 +28,10 @@ from typing import Any
 from bench_ble_hx711 import sensor_load  # bench/ is on sys.path when run as a script
 from bench_line_tracker import pct, render_frames
 
-from behaviours.line_follow import LineFollower
+from behaviours.line.follow import LineFollower
 from hal.deadline import DeadlineSleeper
 from hal.readings import Frame, LinkStats, MotorCommand
-from hal.sim.camera_model import CameraMount
+from hal.sim.devices.camera_model import CameraMount
 from robotd.config.loader import defaults
 from robotd.config.settings import Settings
 

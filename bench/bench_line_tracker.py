@@ -7,7 +7,7 @@ at random offsets and headings, uneven light, noise, motion blur), next to a nai
 full-frame tracker (grey, blur, Otsu, largest contour, moments) on the same frames in the
 same run; accuracy of both against the true line position at the row each one measures.
 Each frame's time is its best of ``--passes`` runs (the machine is shared). The scan-row
-tracker is timed with each of its row-scan kernels (C, and numpy: behaviours/line_scan.py).
+tracker is timed with each of its row-scan kernels (C, and numpy: behaviours/line/scan.py).
 Targets: <= 0.5 ms at 640x480, >= 3x faster than the naive tracker, no less accurate.
 ``--part loop`` (and ``all``) also runs bench_line_loop.py: the 13 FPS control loop's
 latency and jitter.
@@ -28,12 +28,12 @@ from typing import Any
 import cv2
 import numpy as np
 
-from behaviours.line_scan import built_kernel
-from behaviours.line_tracker import LineTracker
-from hal.sim.body import DiffDriveBody
-from hal.sim.camera_model import CameraMount, SimCamera
-from hal.sim.geometry import Pose, segments_array
-from hal.sim.world import PaintedLine, World
+from behaviours.line.scan import built_kernel
+from behaviours.line.tracker import LineTracker
+from hal.sim.devices.camera_model import CameraMount, SimCamera
+from hal.sim.world.body import DiffDriveBody
+from hal.sim.world.floor_plan import PaintedLine, World
+from hal.sim.world.geometry import Pose, segments_array
 
 LINE_Y_M = 3.0
 

@@ -29,13 +29,13 @@ from drivers.arduino import ArduinoLink, Framing, LinkConfig
 from drivers.arduino.framing import encode_command
 from drivers.serial_port import open_serial
 from hal.readings import MotorCommand
-from hal.sim.byte_pipe import corrupt_bytes
-from hal.sim.fake_mcu import FakeMcu
-from hal.sim.mcu_frames import crc8_bitwise, read_seq
-from hal.sim.plant import RecordingPlant
-from hal.sim.pty_mcu import PtyMcu
-from hal.sim.sim_serial import SimSerialPorts
-from robotd import vclock
+from hal.sim import vclock
+from hal.sim.devices.byte_pipe import corrupt_bytes
+from hal.sim.devices.fake_mcu import FakeMcu
+from hal.sim.devices.mcu_frames import crc8_bitwise, read_seq
+from hal.sim.devices.pty_mcu import PtyMcu
+from hal.sim.devices.sim_serial import SimSerialPorts
+from hal.sim.world.plant import RecordingPlant
 from robotd.probes.serial import exercise
 
 PAYLOAD = "MOTOR:120,120,1,1"
@@ -73,7 +73,7 @@ async def over_pty_other_process(count: int) -> dict[str, Any]:
     with tempfile.TemporaryDirectory() as tmp:
         link_path = str(Path(tmp) / "tty")
         proc = await asyncio.create_subprocess_exec(
-            sys.executable, "-m", "hal.sim.pty_mcu", "--link", link_path,
+            sys.executable, "-m", "hal.sim.devices.pty_mcu", "--link", link_path,
             stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.DEVNULL)
         assert proc.stdout is not None
         port = (await proc.stdout.readline()).decode().strip()

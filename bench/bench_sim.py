@@ -46,14 +46,14 @@ def main() -> int:
 
     t0_wall, t0_cpu = time.perf_counter(), time.process_time()
     from behaviours.profile import load_profile
-    from hal.sim.scenario import load_scenario
     from robotd import sim_runner
-    from robotd.sim_console import SimConsole
+    from robotd.sim.console import SimConsole
+    from robotd.sim.scenario import load_scenario
 
     scenario = load_scenario(opts.scenario)
     # What the runner loads lazily on its first run (the daemon with its state machine and
     # control server, the profile, the fleet's modules): imports, not part of any run.
-    lazy = ["robotd.daemon"] + (["robotd.sim_fleet"] if "fleet" in scenario.raw else [])
+    lazy = ["robotd.daemon"] + (["robotd.sim.actors.laundry"] if "fleet" in scenario.raw else [])
     for module in lazy:
         importlib.import_module(module)
     load_profile(scenario.profile)
@@ -62,7 +62,7 @@ def main() -> int:
     import_cpu = time.process_time() - t0_cpu
     print(f"imports: wall {import_wall * 1000:.0f} ms, cpu {import_cpu * 1000:.0f} ms")
 
-    from robotd import vclock
+    from hal.sim import vclock
 
     profiler = cProfile.Profile() if opts.profile else None
     wall_factors, cpu_factors = [], []
@@ -105,7 +105,7 @@ def _counting(enabled: bool) -> Iterator[collections.Counter[str]]:
     if not enabled:
         yield counts
         return
-    from robotd import vclock
+    from hal.sim import vclock
 
     handle_run = asyncio.events.Handle._run
     run_once: Callable[[Any], None] = vclock.VirtualTimeLoop._run_once

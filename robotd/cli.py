@@ -17,7 +17,7 @@ from robotd.probes import PROBES
 
 DEFAULT_CONFIG = "/etc/robotd/robotd.toml"
 def _scenario_help() -> str:
-    from hal.sim.scenario import builtin_names
+    from robotd.sim.scenario import builtin_names
 
     return f"built-in scenario ({', '.join(builtin_names())}; default laundry) or a TOML file"
 
@@ -104,7 +104,7 @@ def cmd_check_config(args: argparse.Namespace) -> int:
 
 def cmd_sim(args: argparse.Namespace) -> int:
     try:
-        sim_runner = importlib.import_module("robotd.sim_runner")
+        sim_runner = importlib.import_module("robotd.sim.runner")
     except ImportError as exc:
         print(f"robotd sim: the simulator is not available in this installation ({exc})",
               file=sys.stderr)

@@ -44,7 +44,7 @@ def run_probe(run: Callable[[argparse.Namespace], Coroutine[Any, Any, int]],
     """Run a probe: on the virtual-time loop with ``--sim`` (a simulated device needs no wall
     clock: the answer comes at once and the same every time; a bit-banged simulated HX711 on
     the real clock would lose reads to the interpreter's pauses), else on a real loop."""
-    from robotd import vclock
+    from hal.sim import vclock
 
     if getattr(args, "sim", False):
         return int(vclock.run(run(args)))

@@ -17,7 +17,7 @@ import sys
 from collections import defaultdict
 from typing import Any
 
-from behaviours.beacons import BeaconTracker
+from behaviours.beacons.tracker import BeaconTracker
 from drivers.ble_scanner import BleBeaconScanner, ScannerFactory, bleak_scanner_factory
 from hal.devices import DeviceUnavailable
 from hal.readings import BeaconSighting
@@ -41,10 +41,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _sim_factory(stack: list[Any]) -> ScannerFactory:
-    from hal.sim.ble_model import SimBleAir
-    from hal.sim.body import DiffDriveBody
-    from hal.sim.geometry import Pose
-    from hal.sim.world import World
+    from hal.sim.devices.ble_model import SimBleAir
+    from hal.sim.world.body import DiffDriveBody
+    from hal.sim.world.floor_plan import World
+    from hal.sim.world.geometry import Pose
 
     world = World.from_table({"width_m": 6, "height_m": 4, "beacons": [
         {"mac": "C3:00:00:00:01:03", "uuid": SIM_UUID, "major": 1, "minor": 103,

@@ -24,7 +24,7 @@ from typing import Any
 
 import cv2
 
-from behaviours.line_tracker import LineTracker, TrackerParams
+from behaviours.line.tracker import LineTracker, TrackerParams
 from drivers.camera import CaptureCamera, open_camera
 from hal.devices import DeviceUnavailable
 from hal.readings import Frame
@@ -133,10 +133,10 @@ async def _measure(camera: CaptureCamera, args: argparse.Namespace) -> dict[str,
 
 
 async def _measure_sim(args: argparse.Namespace, camera_cfg: dict[str, Any]) -> dict[str, Any]:
-    from hal.sim.body import DiffDriveBody
-    from hal.sim.camera_model import CameraMount, SimCamera
-    from hal.sim.geometry import Pose, segments_array
-    from hal.sim.world import PaintedLine, World
+    from hal.sim.devices.camera_model import CameraMount, SimCamera
+    from hal.sim.world.body import DiffDriveBody
+    from hal.sim.world.floor_plan import PaintedLine, World
+    from hal.sim.world.geometry import Pose, segments_array
 
     colour = args.colour if args.colour in ("black", "white", "red", "green", "blue",
                                             "yellow") else "black"

@@ -83,7 +83,7 @@ async def run(args: argparse.Namespace) -> int:
     load = {"kg": 0.0 if calibrating or args.tare else args.sim_kg}
     open_lines: Callable[[], Hx711Lines]
     if args.sim:
-        from hal.sim.hx711_model import SimHx711Lines
+        from hal.sim.devices.hx711_model import SimHx711Lines
 
         sim = SimHx711Lines(weight_kg=lambda: load["kg"], sps=cfg["sps"], rng=random.Random(1))
         open_lines = lambda: sim  # noqa: E731

@@ -20,7 +20,7 @@ from behaviours.machine_tables import (
 from behaviours.profile import BaseProfile, IdleProfile, StateTask
 from hal.backend import Devices
 from hal.ports import system_wall_clock
-from robotd import vclock
+from hal.sim import vclock
 from robotd.config import Settings
 from robotd.config.loader import defaults
 

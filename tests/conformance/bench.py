@@ -8,7 +8,7 @@ from typing import Any
 
 from drivers.arduino import ArduinoLink, LinkConfig
 from hal.ports import SerialOpener
-from hal.sim.plant import RecordingPlant
+from hal.sim.world.plant import RecordingPlant
 
 
 @dataclass

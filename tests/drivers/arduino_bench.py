@@ -9,10 +9,10 @@ from dataclasses import replace
 
 from drivers.arduino import ArduinoLink, LinkConfig
 from hal.ports import StreamPair
-from hal.sim.fake_mcu import FakeMcu
-from hal.sim.plant import RecordingPlant
-from hal.sim.sim_serial import SimSerialPorts
-from robotd import vclock
+from hal.sim import vclock
+from hal.sim.devices.fake_mcu import FakeMcu
+from hal.sim.devices.sim_serial import SimSerialPorts
+from hal.sim.world.plant import RecordingPlant
 
 PORT = "/dev/ttyACM0"
 

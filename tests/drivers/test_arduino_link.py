@@ -11,10 +11,10 @@ from drivers.arduino import ArduinoLink, CommandNotDelivered, LinkConfig, Outcom
 from drivers.arduino.framing import frame_body
 from hal.devices import Battery, DeviceUnavailable, Encoders, Motors, RangeSensor
 from hal.readings import LedMode, MotorCommand
-from hal.sim.fake_mcu import FakeMcu
-from hal.sim.plant import RecordingPlant
-from hal.sim.sim_serial import SimSerialPorts
-from robotd import vclock
+from hal.sim import vclock
+from hal.sim.devices.fake_mcu import FakeMcu
+from hal.sim.devices.sim_serial import SimSerialPorts
+from hal.sim.world.plant import RecordingPlant
 
 
 class TestStartAndHandshake:

@@ -15,10 +15,10 @@ from drivers.arduino import ArduinoLink, Framing, LinkConfig
 from drivers.arduino.framing import frame_body
 from hal.devices import LinkDown
 from hal.readings import LedMode, MotorCommand
-from hal.sim.fake_mcu import FakeMcu
-from hal.sim.plant import RecordingPlant
-from hal.sim.sim_serial import SimSerialPorts
-from robotd import vclock
+from hal.sim import vclock
+from hal.sim.devices.fake_mcu import FakeMcu
+from hal.sim.devices.sim_serial import SimSerialPorts
+from hal.sim.world.plant import RecordingPlant
 
 
 class TestFaultsAndRecovery:

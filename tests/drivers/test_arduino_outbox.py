@@ -5,7 +5,7 @@ from __future__ import annotations
 import asyncio
 
 from drivers.arduino.outbox import Command, Delivery, Outbox, Outcome
-from robotd import vclock
+from hal.sim import vclock
 
 
 def command(payload: str) -> Command:

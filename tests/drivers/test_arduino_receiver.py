@@ -7,8 +7,8 @@ import asyncio
 from drivers.arduino.framing import Ack, Framing, Garbled, Line, Telemetry, frame_body
 from drivers.arduino.receiver import LineReceiver, LinkBroken
 from drivers.arduino.stats import LinkCounters
-from hal.sim.byte_pipe import BytePipe
-from robotd import vclock
+from hal.sim import vclock
+from hal.sim.devices.byte_pipe import BytePipe
 
 
 class Catch:

@@ -11,14 +11,14 @@ import cv2
 import numpy as np
 import pytest
 
-from behaviours.line_tracker import LineTracker
+from behaviours.line.tracker import LineTracker
 from drivers.camera import CaptureCamera, PiCamera, UvcCamera, VideoFileCamera, open_camera, probe
 from hal.devices import Camera, DeviceUnavailable
-from hal.sim.body import DiffDriveBody
-from hal.sim.camera_model import SimCamera
-from hal.sim.geometry import Pose, segments_array
-from hal.sim.world import PaintedLine, World
-from robotd import vclock
+from hal.sim import vclock
+from hal.sim.devices.camera_model import SimCamera
+from hal.sim.world.body import DiffDriveBody
+from hal.sim.world.floor_plan import PaintedLine, World
+from hal.sim.world.geometry import Pose, segments_array
 
 WIDTH, HEIGHT = 160, 120
 

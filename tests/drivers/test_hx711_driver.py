@@ -12,11 +12,11 @@ import pytest
 from drivers.gpio_lgpio import LgpioHx711Lines
 from drivers.hx711 import Gain, Hx711
 from hal.devices import DeviceUnavailable, LoadCell
-from hal.sim.body import DiffDriveBody
-from hal.sim.geometry import Pose
-from hal.sim.hx711_model import SimHx711Lines
-from hal.sim.world import World
-from robotd import vclock
+from hal.sim import vclock
+from hal.sim.devices.hx711_model import SimHx711Lines
+from hal.sim.world.body import DiffDriveBody
+from hal.sim.world.floor_plan import World
+from hal.sim.world.geometry import Pose
 
 
 def _rig(gain: Gain = Gain.A128, sps: int = 10, **sim: Any) -> tuple[

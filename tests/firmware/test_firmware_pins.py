@@ -6,9 +6,9 @@ import asyncio
 
 from firmware_client import PtyLink
 
-from hal.sim.plant import RecordingPlant
-from hal.sim.simavr_bridge import SimavrBridge
-from hal.sim.simavr_mcu import SimavrMcu
+from hal.sim.devices.simavr_bridge import SimavrBridge
+from hal.sim.devices.simavr_mcu import SimavrMcu
+from hal.sim.world.plant import RecordingPlant
 
 
 class TestMotors:

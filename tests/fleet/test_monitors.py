@@ -11,7 +11,7 @@ from fleet_harness import SITE_TOML, beacon
 from fleet.app import create_app
 from fleet.clock import loop_clock
 from fleet.site import parse_site
-from robotd import vclock
+from hal.sim import vclock
 
 ROBOT = "robot-1"
 

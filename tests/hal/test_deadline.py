@@ -9,7 +9,7 @@ import sys
 import pytest
 
 from hal.deadline import DeadlineSleeper
-from robotd import vclock
+from hal.sim import vclock
 
 linux_only = pytest.mark.skipif(sys.platform != "linux", reason="timerfd is Linux's")
 

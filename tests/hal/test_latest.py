@@ -7,7 +7,7 @@ import asyncio
 import pytest
 
 from hal.latest import LatestValue
-from robotd import vclock
+from hal.sim import vclock
 
 
 class TestLatestValue:

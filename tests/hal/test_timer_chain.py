@@ -6,8 +6,8 @@ import asyncio
 
 import pytest
 
+from hal.sim import vclock
 from hal.timer_chain import timer_chain
-from robotd import vclock
 
 
 class TestTimerChain:

@@ -46,7 +46,7 @@ class TestFacets:
         """encoders/front_range/battery are the link's feeds, motors the link itself."""
         from drivers.arduino.link import ArduinoLink
         from hal.backend import Devices
-        from hal.sim.sim_serial import SimSerialPorts
+        from hal.sim.devices.sim_serial import SimSerialPorts
         from robotd.hardware import HARDWARE, fill_slots
 
         link = ArduinoLink(SimSerialPorts())

@@ -6,7 +6,7 @@ import asyncio
 import socket
 from pathlib import Path
 
-from robotd import vclock
+from hal.sim import vclock
 from robotd.health import LoopMonitor, WatchdogFeeder, percentile
 from robotd.sdnotify import Notifier
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from robotd import vclock
+from hal.sim import vclock
 from robotd.probes import ble, hx711
 
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from drivers.camera import UvcCamera, VideoFileCamera, from_settings
-from robotd import vclock
+from hal.sim import vclock
 from robotd.config.loader import defaults
 from robotd.config.settings import Settings
 from robotd.probes import camera as probe

@@ -13,9 +13,9 @@ import sys
 import tempfile
 from pathlib import Path
 
-from hal.sim.fake_mcu import FakeMcu
-from hal.sim.plant import RecordingPlant
-from hal.sim.pty_mcu import PtyMcu
+from hal.sim.devices.fake_mcu import FakeMcu
+from hal.sim.devices.pty_mcu import PtyMcu
+from hal.sim.world.plant import RecordingPlant
 
 STOP_LIMIT_S = 5.0
 START_GUARD_S = 30.0

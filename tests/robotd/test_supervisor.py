@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from robotd import vclock
+from hal.sim import vclock
 from robotd.supervisor import RestartPolicy, StartFailed, Supervisor
 
 

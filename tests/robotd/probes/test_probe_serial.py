@@ -8,9 +8,9 @@ import json
 import sys
 from pathlib import Path
 
-from hal.sim.fake_mcu import FakeMcu
-from hal.sim.plant import RecordingPlant
-from hal.sim.pty_mcu import PtyMcu
+from hal.sim.devices.fake_mcu import FakeMcu
+from hal.sim.devices.pty_mcu import PtyMcu
+from hal.sim.world.plant import RecordingPlant
 
 ROBOTD = Path(sys.executable).with_name("robotd")
 

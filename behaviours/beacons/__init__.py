@@ -1,0 +1,1 @@
+"""BLE beacons: tracking iBeacon sightings and deciding arrival by RSSI."""

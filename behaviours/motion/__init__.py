@@ -1,0 +1,1 @@
+"""Moving the body: wheel odometry, waypoint driving and the obstacle guard."""

@@ -1,0 +1,1 @@
+"""One package per robot profile (square, laundry, ...): its states, services and config."""

@@ -1,0 +1,142 @@
+"""The ``laundry`` profile: mission states that mirror the request lifecycle the robot lives.
+
+``mission.to_room`` (following the line to a customer's room), ``mission.at_room`` (waiting
+for the customer to load or unload), ``mission.to_base`` and ``mission.at_base``. Directives
+come from the fleet server's data exchange when ``fleet.url`` is set, otherwise from the
+local route in the ``laundry`` section.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+import httpx
+import structlog
+
+from behaviours.beacons.arrival import Arrival
+from behaviours.beacons.tracker import BeaconTracker
+from behaviours.line.follow import LineFollower, LineLostError
+from behaviours.motion.obstacle_guard import ObstacleGuard
+from behaviours.profile import BaseProfile, StateTask
+from behaviours.profiles.laundry.directive import Directive
+from behaviours.profiles.laundry.fleet_link import FleetLink
+from behaviours.profiles.laundry.load_check import LoadCheck
+from behaviours.profiles.laundry.local_route import LocalRoute
+from behaviours.profiles.laundry.navigator import AT_BASE, AT_ROOM, TO_BASE, TO_ROOM, Navigator
+from behaviours.profiles.laundry.report import RobotReport
+from hal.devices import Motors
+
+if TYPE_CHECKING:
+    from behaviours.context import RobotContext
+    from robotd.supervisor import Service
+
+log = structlog.get_logger(__name__)
+
+
+class _Task:
+    """A service that runs one coroutine function for as long as the robot runs."""
+
+    def __init__(self, name: str, run: Callable[[], Any], *, critical: bool = False,
+                 depends_on: tuple[str, ...] = ()) -> None:
+        self.name = name
+        self._run = run
+        self.critical = critical
+        self.depends_on = depends_on
+
+    async def run(self, ready: Callable[[], None]) -> None:
+        ready()
+        await self._run()
+
+
+class LaundryProfile(BaseProfile):
+    name = "laundry"
+    devices = ("motors", "encoders", "front_range", "camera", "beacons", "load_cell")
+
+    def __init__(self) -> None:
+        self.follower: LineFollower | None = None
+        self.navigator: Navigator | None = None
+        self.route: LocalRoute | None = None
+        self.fleet: FleetLink | None = None
+
+    def mission_states(self) -> list[str | dict[str, Any]]:
+        return ["to_room", "at_room", "to_base", "at_base"]
+
+    def mission_transitions(self) -> list[dict[str, Any]]:
+        anywhere = ["idle", AT_ROOM, AT_BASE, TO_ROOM, TO_BASE]
+        return [
+            {"trigger": "go_room", "source": [s for s in anywhere if s != TO_ROOM],
+             "dest": TO_ROOM},
+            {"trigger": "go_base", "source": [s for s in anywhere if s != TO_BASE],
+             "dest": TO_BASE},
+            {"trigger": "arrived_room", "source": TO_ROOM, "dest": AT_ROOM},
+            {"trigger": "arrived_base", "source": TO_BASE, "dest": AT_BASE},
+        ]
+
+    def services(self, ctx: RobotContext) -> list[Service]:
+        d = ctx.devices
+        if d.camera is None or d.motors is None or d.beacons is None:
+            msg = "the laundry profile needs a camera, the motor board and a BLE scanner"
+            raise RuntimeError(msg)
+        tracker = BeaconTracker.from_settings(d.beacons, ctx.settings)
+        arrival = Arrival.from_settings(tracker, ctx.settings)
+        load = LoadCheck.from_settings(d.load_cell, ctx.settings) if d.load_cell else None
+        wheels: Motors = d.motors
+        if d.front_range is not None:
+            wheels = ObstacleGuard(d.motors, d.front_range, ctx.settings, ctx.emit)
+        self.follower = LineFollower(d.camera, wheels, ctx.settings)
+        navigator = Navigator(ctx, tracker, arrival, self.follower.set_follow_colour)
+        self.navigator = navigator
+        sensing: list[Callable[[], Any]] = [tracker.run, arrival.run]
+        if load is not None:
+            sensing.append(load.run)
+
+        async def run_sensing() -> None:
+            async with asyncio.TaskGroup() as group:
+                for run in sensing:
+                    group.create_task(run())
+
+        services: list[Service] = [_Task("laundry.sensing", run_sensing, critical=True)]
+        url = str(ctx.settings.get("fleet.url"))
+        if url:
+            report = RobotReport(ctx.settings.get("robot.name"), ctx.wall_clock, tracker,
+                                 arrival, load, d.front_range)
+            client = httpx.AsyncClient(base_url=url, transport=d.network)
+
+            def on_directive(directive: Directive) -> None:
+                asyncio.get_running_loop().create_task(navigator.apply(directive))
+
+            self.fleet = FleetLink(client, ctx.settings.get("robot.name"), report.build,
+                                   on_directive, period_s=ctx.settings.get("fleet.period_s"),
+                                   grace_s=ctx.settings.get("laundry.server_grace_s"))
+            services.append(_Task("laundry.fleet", self.fleet.run,
+                                  depends_on=("laundry.sensing",)))
+        else:
+            s = ctx.settings
+            self.route = LocalRoute(list(s.get("laundry.route")), dict(s.get("laundry.beacons")),
+                                    s.get("laundry.base_room"), load, navigator.apply,
+                                    follow_color=s.get("laundry.follow_color") or None,
+                                    load_wait_s=s.get("laundry.load_wait_s"))
+            arrival.on_change(self._route_arrival)
+            services.append(_Task("laundry.route", self.route.run,
+                                  depends_on=("laundry.sensing",)))
+        return services
+
+    def _route_arrival(self, inside: bool) -> None:
+        if inside and self.route is not None and self.navigator is not None:
+            self.route.arrived(self.navigator.arrived_room)
+
+    def state_tasks(self) -> dict[str, StateTask]:
+        return {TO_ROOM: self._follow, TO_BASE: self._follow}
+
+    async def _follow(self, ctx: RobotContext) -> None:
+        assert self.follower is not None
+        try:
+            await self.follower.run()
+        except LineLostError as exc:
+            ctx.emit("line.lost", error=str(exc))
+            log.error("laundry.line_lost", error=str(exc))
+            if self.navigator is not None:
+                self.navigator.line_lost()
+            await ctx.trigger("fault")

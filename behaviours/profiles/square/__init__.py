@@ -1,0 +1,1 @@
+"""The square profile: a 1 m square on wheel odometry (a demonstration and a test)."""

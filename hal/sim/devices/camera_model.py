@@ -1,0 +1,352 @@
+"""A simulated downward-looking camera: renders the floor under the robot as BGR frames.
+
+The image is what the real tracker reads: painted lines in their colours, a floor texture fixed
+to the world, light that falls off towards the corners and varies over the floor, sensor noise
+and motion blur from the wheel speeds. Frames are captured at the mount's rate on the event
+loop's clock; a frame is only rendered when somebody looks at it, so an idle camera costs little.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+from hal.readings import Frame
+from hal.sim.world.body import DiffDriveBody
+from hal.sim.world.floor_plan import PaintedLine, World
+from hal.sim.world.geometry import Pose, segment_distances
+from hal.timer_chain import timer_chain
+
+F32Array = npt.NDArray[Any]  # float32; cv2 returns loosely typed arrays
+U8Image = npt.NDArray[Any]  # uint8 BGR
+
+_TEXTURE_TILE_PX = 256
+_DRAW_SHIFT = 4  # cv2 fixed-point bits: sub-pixel line positions
+_AMBIENT_GRID = (8, 6)  # coarse grid the world-fixed light field is computed on
+
+
+@dataclass(frozen=True, slots=True)
+class CameraMount:
+    """Where the camera sits on the robot and what it sees of the floor."""
+
+    height_m: float = 0.10  # lens above the floor; sets how fast the LED light falls off
+    forward_m: float = 0.15  # centre of the view ahead of the wheel axle
+    view_width_m: float = 0.24  # floor seen across the image width (height follows the aspect)
+    width_px: int = 320
+    height_px: int = 240
+    fps: float = 30.0
+    exposure_s: float = 0.012  # motion blur length = speed x exposure
+    noise_std: float = 4.0  # sensor noise, grey levels
+    texture_std: float = 0.04  # floor texture, relative brightness
+    vignette: float = 0.25  # brightness lost in the corners (cos^4 law of the on-board LED)
+    light_gradient: float = 0.15  # brightness slope across the image, left to right
+    ambient_variation: float = 0.15  # world-fixed patches of light and shade
+
+    def __post_init__(self) -> None:
+        if self.width_px < 16 or self.height_px < 16:
+            msg = f"camera resolution {self.width_px}x{self.height_px}: at least 16x16"
+            raise ValueError(msg)
+        if self.fps <= 0 or self.view_width_m <= 0 or self.height_m <= 0:
+            msg = "camera fps, view_width_m and height_m must be > 0"
+            raise ValueError(msg)
+
+    @property
+    def m_per_px(self) -> float:
+        return self.view_width_m / self.width_px
+
+    def floor_to_px(self, pose: Pose, x_m: float, y_m: float) -> tuple[float, float]:
+        """Image (column, row) of a floor point; column 0 is the robot's left, row 0 farthest."""
+        c, s = math.cos(pose.heading_rad), math.sin(pose.heading_rad)
+        dx, dy = x_m - pose.x_m, y_m - pose.y_m
+        fwd, left = c * dx + s * dy, -s * dx + c * dy
+        mpp = self.m_per_px
+        col = self.width_px / 2 - left / mpp - 0.5
+        row = self.height_px / 2 - (fwd - self.forward_m) / mpp - 0.5
+        return col, row
+
+    def px_to_floor(self, pose: Pose, col: float, row: float) -> tuple[float, float]:
+        """Floor point (world metres) seen at image (column, row)."""
+        mpp = self.m_per_px
+        fwd = self.forward_m + (self.height_px / 2 - row - 0.5) * mpp
+        left = (self.width_px / 2 - col - 0.5) * mpp
+        return pose.to_world(fwd, left)
+
+
+@dataclass(frozen=True, slots=True)
+class _Shot:
+    """What the camera captured at one instant; rendered into an image on demand."""
+
+    seq: int
+    t_s: float
+    pose: Pose
+    wheel_mps: tuple[float, float]
+    noise_at: tuple[int, int]
+
+
+class SimCamera:
+    """A `hal.devices.Camera` over the simulated world, looking down from the robot's body.
+
+    Args:
+        world: the floor plan with its painted lines.
+        body: the robot body whose pose and wheel speeds the camera follows.
+        mount: position, field of view, resolution, rate and image defects.
+        seed: seeds texture, light field and noise, so runs repeat.
+    """
+
+    def __init__(self, world: World, body: DiffDriveBody, mount: CameraMount | None = None,
+                 *, seed: int = 1, name: str = "camera") -> None:
+        self.name = name
+        self.world = world
+        self.body = body
+        self.mount = mount or CameraMount()
+        self.width_px = self.mount.width_px
+        self.height_px = self.mount.height_px
+        self._rng = np.random.default_rng(seed)
+        self._texture = self._make_texture()
+        # Sensor noise: a bank twice the frame size, read at a random offset for each frame;
+        # int8 keeps it at 3.7 MB at 640 x 480.
+        self._noise = np.clip(np.rint(self._rng.normal(
+            0.0, self.mount.noise_std, (2 * self.height_px, 2 * self.width_px, 3))),
+            -127, 127).astype(np.int8)
+        self._static_gain = self._make_static_gain()
+        gw, gh = _AMBIENT_GRID
+        cc, rr = np.meshgrid(np.linspace(0, self.width_px - 1, gw),
+                             np.linspace(0, self.height_px - 1, gh))
+        mpp = self.mount.m_per_px
+        self._ambient_grid = (self.mount.forward_m + (self.height_px / 2 - rr - 0.5) * mpp,
+                              (self.width_px / 2 - cc - 0.5) * mpp)
+        self._segments: dict[int, tuple[PaintedLine, npt.NDArray[np.float64]]] = {}
+        self._phases = self._rng.uniform(0, 2 * math.pi, 4)
+        self._shot: _Shot | None = None
+        self._floor: tuple[tuple[int, int, int], U8Image] | None = None
+        self._frame: Frame | None = None
+        self._waiters: list[asyncio.Future[Frame]] = []
+        self._task: asyncio.Task[None] | None = None
+        self.frames_captured = 0
+        self.frames_rendered = 0
+        self.covered = False
+
+    # --- Device -------------------------------------------------------------------------------
+    async def start(self) -> None:
+        if self._task is None:
+            self._capture()
+            self._task = asyncio.get_running_loop().create_task(self._run(), name=self.name)
+
+    async def close(self) -> None:
+        """Stop capturing and release the camera; safe to call twice."""
+        task, self._task = self._task, None
+        if task is not None:
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+
+    async def stop(self) -> None:
+        """The same as ``close()`` (older name)."""
+        await self.close()
+
+    def status(self) -> dict[str, Any]:
+        return {"source": "sim", "width_px": self.width_px, "height_px": self.height_px,
+                "fps": self.mount.fps, "captured": self.frames_captured,
+                "rendered": self.frames_rendered, "covered": self.covered}
+
+    # --- Camera -------------------------------------------------------------------------------
+    def latest(self) -> Frame | None:
+        shot = self._shot
+        if shot is None:
+            return None
+        if self._frame is None or self._frame.seq != shot.seq:
+            self._frame = Frame(self._render_shot(shot), shot.seq, shot.t_s)
+        return self._frame
+
+    async def next_reading(self) -> Frame:
+        fut: asyncio.Future[Frame] = asyncio.get_running_loop().create_future()
+        self._waiters.append(fut)
+        return await fut
+
+    # --- physics-style methods ----------------------------------------------------------------
+    def cover(self, covered: bool = True) -> None:
+        """Put a hand over the lens: frames go dark (the tracker must call that lost)."""
+        self.covered = covered
+
+    def render(self, pose: Pose, wheel_mps: tuple[float, float] = (0.0, 0.0)) -> U8Image:
+        """Render what the camera sees from ``pose`` (fresh noise), without the clock."""
+        return self._render_shot(_Shot(0, 0.0, pose, wheel_mps, self._noise_offset()))
+
+    # --- internals ----------------------------------------------------------------------------
+    async def _run(self) -> None:
+        # Each capture is a timer callback that sets the next one (hal.timer_chain): one loop
+        # turn a frame, where a task sleeping between frames would cost two.
+        loop = asyncio.get_running_loop()
+        period_s = 1.0 / self.mount.fps
+        deadline = loop.time() + period_s
+
+        def capture() -> float:
+            nonlocal deadline
+            self._capture()
+            deadline += period_s
+            return max(0.0, deadline - loop.time())
+
+        await timer_chain(capture, max(0.0, deadline - loop.time()))
+
+    def _capture(self) -> None:
+        loop = asyncio.get_running_loop()
+        wheels = (float(self.body.wheel_mps[0]), float(self.body.wheel_mps[1]))
+        self.frames_captured += 1
+        self._shot = _Shot(self.frames_captured, loop.time(), self.body.pose, wheels,
+                           self._noise_offset())
+        waiters, self._waiters = self._waiters, []
+        if waiters:
+            frame = self.latest()
+            assert frame is not None
+            for fut in waiters:
+                if not fut.done():
+                    fut.set_result(frame)
+
+    def _bare_floor(self) -> U8Image:
+        floor = self.world.floor_bgr
+        if self._floor is None or self._floor[0] != floor:
+            image = np.empty((self.height_px, self.width_px, 3), np.uint8)
+            image[:] = floor
+            self._floor = (floor, image)
+        return self._floor[1]
+
+    def _noise_offset(self) -> tuple[int, int]:
+        return int(self._rng.integers(0, self.height_px)), int(self._rng.integers(0, self.width_px))
+
+    def _render_shot(self, shot: _Shot) -> U8Image:
+        self.frames_rendered += 1
+        m = self.mount
+        h, w = m.height_px, m.width_px
+        if self.covered:
+            dark = np.full((h, w, 3), 8.0, np.float32)
+            return self._finish(dark, shot.noise_at)
+        image = self._bare_floor().copy()
+        self._draw_lines(image, shot.pose)
+        # Blurring the paint before lighting it is close enough: the light field is smooth.
+        image = self._blur(image, shot.wheel_mps)
+        gain = self._texture_gain(shot.pose) * self._static_gain * self._ambient_gain(shot.pose)
+        lit = cv2.multiply(image, cv2.merge([gain, gain, gain]), dtype=cv2.CV_32F)
+        return self._finish(lit, shot.noise_at)
+
+    def _finish(self, lit: F32Array, noise_at: tuple[int, int]) -> U8Image:
+        oy, ox = noise_at
+        noise = self._noise[oy:oy + self.height_px, ox:ox + self.width_px]
+        out: U8Image = cv2.add(lit, noise, dtype=cv2.CV_8U)  # saturates to 0-255
+        return out
+
+    def _draw_lines(self, image: U8Image, pose: Pose) -> None:
+        m = self.mount
+        mpp = m.m_per_px
+        cx, cy = pose.to_world(m.forward_m, 0.0)
+        reach_m = math.hypot(m.view_width_m, mpp * m.height_px) / 2
+        scale = 1 << _DRAW_SHIFT
+        c, s = math.cos(pose.heading_rad), math.sin(pose.heading_rad)
+        for line in self.world.lines:
+            segs = self._line_segments(line)
+            if segs.shape[0] == 0:
+                continue
+            near = segment_distances(segs, cx, cy) < reach_m + line.width_m
+            if not near.any():
+                continue
+            pts = segs[near].reshape(-1, 2)
+            dx, dy = pts[:, 0] - pose.x_m, pts[:, 1] - pose.y_m
+            fwd, left = c * dx + s * dy, -s * dx + c * dy
+            cols = m.width_px / 2 - left / mpp - 0.5
+            rows = m.height_px / 2 - (fwd - m.forward_m) / mpp - 0.5
+            fixed = np.round(np.stack([cols, rows], axis=1) * scale).astype(np.int64)
+            thickness = max(1, round(line.width_m / mpp))
+            colour = tuple(int(v) for v in line.bgr)
+            for i in range(0, fixed.shape[0], 2):
+                p1 = (int(fixed[i, 0]), int(fixed[i, 1]))
+                p2 = (int(fixed[i + 1, 0]), int(fixed[i + 1, 1]))
+                cv2.line(image, p1, p2, colour, thickness, cv2.LINE_AA, _DRAW_SHIFT)
+
+    def _line_segments(self, line: PaintedLine) -> npt.NDArray[np.float64]:
+        cached = self._segments.get(id(line))
+        if cached is None or cached[0] is not line:
+            cached = (line, line.segments())
+            self._segments[id(line)] = cached
+        return cached[1]
+
+    def _make_texture(self) -> F32Array:
+        """A seamless tile of floor texture, repeated so the whole view fits inside it.
+
+        Reading inside one big periodic image is ten times faster than cv2's wrap-around
+        border, and shifting by whole tiles is invisible, so the texture stays world-fixed.
+        """
+        n = _TEXTURE_TILE_PX
+        fine = self._rng.normal(0.0, 1.0, (n, n)).astype(np.float32)
+        noise = np.tile(self._rng.normal(0.0, 1.0, (n, n)).astype(np.float32), (3, 3))
+        blurred: F32Array = cv2.GaussianBlur(noise, (0, 0), 6)[n:2 * n, n:2 * n]
+        blotches = blurred / max(float(blurred.std()), 1e-6)
+        tile = 1.0 + self.mount.texture_std * (0.6 * fine + 0.8 * blotches)
+        reps = math.ceil(math.hypot(self.width_px, self.height_px) / n) + 2
+        self._texture_centre = reps * n / 2
+        return np.tile(tile.astype(np.float32), (reps, reps))
+
+    def _texture_gain(self, pose: Pose) -> F32Array:
+        m = self.mount
+        mpp = m.m_per_px
+        c, s = math.cos(pose.heading_rad), math.sin(pose.heading_rad)
+        x0, y0 = m.px_to_floor(pose, 0.0, 0.0)
+        xc, yc = pose.to_world(m.forward_m, 0.0)
+        n = _TEXTURE_TILE_PX
+        # Whole tiles taken off so the view centre lands in the middle tile of the texture.
+        base = self._texture_centre - n / 2
+        shift_x = n * math.floor(xc / mpp / n) - base
+        shift_y = n * math.floor(yc / mpp / n) - base
+        # Destination pixel -> texture pixel: the texture is laid on the floor at camera scale.
+        affine = np.array([[s, -c, x0 / mpp - shift_x], [-c, -s, y0 / mpp - shift_y]],
+                          np.float64)
+        out: F32Array = cv2.warpAffine(self._texture, affine, (m.width_px, m.height_px),
+                                       flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
+                                       borderMode=cv2.BORDER_REFLECT)
+        return out
+
+    def _make_static_gain(self) -> F32Array:
+        m = self.mount
+        mpp = m.m_per_px
+        cols = (np.arange(m.width_px, dtype=np.float32) - m.width_px / 2) * mpp
+        rows = (np.arange(m.height_px, dtype=np.float32) - m.height_px / 2) * mpp
+        r2 = cols[None, :] ** 2 + rows[:, None] ** 2
+        cos4 = (m.height_m**2 / (m.height_m**2 + r2)) ** 2
+        cos4 /= cos4.max()
+        corner = float(cos4.min())
+        falloff = (1.0 - cos4) / max(1.0 - corner, 1e-6)
+        gradient = 1.0 + m.light_gradient * (np.linspace(-0.5, 0.5, m.width_px, dtype=np.float32))
+        gain = (1.0 - m.vignette * falloff) * gradient[None, :]
+        return gain.astype(np.float32)
+
+    def _ambient_gain(self, pose: Pose) -> F32Array:
+        m = self.mount
+        fwd, left = self._ambient_grid
+        c, s = math.cos(pose.heading_rad), math.sin(pose.heading_rad)
+        x = pose.x_m + c * fwd - s * left
+        y = pose.y_m + s * fwd + c * left
+        p = self._phases
+        field = (np.sin(x * 2.1 + p[0]) * np.sin(y * 1.7 + p[1])
+                 + 0.5 * np.sin(x * 5.3 + y * 3.1 + p[2]))
+        coarse = (1.0 + m.ambient_variation * field / 1.5).astype(np.float32)
+        out: F32Array = cv2.resize(coarse, (m.width_px, m.height_px),
+                                   interpolation=cv2.INTER_LINEAR)
+        return out
+
+    def _blur(self, image: U8Image, wheel_mps: tuple[float, float]) -> U8Image:
+        m = self.mount
+        speed = (wheel_mps[0] + wheel_mps[1]) / 2
+        yaw_rps = (wheel_mps[1] - wheel_mps[0]) / self.body.params.wheel_base_m
+        along_px = abs(speed) * m.exposure_s / m.m_per_px
+        across_px = abs(yaw_rps) * m.forward_m * m.exposure_s / m.m_per_px
+        # Odd box sizes: an even one has no centre pixel and shifts the image half a pixel.
+        ky, kx = 1 + 2 * round(along_px / 2), 1 + 2 * round(across_px / 2)
+        if kx == 1 and ky == 1:
+            return image
+        out: U8Image = cv2.blur(image, (kx, ky))
+        return out

@@ -1,0 +1,230 @@
+"""A simulated HX711 that answers clock pulses bit by bit (a ``hal.ports.Hx711Lines``).
+
+The chip converts at its output rate (10 or 80 SPS) after a settling time; DOUT goes low when
+a conversion is ready, each rising edge of PD_SCK shifts out the next bit (MSB first) of the
+24-bit two's-complement code, and the pulses after the 24th choose channel and gain for the
+next conversion (25: A/128, 26: B/32, 27: A/64). PD_SCK held high for more than 60 us powers
+it down; bringing it low again resets it to A/128 and restarts settling. The code is
+``offset + counts_per_kg * gain/128 * payload + noise``, clamped to the 24-bit range.
+
+Microseconds: the port keeps its own clock that advances a little with every call (the time
+a GPIO access takes) and never falls behind the event loop's clock.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import errno
+import math
+import os
+import random
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from hal.sim.world.body import DiffDriveBody
+
+POWER_DOWN_US = 60
+CODE_MAX = 0x7FFFFF
+CODE_MIN = -0x800000
+GAIN_BY_PULSES = {25: ("A", 128), 26: ("B", 32), 27: ("A", 64)}
+
+
+def _loop_clock() -> float:
+    try:
+        return asyncio.get_running_loop().time()
+    except RuntimeError:
+        return 0.0
+
+
+@dataclass
+class SimHx711Lines:
+    """Bit-level HX711 on a load cell carrying ``weight_kg()``.
+
+    Args:
+        weight_kg: the load on the cell now (``SimHx711Lines.on_body`` uses the payload).
+        sps: output data rate (10 or 80).
+        offset_counts, counts_per_kg: the cell's zero and scale at channel A, gain 128.
+        noise_counts: Gaussian noise of one conversion.
+        call_us: how long one GPIO access takes.
+        settle_conversions: conversions skipped after power-up/reset before DOUT goes low.
+    """
+
+    weight_kg: Callable[[], float]
+    sps: int = 10
+    offset_counts: int = -48_213
+    counts_per_kg: float = 103_500.0
+    noise_counts: float = 150.0
+    rng: random.Random = field(default_factory=lambda: random.Random(1))
+    clock: Callable[[], float] = _loop_clock
+    call_us: int = 1
+    settle_conversions: int = 4
+    # what happened, for tests
+    pulses_total: int = 0
+    reads_started: int = 0
+    reads_completed: int = 0
+    power_downs: int = 0
+    pulse_counts: list[int] = field(default_factory=list)
+    _now_us: int = 0
+    _sck: bool = False
+    _rise_us: int = 0
+    _pulses_per_read: int = 25
+    _pulses: int = 0
+    _shift: int = 0
+    _first_ready_us: int = 0
+    _last_read_index: int = -1
+    _glitch: tuple[int, int] | None = None
+    _saturate: int | None = None
+    _spike_counts: int = 0
+    _connected: bool = True
+    _gpio_error: OSError | None = None
+
+    def __post_init__(self) -> None:
+        if self.sps not in (10, 80):
+            msg = f"HX711 output rate is 10 or 80 SPS, got {self.sps}"
+            raise ValueError(msg)
+        self._now_us = self._loop_us()
+        self._first_ready_us = self._now_us + self.settle_conversions * self.period_us
+
+    @classmethod
+    def on_body(cls, body: DiffDriveBody, **kwargs: object) -> SimHx711Lines:
+        """A load cell under the body's bin: it weighs ``body.payload_kg``."""
+        return cls(weight_kg=lambda: body.payload_kg, **kwargs)  # type: ignore[arg-type]
+
+    @property
+    def period_us(self) -> int:
+        return 1_000_000 // self.sps
+
+    # --- fault switches ----------------------------------------------------------------------
+    def glitch_next_read(self, at_pulse: int = 10, high_us: int = 80) -> None:
+        """During the next read, pulse ``at_pulse`` stays high ``high_us`` (a preempted task)."""
+        self._glitch = (at_pulse, high_us)
+
+    def saturate(self, high: bool = True) -> None:
+        """The input is out of range: conversions give 0x7FFFFF (or 0x800000)."""
+        self._saturate = CODE_MAX if high else CODE_MIN
+
+    def spike_next_conversion(self, counts: int) -> None:
+        """The next conversion is off by ``counts`` (interference on the bridge wires)."""
+        self._spike_counts = counts
+
+    def disconnect(self) -> None:
+        """DOUT wire off: the input's pull-up holds it high, so no conversion looks ready."""
+        self._connected = False
+
+    def connect(self) -> None:
+        self._connected = True
+
+    def lose_gpio(self, errno_name: str = "ENODEV") -> None:
+        """The GPIO chip went away (a header cable pulled, a driver unloaded): every line
+        access raises OSError, as lgpio does, until ``restore_gpio``."""
+        code = getattr(errno, errno_name)
+        self._gpio_error = OSError(code, os.strerror(code))
+
+    def restore_gpio(self) -> None:
+        self._gpio_error = None
+
+    def clear_faults(self) -> None:
+        self._glitch = None
+        self._saturate = None
+        self._spike_counts = 0
+
+    @property
+    def powered_down(self) -> bool:
+        now_us = max(self._now_us, self._loop_us())
+        return self._sck and now_us - self._rise_us > POWER_DOWN_US
+
+    @property
+    def gain(self) -> tuple[str, int]:
+        return GAIN_BY_PULSES.get(self._pulses_per_read, ("A", 128))
+
+    # --- Hx711Lines --------------------------------------------------------------------------
+    def now_us(self) -> int:
+        return self._tick()
+
+    def read_dout(self) -> bool:
+        if self._gpio_error is not None:
+            raise self._gpio_error
+        now = self._tick()
+        # ``powered_down`` with the time just taken (the clock cannot move in between).
+        if (self._sck and now - self._rise_us > POWER_DOWN_US) or not self._connected:
+            return True
+        if 1 <= self._pulses <= 24:
+            return bool((self._shift >> (24 - self._pulses)) & 1)
+        return not self._ready(now)
+
+    def set_sck(self, high: bool) -> None:
+        if self._gpio_error is not None:
+            raise self._gpio_error
+        now = self._tick()
+        if high == self._sck:
+            return
+        self._sck = high
+        if high:
+            self._rise(now)
+            return
+        if now - self._rise_us > POWER_DOWN_US:
+            self._reset(now)
+
+    # --- the chip ----------------------------------------------------------------------------
+    def _loop_us(self) -> int:
+        return int(self.clock() * 1_000_000)
+
+    def _tick(self) -> int:
+        # The driver makes ~125 of these calls per conversion: kept to one Python call.
+        now_us = max(self._now_us + self.call_us, int(self.clock() * 1_000_000))
+        self._now_us = now_us
+        return now_us
+
+    def _conversion_index(self, now_us: int) -> int:
+        if now_us < self._first_ready_us:
+            return -1
+        return (now_us - self._first_ready_us) // self.period_us
+
+    def _ready(self, now_us: int) -> bool:
+        return self._conversion_index(now_us) > self._last_read_index
+
+    def _rise(self, now_us: int) -> None:
+        self._rise_us = now_us
+        self.pulses_total += 1
+        if self._pulses >= 24 and self._ready(now_us):
+            self._finish_read()
+        if self._pulses == 0:
+            if not self._ready(now_us):
+                return  # a stray pulse while no data is ready: ignored
+            self._last_read_index = self._conversion_index(now_us)
+            self._shift = self._code() & 0xFFFFFF
+            self.reads_started += 1
+        self._pulses += 1
+        if self._pulses in GAIN_BY_PULSES:
+            self._pulses_per_read = self._pulses  # the chip counts them as they come
+        if self._pulses == 24:
+            self.reads_completed += 1
+        if self._glitch is not None and self._pulses == self._glitch[0]:
+            self._now_us += self._glitch[1]
+            self._glitch = None
+
+    def _finish_read(self) -> None:
+        self.pulse_counts.append(self._pulses)
+        self._pulses = 0
+
+    def _reset(self, now_us: int) -> None:
+        """PD_SCK went low after a power-down: the chip restarts on A/128 and settles."""
+        self.power_downs += 1
+        if self._pulses:
+            self.pulse_counts.append(self._pulses)
+        self._pulses = 0
+        self._pulses_per_read = 25
+        self._first_ready_us = now_us + self.settle_conversions * self.period_us
+        self._last_read_index = -1
+
+    def _code(self) -> int:
+        if self._saturate is not None:
+            return self._saturate
+        channel, gain = self.gain
+        signal = self.counts_per_kg * gain / 128 * self.weight_kg() if channel == "A" else 0.0
+        code = (self.offset_counts * gain / 128 + signal + self._spike_counts
+                + self.rng.gauss(0, self.noise_counts))
+        self._spike_counts = 0
+        if math.isnan(code):
+            return CODE_MAX  # a load that is not a number: treated as an input out of range
+        return int(max(CODE_MIN, min(CODE_MAX, math.floor(max(-1e12, min(1e12, code))))))

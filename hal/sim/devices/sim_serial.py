@@ -1,0 +1,41 @@
+"""The simulator's ``SerialOpener``: port names lead to fake MCUs over in-memory byte pipes."""
+
+from __future__ import annotations
+
+import errno
+
+from hal.ports import StreamPair
+from hal.sim.devices.byte_pipe import BytePipe
+from hal.sim.devices.fake_mcu import FakeMcu
+
+
+class SimSerialPorts:
+    """Opens ``port`` as a byte pipe to the FakeMcu attached there (a ``SerialOpener``).
+
+    Opening a port with no MCU, or whose MCU is unplugged, raises FileNotFoundError, as a
+    missing ``/dev/ttyACM0`` does. ``unplug()`` on the MCU breaks the open pipe.
+
+    Args:
+        wire_baud: model the wire's byte time at the baud the driver asks for (default True).
+        seed: seed of the pipes' own fault generators.
+    """
+
+    def __init__(self, *, wire_baud: bool = True, seed: int = 0) -> None:
+        self._mcus: dict[str, FakeMcu] = {}
+        self._wire_baud = wire_baud
+        self._seed = seed
+        self.opens = 0
+        self.pipe: BytePipe | None = None
+
+    def attach(self, port: str, mcu: FakeMcu) -> None:
+        self._mcus[port] = mcu
+
+    async def __call__(self, port: str, baud: int) -> StreamPair:
+        mcu = self._mcus.get(port)
+        if mcu is None or not mcu.plugged:
+            raise FileNotFoundError(errno.ENOENT, "No such file or directory", port)
+        self.opens += 1
+        pipe = BytePipe(baud=baud if self._wire_baud else None, seed=self._seed + self.opens)
+        self.pipe = pipe
+        mcu.connect_pipe(pipe)
+        return pipe.a

@@ -1,0 +1,1 @@
+"""The simulated world: floor plan, robot body, geometry and the motor plant."""

@@ -1,0 +1,258 @@
+"""The simulated floor plan: walls, rooms, painted lines, beacons, dock, people and zones.
+
+Loaded from a scenario's ``[world]`` table. Everything is in metres on one flat floor, x to
+the east, y to the north. Sensors models (camera, BLE, LiDAR, IR) read from here.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from hal.sim.world.geometry import (
+    FloatArray,
+    distance_to_segments,
+    polyline_segments,
+    segments_array,
+)
+
+# Colours a painted line can have, as a camera sees them under white light (BGR).
+LINE_COLOURS_BGR: dict[str, tuple[int, int, int]] = {
+    "black": (30, 30, 30),
+    "red": (40, 40, 200),
+    "green": (60, 160, 50),
+    "blue": (170, 80, 30),
+    "yellow": (40, 200, 220),
+    "white": (245, 245, 245),
+}
+
+
+class WorldError(ValueError):
+    """A scenario's world table is wrong; the message names the key."""
+
+
+@dataclass(frozen=True, slots=True)
+class Room:
+    name: str
+    x_min_m: float
+    y_min_m: float
+    x_max_m: float
+    y_max_m: float
+
+    def contains(self, x_m: float, y_m: float) -> bool:
+        return self.x_min_m <= x_m <= self.x_max_m and self.y_min_m <= y_m <= self.y_max_m
+
+
+@dataclass(frozen=True, slots=True)
+class PaintedLine:
+    """A painted line on the floor: a polyline with a colour and a width."""
+
+    name: str
+    points: tuple[tuple[float, float], ...]
+    colour: str
+    width_m: float
+    closed: bool = False
+
+    @property
+    def bgr(self) -> tuple[int, int, int]:
+        return LINE_COLOURS_BGR[self.colour]
+
+    def segments(self) -> FloatArray:
+        return polyline_segments(list(self.points), self.closed)
+
+
+@dataclass(frozen=True, slots=True)
+class SimBeacon:
+    """An iBeacon on a wall: identity, position and its advertised power at 1 m."""
+
+    mac: str
+    uuid: str
+    major: int
+    minor: int
+    x_m: float
+    y_m: float
+    tx_power_dbm: int = -59
+    room: str = ""
+    interval_s: float = 0.1
+
+
+@dataclass(frozen=True, slots=True)
+class Dock:
+    x_m: float
+    y_m: float
+    heading_rad: float
+
+
+@dataclass
+class Person:
+    name: str
+    x_m: float
+    y_m: float
+    present: bool = True
+    radius_m: float = 0.2
+
+
+@dataclass
+class World:
+    width_m: float
+    height_m: float
+    walls: FloatArray
+    rooms: list[Room] = field(default_factory=list)
+    lines: list[PaintedLine] = field(default_factory=list)
+    beacons: list[SimBeacon] = field(default_factory=list)
+    dock: Dock | None = None
+    people: list[Person] = field(default_factory=list)
+    zones: dict[str, Room] = field(default_factory=dict)
+    floor_bgr: tuple[int, int, int] = (200, 205, 210)
+    robots_see_each_other: bool = True
+    _segments_cache: tuple[tuple[PaintedLine, ...], FloatArray] | None = field(
+        default=None, init=False, repr=False, compare=False)
+
+    def room_at(self, x_m: float, y_m: float) -> str | None:
+        for room in self.rooms:
+            if room.contains(x_m, y_m):
+                return room.name
+        return None
+
+    def clearance_m(self, x_m: float, y_m: float) -> float:
+        """Distance from a point to the nearest wall."""
+        return distance_to_segments(self.walls, x_m, y_m)
+
+    def line_segments(self) -> FloatArray:
+        """All painted lines' segments (read-only; rebuilt when ``lines`` changes)."""
+        key = tuple(self.lines)
+        cached = self._segments_cache
+        if cached is None or cached[0] != key:
+            parts = [line.segments() for line in self.lines]
+            segments = np.concatenate(parts) if parts else segments_array([])
+            segments.flags.writeable = False
+            cached = self._segments_cache = (key, segments)
+        return cached[1]
+
+    def cross_track_m(self, x_m: float, y_m: float) -> float:
+        """Distance from a point to the nearest painted line's centre."""
+        return distance_to_segments(self.line_segments(), x_m, y_m)
+
+    def beacon(self, mac: str) -> SimBeacon:
+        for b in self.beacons:
+            if b.mac == mac:
+                return b
+        msg = f"no beacon {mac}"
+        raise KeyError(msg)
+
+    @classmethod
+    def from_table(cls, table: dict[str, Any], where: str = "world") -> World:
+        """Build from a scenario's ``[world]`` table; WorldError names the bad key."""
+        r = _Reader(table, where)
+        r.known("width_m", "height_m", "boundary", "walls", "rooms", "lines", "beacons", "dock",
+                "people", "zones", "floor_bgr", "robots_see_each_other")
+        width, height = r.num("width_m"), r.num("height_m")
+        walls: list[tuple[float, float, float, float]] = []
+        if r.get("boundary", True):
+            walls += [(0, 0, width, 0), (width, 0, width, height),
+                      (width, height, 0, height), (0, height, 0, 0)]
+        for i, w in enumerate(r.tables("walls")):
+            wr = _Reader(w, f"{where}.walls[{i}]")
+            wr.known("x1", "y1", "x2", "y2")
+            walls.append((wr.num("x1"), wr.num("y1"), wr.num("x2"), wr.num("y2")))
+        rooms = [_room(_Reader(t, f"{where}.rooms[{i}]")) for i, t in enumerate(r.tables("rooms"))]
+        lines = []
+        for i, t in enumerate(r.tables("lines")):
+            lr = _Reader(t, f"{where}.lines[{i}]")
+            lr.known("name", "points", "colour", "width_m", "closed")
+            colour = lr.text("colour", "black")
+            if colour not in LINE_COLOURS_BGR:
+                msg = f"{lr.where}.colour: expected one of {sorted(LINE_COLOURS_BGR)}"
+                raise WorldError(msg)
+            points = tuple((float(p[0]), float(p[1])) for p in lr.points("points"))
+            lines.append(PaintedLine(lr.text("name", f"line{i}"), points, colour,
+                                     lr.num("width_m", 0.025), bool(lr.get("closed", False))))
+        beacons = []
+        for i, t in enumerate(r.tables("beacons")):
+            br = _Reader(t, f"{where}.beacons[{i}]")
+            br.known("mac", "uuid", "major", "minor", "x_m", "y_m", "tx_power_dbm", "room",
+                     "interval_s")
+            beacons.append(SimBeacon(
+                br.text("mac"), br.text("uuid"), int(br.num("major")), int(br.num("minor")),
+                br.num("x_m"), br.num("y_m"), int(br.num("tx_power_dbm", -59)),
+                br.text("room", ""), br.num("interval_s", 0.1)))
+        dock = None
+        if "dock" in table:
+            dr = _Reader(r.get("dock"), f"{where}.dock")
+            dock = Dock(dr.num("x_m"), dr.num("y_m"), math.radians(dr.num("heading_deg", 0)))
+        people = [Person(pr.text("name", f"person{i}"), pr.num("x_m"), pr.num("y_m"),
+                         bool(pr.get("present", True)))
+                  for i, pr in ((i, _Reader(t, f"{where}.people[{i}]"))
+                                for i, t in enumerate(r.tables("people")))]
+        zones = {name: _room(_Reader(t, f"{where}.zones.{name}"), name)
+                 for name, t in r.get("zones", {}).items()}
+        floor = tuple(int(v) for v in r.get("floor_bgr", (200, 205, 210)))
+        return cls(width, height, segments_array(walls), rooms, lines, beacons, dock, people,
+                   zones, (floor[0], floor[1], floor[2]),
+                   bool(r.get("robots_see_each_other", True)))
+
+
+def _room(r: _Reader, name: str | None = None) -> Room:
+    return Room(name or r.text("name"), r.num("x_min_m"), r.num("y_min_m"),
+                r.num("x_max_m"), r.num("y_max_m"))
+
+
+class _Reader:
+    """Typed access to one TOML table; errors name the dotted key."""
+
+    def __init__(self, table: Any, where: str) -> None:
+        if not isinstance(table, dict):
+            msg = f"{where}: expected a table"
+            raise WorldError(msg)
+        self.table = table
+        self.where = where
+
+    def get(self, key: str, default: Any = None) -> Any:
+        return self.table.get(key, default)
+
+    def known(self, *keys: str) -> None:
+        for key in self.table:
+            if key not in keys:
+                close = difflib.get_close_matches(key, keys, n=1)
+                hint = f"did you mean {close[0]!r}?" if close else f"known: {', '.join(keys)}"
+                msg = f"{self.where}.{key}: unknown key ({hint})"
+                raise WorldError(msg)
+
+    def num(self, key: str, default: float | None = None) -> float:
+        value = self.table.get(key, default)
+        if value is None:
+            msg = f"{self.where}.{key}: required number is missing"
+            raise WorldError(msg)
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            msg = f"{self.where}.{key}: expected a number, got {value!r}"
+            raise WorldError(msg)
+        return float(value)
+
+    def text(self, key: str, default: str | None = None) -> str:
+        value = self.table.get(key, default)
+        if not isinstance(value, str):
+            msg = f"{self.where}.{key}: expected a string, got {value!r}"
+            raise WorldError(msg)
+        return value
+
+    def tables(self, key: str) -> list[Any]:
+        value = self.table.get(key, [])
+        if not isinstance(value, list):
+            msg = f"{self.where}.{key}: expected an array of tables"
+            raise WorldError(msg)
+        return value
+
+    def points(self, key: str) -> list[tuple[float, float]]:
+        value = self.table.get(key)
+        ok = isinstance(value, list) and len(value) >= 2 and all(
+            isinstance(p, list) and len(p) == 2
+            and all(isinstance(c, int | float) and not isinstance(c, bool) for c in p)
+            for p in value)
+        if not ok:
+            msg = f"{self.where}.{key}: expected at least two [x, y] points"
+            raise WorldError(msg)
+        return [(float(p[0]), float(p[1])) for p in value]  # type: ignore[union-attr]

@@ -1,0 +1,1 @@
+"""Simulated people and servers around a robot (customers, staff, fleet), per profile."""

@@ -1,0 +1,151 @@
+"""The simulator's report: ``events.jsonl`` and ``trajectory.png`` (map, paths, events)."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+from hal.sim.world.floor_plan import World
+from robotd.sim.tracks import TrackPoint
+
+_EVENT_MARKERS = {
+    "collision": ("x", "red"),
+    "script": ("v", "black"),
+    "estop": ("X", "crimson"),
+    "link": ("s", "darkorange"),
+    "deadman": ("P", "firebrick"),
+    "arrival": ("*", "gold"),
+}
+
+
+def event_line(event: dict[str, Any]) -> str:
+    """One event as a JSON line: ``t`` and ``kind`` first, other fields sorted, floats rounded."""
+    head = {"t": round(float(event["t"]), 6), "kind": event["kind"]}
+    rest = {k: _round(v) for k, v in sorted(event.items()) if k not in ("t", "kind")}
+    return json.dumps(head | rest, separators=(",", ":"), default=str)
+
+
+def write_events(path: Path, events: Iterable[dict[str, Any]]) -> None:
+    with path.open("w", encoding="utf-8") as fh:
+        for event in events:
+            fh.write(event_line(event) + "\n")
+
+
+def _round(value: Any) -> Any:
+    if isinstance(value, float):
+        return round(value, 6) if math.isfinite(value) else str(value)
+    if isinstance(value, dict):
+        return {k: _round(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_round(v) for v in value]
+    return value
+
+
+def draw_trajectory(
+    path: Path,
+    world: World,
+    tracks: dict[str, list[TrackPoint]],
+    events: list[dict[str, Any]],
+    title: str,
+) -> None:
+    """Draw the floor plan, each robot's path coloured by state, and the marked events."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Rectangle
+
+    fig, ax = plt.subplots(figsize=(11.5, 9 * world.height_m / max(world.width_m, 1e-6) + 0.6))
+    for room in world.rooms:
+        ax.add_patch(Rectangle((room.x_min_m, room.y_min_m), room.x_max_m - room.x_min_m,
+                               room.y_max_m - room.y_min_m, facecolor="#f2f2ec",
+                               edgecolor="#c8c8c0", lw=0.8, zorder=0))
+        ax.text(room.x_min_m + 0.05, room.y_max_m - 0.05, room.name, va="top", fontsize=8,
+                color="#777")
+    for name, zone in world.zones.items():
+        ax.add_patch(Rectangle((zone.x_min_m, zone.y_min_m), zone.x_max_m - zone.x_min_m,
+                               zone.y_max_m - zone.y_min_m, facecolor="#e4f0ff",
+                               edgecolor="#88a", lw=0.8, ls="--", zorder=0))
+        ax.text(zone.x_min_m + 0.05, zone.y_min_m + 0.05, name, fontsize=8, color="#557")
+    for x1, y1, x2, y2 in world.walls:
+        ax.plot([x1, x2], [y1, y2], color="#333", lw=2.5, solid_capstyle="round", zorder=2)
+    for line in world.lines:
+        b, g, r = line.bgr
+        xs = [p[0] for p in line.points] + ([line.points[0][0]] if line.closed else [])
+        ys = [p[1] for p in line.points] + ([line.points[0][1]] if line.closed else [])
+        ax.plot(xs, ys, color=(r / 255, g / 255, b / 255), lw=max(1.5, line.width_m * 120),
+                alpha=0.55, zorder=1, label=f"line {line.name} ({line.colour})")
+    for beacon in world.beacons:
+        ax.plot(beacon.x_m, beacon.y_m, marker="^", color="tab:blue", ms=8, zorder=3)
+        ax.annotate(beacon.room or beacon.mac[-5:], (beacon.x_m, beacon.y_m), fontsize=7,
+                    xytext=(4, 4), textcoords="offset points", color="tab:blue")
+    if world.dock is not None:
+        d = world.dock
+        ax.plot(d.x_m, d.y_m, marker="s", color="green", ms=10, zorder=3, label="dock")
+    for person in world.people:
+        ax.plot(person.x_m, person.y_m, marker="o", color="purple", ms=9, zorder=3)
+
+    states = sorted({p.state for points in tracks.values() for p in points})
+    cmap = plt.get_cmap("tab10")
+    colour = {s: cmap(i % 10) for i, s in enumerate(states)}
+    styles = ["-", "--", ":", "-."]
+    labelled: set[str] = set()
+    for index, (robot, points) in enumerate(tracks.items()):
+        style = styles[index % len(styles)]
+        for state in states:
+            px: list[float] = []
+            py: list[float] = []
+            for a, b2 in itertools.pairwise(points):
+                if a.state == state:
+                    px += [a.x_m, b2.x_m, math.nan]
+                    py += [a.y_m, b2.y_m, math.nan]
+            if px:
+                label = None if state in labelled else (state or "-")
+                labelled.add(state)
+                ax.plot(px, py, color=colour[state], lw=1.8, ls=style, zorder=4, label=label)
+        if points:
+            ax.plot(points[0].x_m, points[0].y_m, marker="o", mfc="white", mec="black", ms=7,
+                    zorder=5)
+            ax.plot(points[-1].x_m, points[-1].y_m, marker="o", color="black", ms=5, zorder=5)
+            if len(tracks) > 1:
+                ax.plot([], [], color="black", ls=style, label=f"path of {robot}")
+                ax.annotate(robot, (points[-1].x_m, points[-1].y_m), fontsize=7,
+                            xytext=(4, 6 + 8 * index), textcoords="offset points")
+
+    seen: set[str] = set()
+    notes_at: dict[tuple[float, float], int] = {}
+    for event in events:
+        kind = str(event.get("kind"))
+        if kind not in _EVENT_MARKERS or "x_m" not in event or "y_m" not in event:
+            continue
+        marker, col = _EVENT_MARKERS[kind]
+        # An arrival is where a script acts too (the load comes in): its star is drawn large,
+        # outlined and underneath, so both show.
+        big = kind == "arrival"
+        ax.plot(event["x_m"], event["y_m"], marker=marker, color=col, ms=20 if big else 10,
+                mec="black" if big else col, mew=0.8 if big else 1.0, zorder=5.5 if big else 6,
+                label=None if kind in seen else kind, ls="none")
+        seen.add(kind)
+        note = event.get("action") or event.get("state") or ""
+        if note:
+            spot = (round(float(event["x_m"]), 1), round(float(event["y_m"]), 1))
+            stacked = notes_at.get(spot, 0)
+            notes_at[spot] = stacked + 1
+            ax.annotate(str(note), (event["x_m"], event["y_m"]), fontsize=7,
+                        xytext=(6, -10 - 9 * stacked), textcoords="offset points", color=col)
+
+    ax.set_xlim(-0.1, world.width_m + 0.1)
+    ax.set_ylim(-0.1, world.height_m + 0.1)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(title, fontsize=10)
+    ax.grid(True, color="#eee", lw=0.5)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, framealpha=0.85)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -1,0 +1,155 @@
+"""The simulated hardware of one robot: fakes at the lowest layer, the real drivers on top.
+
+The motor board is a ``FakeMcu`` (or the real firmware in simavr) behind an in-memory serial
+port; the real ``ArduinoLink`` driver opens it. Sensor models for the camera, BLE and the HX711
+are added when the robot's profile uses those devices.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import random
+from typing import Any
+
+import structlog
+
+from drivers import ble_scanner, hx711
+from drivers.arduino.link import ArduinoLink
+from drivers.serial_port import open_serial
+from hal.backend import Devices
+from hal.sim.devices.ble_model import BleAirParams, SimBleAir
+from hal.sim.devices.camera_model import CameraMount, SimCamera
+from hal.sim.devices.fake_mcu import FakeMcu
+from hal.sim.devices.hx711_model import SimHx711Lines
+from hal.sim.devices.sim_serial import SimSerialPorts
+from hal.sim.devices.simavr_bridge import SimavrBridge
+from hal.sim.devices.simavr_mcu import SimavrMcu, SimavrUnavailable, missing_toolchain
+from hal.sim.world.body import DiffDriveBody
+from hal.sim.world.floor_plan import World
+from robotd.config.settings import Settings
+
+log = structlog.get_logger(__name__)
+
+
+class SimRig:
+    """One robot's simulated hardware, and the bench switches the scenario script uses."""
+
+    def __init__(self, world: World, body: DiffDriveBody, settings: Settings, *, seed: int,
+                 index: int, mcu: str = "fake", needs: tuple[str, ...] = ()) -> None:
+        self.world = world
+        self.body = body
+        self.settings = settings
+        self.mcu_kind = mcu
+        self.simavr: SimavrMcu | None = None
+        self.bridge: SimavrBridge | None = None
+        self.mcu = FakeMcu(body, seed=seed * 1000 + index)
+        self.ports = SimSerialPorts(seed=seed * 1000 + index)
+        self.ports.attach(settings.get("serial.port"), self.mcu)
+        self.link = ArduinoLink.from_settings(self.ports, settings)
+        self.devices = Devices(
+            motors=self.link, encoders=self.link.encoders, front_range=self.link.front_range,
+            battery=self.link.battery, servo=self.link, leds=self.link,
+        )
+        self._models: list[Any] = []
+        self.air: SimBleAir | None = None
+        self.hx711_lines: SimHx711Lines | None = None
+        rng_key = f"{seed}:{index}"
+        if "camera" in needs:
+            mount = CameraMount(width_px=settings.get("camera.width"),
+                                height_px=settings.get("camera.height"),
+                                fps=settings.get("camera.fps"))
+            self.devices.camera = SimCamera(world, body, mount, seed=seed * 1000 + index)
+        if "beacons" in needs:
+            self.air = SimBleAir(body, rng=random.Random(f"{rng_key}:ble"),
+                                 params=BleAirParams(
+                                     path_loss_exponent=settings.get("ble.path_loss_exponent")))
+            self.devices.beacons = ble_scanner.from_settings(settings, self.air.scanner_factory())
+        if "load_cell" in needs:
+            lines = SimHx711Lines.on_body(
+                body, rng=random.Random(f"{rng_key}:hx711"), sps=settings.get("hx711.sps"),
+                offset_counts=settings.get("hx711.tare_offset"),
+                counts_per_kg=settings.get("hx711.calibration_factor"),
+                clock=asyncio.get_running_loop().time)
+            self.hx711_lines = lines
+            self.devices.load_cell = hx711.from_settings(settings, lambda: lines)
+        self._deadman_seen = 0
+
+    async def open_simavr(self) -> None:
+        """Put the real firmware, in an emulated ATmega328P, on the body instead of the fake.
+
+        The emulator runs in wall time, so this needs a wall-clock loop (``--realtime``).
+        The real Arduino driver opens the emulator's UART pseudo-terminal like /dev/ttyACM0.
+        """
+        self.simavr = await SimavrMcu.start()
+        self.bridge = SimavrBridge(self.simavr, self.body)
+        self.settings.set("serial.port", self.simavr.uart_path)
+        self.link = ArduinoLink.from_settings(open_serial, self.settings)
+        fill = {"motors": self.link, "encoders": self.link.encoders,
+                "front_range": self.link.front_range, "battery": self.link.battery,
+                "servo": self.link, "leds": self.link}
+        for slot, device in fill.items():
+            setattr(self.devices, slot, device)
+
+    async def run(self) -> None:
+        """What the simulated hardware does on its own: beacons advertising, the emulator."""
+        async with asyncio.TaskGroup() as group:
+            if self.air is not None:
+                group.create_task(self.air.run())
+            if self.bridge is not None:
+                group.create_task(self.bridge.run())
+
+    async def close(self) -> None:
+        await self.mcu.close()
+        if self.simavr is not None:
+            await self.simavr.close()
+
+    @property
+    def board(self) -> FakeMcu | SimavrMcu:
+        """The motor board the bench switches act on."""
+        return self.simavr if self.simavr is not None else self.mcu
+
+    def new_deadman_stops(self) -> list[tuple[float, float | None]]:
+        """Deadman stops since the last call: (time, when the last MOTOR/HB had arrived).
+
+        Only the fake board reports them; the emulated one shows them on its pins."""
+        if self.simavr is not None:
+            return []
+        stops = self.mcu.deadman_stops[self._deadman_seen:]
+        self._deadman_seen = len(self.mcu.deadman_stops)
+        return [(t, self.mcu.last_drive_s) for t in stops]
+
+    # -- bench switches for the scenario script -----------------------------------------------
+    def unplug_mcu(self) -> None:
+        self.board.unplug()
+
+    def replug_mcu(self) -> None:
+        self.board.replug()
+
+    def corrupt_mcu(self, pct: float) -> None:
+        self.board.corrupt(pct)
+
+    def reset_mcu(self) -> None:
+        self.board.reset()
+
+
+async def open_sim_rig(world: World, body: DiffDriveBody, settings: Settings, *, seed: int,
+                       index: int, mcu: str = "fake", needs: tuple[str, ...] = ()) -> SimRig:
+    """One robot's simulated hardware; ``mcu="simavr"`` runs the real firmware (wall time)."""
+    if mcu not in ("fake", "simavr"):
+        msg = f"--mcu {mcu}: expected fake or simavr"
+        raise ValueError(msg)
+    rig = SimRig(world, body, settings, seed=seed, index=index, mcu=mcu, needs=needs)
+    if mcu == "simavr":
+        if getattr(asyncio.get_running_loop(), "virtual", False):
+            msg = "--mcu simavr: the emulator runs in wall time; add --realtime"
+            raise ValueError(msg)
+        why = missing_toolchain()
+        if why is not None:
+            msg = f"--mcu simavr: {why}"
+            raise ValueError(msg)
+        try:
+            await rig.open_simavr()
+        except SimavrUnavailable as exc:
+            msg = f"--mcu simavr: {exc}"
+            raise ValueError(msg) from exc
+    return rig

@@ -1,0 +1,250 @@
+"""Scenario files: a world, the robots in it, a script of timed events and success conditions.
+
+A scenario is TOML (see docs/scenarios.md). Built-in scenarios ship in ``robotd/sim/scenarios``;
+``load_scenario("square")`` finds one by name, anything else is read as a path.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from hal.sim.world.body import BodyParams
+from hal.sim.world.floor_plan import World, WorldError
+
+
+class ScenarioError(ValueError):
+    """A scenario file is wrong; the message names the file and the key."""
+
+
+@dataclass(frozen=True, slots=True)
+class RobotSpec:
+    name: str
+    x_m: float
+    y_m: float
+    heading_rad: float
+    config: dict[str, dict[str, Any]]
+    body: BodyParams
+    payload_kg: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class ScriptStep:
+    at_s: float
+    action: str
+    args: dict[str, Any]
+
+
+@dataclass(frozen=True, slots=True)
+class FinalPose:
+    x_m: float
+    y_m: float
+    tolerance_m: float
+    robot: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class Success:
+    time_limit_s: float
+    states_reached: tuple[str, ...] = ()
+    final_state: str | None = None
+    final_poses: tuple[FinalPose, ...] = ()
+    no_estop: bool = True
+    no_collisions: bool = True
+    max_cross_track_m: float | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, slots=True)
+class Scenario:
+    name: str
+    description: str
+    profile: str
+    source: str
+    world: World
+    robots: tuple[RobotSpec, ...]
+    script: tuple[ScriptStep, ...]
+    success: Success
+    config: dict[str, dict[str, Any]]
+    raw: dict[str, Any]
+
+
+def read_beside(scenario: Scenario, name: str) -> str:
+    """A file named in a scenario, relative to the scenario (built-ins: beside them)."""
+    if scenario.source.startswith("<builtin "):
+        res = resources.files("robotd.sim") / "scenarios" / name
+        return res.read_text(encoding="utf-8")
+    path = Path(scenario.source).parent / name
+    try:
+        return path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        msg = f"{scenario.source}: {name}: cannot read: {exc}"
+        raise ScenarioError(msg) from exc
+
+
+def builtin_names() -> list[str]:
+    folder = resources.files("robotd.sim") / "scenarios"
+    return sorted(p.name[:-5] for p in folder.iterdir()
+                  if p.name.endswith(".toml") and not p.name.endswith("-site.toml"))
+
+
+def load_scenario(name_or_path: str) -> Scenario:
+    """A built-in scenario by name, or a scenario file by path."""
+    if name_or_path in builtin_names():
+        res = resources.files("robotd.sim") / "scenarios" / f"{name_or_path}.toml"
+        return parse_scenario(res.read_text(encoding="utf-8"), f"<builtin {name_or_path}>")
+    path = Path(name_or_path)
+    if not path.exists():
+        msg = (f"{name_or_path}: no such scenario file, and not a built-in scenario "
+               f"(built-in: {', '.join(builtin_names())})")
+        raise ScenarioError(msg)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        msg = f"{path}: cannot read: {exc}"
+        raise ScenarioError(msg) from exc
+    return parse_scenario(text, str(path))
+
+
+def parse_scenario(text: str, source: str) -> Scenario:
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        msg = f"{source}: TOML syntax error: {exc}"
+        raise ScenarioError(msg) from exc
+    try:
+        return _build(raw, source)
+    except (WorldError, KeyError, TypeError, ValueError) as exc:
+        msg = f"{source}: {exc}"
+        raise ScenarioError(msg) from exc
+
+
+_TOP = ("scenario", "config", "world", "robot", "robots", "script", "success", "fleet")
+_SCENARIO = ("name", "description", "profile", "seed")
+_ROBOT = ("name", "x_m", "y_m", "heading_deg", "config", "body", "payload_kg")
+_SUCCESS = ("time_limit_s", "states_reached", "final_state", "final_poses", "no_estop",
+            "no_collisions", "max_cross_track_m", "arrivals", "requests", "final_rooms")
+_STEP = ("at_s", "action", "robot", "duration_s", "pct", "kg", "name", "x_m", "y_m", "key",
+         "value", "when_state", "delay_s")
+_FLEET = ("site", "settings", "customers", "washing_s")
+
+
+def check_keys(table: dict[str, Any], known: tuple[str, ...], where: str) -> None:
+    """ValueError naming the first key of ``table`` that is not in ``known``."""
+    for key in table:
+        if key not in known:
+            close = difflib.get_close_matches(key, known, n=1)
+            hint = f"did you mean {close[0]!r}?" if close else f"known: {', '.join(known)}"
+            msg = f"{where}{'.' if where else ''}{key}: unknown key ({hint})"
+            raise ValueError(msg)
+
+
+def _build(raw: dict[str, Any], source: str) -> Scenario:
+    check_keys(raw, _TOP, "")
+    meta = _table(raw, "scenario")
+    check_keys(meta, _SCENARIO, "scenario")
+    if "fleet" in raw:
+        check_keys(_table(raw, "fleet"), _FLEET, "fleet")
+    name = str(meta.get("name", Path(source).stem))
+    profile = str(meta.get("profile", "square"))
+    world = World.from_table(_table(raw, "world"))
+    config = _table(raw, "config", required=False)
+    robots_raw = raw.get("robots")
+    if robots_raw is None:
+        robots_raw = [_table(raw, "robot")]
+    if not isinstance(robots_raw, list) or not robots_raw:
+        msg = "robots: expected at least one [[robots]] table"
+        raise ValueError(msg)
+    robots = tuple(_robot(t, i, len(robots_raw)) for i, t in enumerate(robots_raw))
+    script = tuple(sorted((_step(t, i) for i, t in enumerate(raw.get("script", []))),
+                          key=lambda s: s.at_s))
+    success = _success(_table(raw, "success"), robots)
+    return Scenario(name, str(meta.get("description", "")), profile, source, world, robots,
+                    script, success, config, raw)
+
+
+def _table(raw: dict[str, Any], key: str, *, required: bool = True) -> dict[str, Any]:
+    value = raw.get(key)
+    if value is None:
+        if required:
+            msg = f"[{key}]: required table is missing"
+            raise ValueError(msg)
+        return {}
+    if not isinstance(value, dict):
+        msg = f"{key}: expected a table"
+        raise ValueError(msg)
+    return value
+
+
+def _num(table: dict[str, Any], key: str, where: str, default: float | None = None) -> float:
+    value = table.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        msg = f"{where}.{key}: expected a number, got {value!r}"
+        raise ValueError(msg)
+    return float(value)
+
+
+def _robot(t: Any, index: int, count: int) -> RobotSpec:
+    where = "robot" if count == 1 else f"robots[{index}]"
+    if not isinstance(t, dict):
+        msg = f"{where}: expected a table"
+        raise ValueError(msg)
+    check_keys(t, _ROBOT, where)
+    body_raw = t.get("body", {})
+    known = set(BodyParams.__dataclass_fields__)
+    unknown = set(body_raw) - known
+    if unknown:
+        msg = f"{where}.body.{sorted(unknown)[0]}: unknown key (known: {', '.join(sorted(known))})"
+        raise ValueError(msg)
+    return RobotSpec(
+        name=str(t.get("name", f"sim-{index + 1}")),
+        x_m=_num(t, "x_m", where), y_m=_num(t, "y_m", where),
+        heading_rad=math.radians(_num(t, "heading_deg", where, 0.0)),
+        config=t.get("config", {}),
+        body=BodyParams(**body_raw),
+        payload_kg=_num(t, "payload_kg", where, 0.0),
+    )
+
+
+def _step(t: Any, index: int) -> ScriptStep:
+    where = f"script[{index}]"
+    if not isinstance(t, dict) or "action" not in t:
+        msg = f"{where}: expected a table with at_s and action"
+        raise ValueError(msg)
+    check_keys(t, _STEP, where)
+    args = {k: v for k, v in t.items() if k not in ("at_s", "action")}
+    return ScriptStep(_num(t, "at_s", where), str(t["action"]), args)
+
+
+def _success(t: dict[str, Any], robots: tuple[RobotSpec, ...]) -> Success:
+    check_keys(t, _SUCCESS, "success")
+    poses = []
+    for i, p in enumerate(t.get("final_poses", [])):
+        where = f"success.final_poses[{i}]"
+        robot = str(p.get("robot", robots[0].name))
+        spec = next((r for r in robots if r.name == robot), None)
+        if spec is None:
+            msg = f"{where}.robot: no robot named {robot!r}"
+            raise ValueError(msg)
+        if p.get("at") == "start":
+            x, y = spec.x_m, spec.y_m
+        else:
+            x, y = _num(p, "x_m", where), _num(p, "y_m", where)
+        poses.append(FinalPose(x, y, _num(p, "tolerance_m", where, 0.05), robot))
+    known = {"time_limit_s", "states_reached", "final_state", "final_poses", "no_estop",
+             "no_collisions", "max_cross_track_m"}
+    return Success(
+        time_limit_s=_num(t, "time_limit_s", "success", 600.0),
+        states_reached=tuple(t.get("states_reached", ())),
+        final_state=t.get("final_state"),
+        final_poses=tuple(poses),
+        no_estop=bool(t.get("no_estop", True)),
+        no_collisions=bool(t.get("no_collisions", True)),
+        max_cross_track_m=t.get("max_cross_track_m"),
+        extra={k: v for k, v in t.items() if k not in known},
+    )

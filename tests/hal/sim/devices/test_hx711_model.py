@@ -1,0 +1,154 @@
+"""The simulated HX711 answers clock pulses bit by bit like the chip."""
+
+from __future__ import annotations
+
+import random
+
+from hal.sim.devices.hx711_model import SimHx711Lines
+
+
+class Bench:
+    """A hand on the wires: a settable clock in seconds and whole-read helpers."""
+
+    def __init__(self, kg: float = 0.0, sps: int = 10, **kwargs: object) -> None:
+        self.t_s = 0.0
+        self.kg = kg
+        self.chip = SimHx711Lines(weight_kg=lambda: self.kg, sps=sps, noise_counts=0.0,
+                                  clock=lambda: self.t_s, rng=random.Random(1),
+                                  **kwargs)  # type: ignore[arg-type]
+
+    def read(self, pulses: int = 25) -> int:
+        raw = 0
+        for i in range(pulses):
+            self.chip.set_sck(True)
+            if i < 24:
+                raw = (raw << 1) | int(self.chip.read_dout())
+            self.chip.set_sck(False)
+        return raw - (1 << 24) if raw & 0x800000 else raw
+
+    def wait_ready(self, step_s: float = 0.001, limit_s: float = 2.0) -> float:
+        start = self.t_s
+        while self.chip.read_dout():
+            self.t_s += step_s
+            assert self.t_s - start < limit_s, "never ready"
+        return self.t_s - start
+
+
+class TestSimHx711Lines:
+    def test_dout_stays_high_while_settling_then_goes_low(self) -> None:
+        """After power-up DOUT is high for the settling conversions (4 at 10 SPS: 400 ms)."""
+        bench = Bench()
+        waited = bench.wait_ready()
+        assert 0.399 <= waited <= 0.402
+
+    def test_shifts_out_offset_plus_scaled_weight(self) -> None:
+        """The 24 bits are offset + counts_per_kg * kg, two's complement, MSB first."""
+        bench = Bench(kg=2.0, offset_counts=-48_213, counts_per_kg=103_500.0)
+        bench.wait_ready()
+        assert bench.read() == -48_213 + 207_000
+        bench.kg = -1.0  # a pull on the cell: negative codes
+        bench.wait_ready()
+        assert bench.read() == -48_213 - 103_500
+
+    def test_conversions_come_at_the_output_rate(self) -> None:
+        """At 80 SPS a new conversion is ready every 12.5 ms, DOUT high in between."""
+        bench = Bench(sps=80)
+        bench.wait_ready()
+        bench.read()
+        gaps = []
+        for _ in range(5):
+            gaps.append(bench.wait_ready(step_s=0.0001))
+            bench.read()
+        assert all(0.012 <= g <= 0.0126 for g in gaps)
+
+    def test_gain_pulses_choose_the_next_conversion(self) -> None:
+        """27 pulses: the next code is at gain 64 (half of 128); 26: channel B (no signal)."""
+        bench = Bench(kg=4.0, offset_counts=0, counts_per_kg=100_000.0)
+        bench.wait_ready()
+        assert bench.read(27) == 400_000
+        bench.wait_ready()
+        assert bench.read(26) == 200_000
+        assert bench.chip.gain == ("B", 32)
+        bench.wait_ready()
+        assert bench.read(25) == 0
+        bench.wait_ready()
+        assert bench.read() == 400_000
+        assert bench.chip.pulse_counts == [27, 26, 25]
+
+    def test_long_high_clock_powers_down_and_resets_to_a128(self) -> None:
+        """PD_SCK high > 60 us: DOUT high (powered down); low again: reset, settle, A/128."""
+        bench = Bench(kg=1.0, offset_counts=0, counts_per_kg=100_000.0)
+        bench.wait_ready()
+        bench.read(27)  # ask for A/64
+        bench.chip.set_sck(True)
+        bench.t_s += 0.001
+        assert bench.chip.powered_down and bench.chip.read_dout() is True
+        bench.chip.set_sck(False)
+        assert bench.chip.power_downs == 1
+        assert 0.399 <= bench.wait_ready() <= 0.402
+        assert bench.read() == 100_000  # gain back to 128
+
+    def test_glitch_switch_stretches_one_pulse(self) -> None:
+        """glitch_next_read makes one pulse's high time exceed 60 us on the chip's clock."""
+        bench = Bench()
+        bench.wait_ready()
+        bench.chip.glitch_next_read(at_pulse=5, high_us=80)
+        widths = []
+        for _ in range(25):
+            t0 = bench.chip.now_us()
+            bench.chip.set_sck(True)
+            bench.chip.set_sck(False)
+            widths.append(bench.chip.now_us() - t0)
+        assert [i for i, w in enumerate(widths, 1) if w > 60] == [5]
+        assert bench.chip.power_downs == 1
+
+    def test_saturation_switch_gives_the_clipped_code(self) -> None:
+        """saturate() shifts out 0x7FFFFF (or 0x800000 when low)."""
+        bench = Bench()
+        bench.wait_ready()
+        bench.chip.saturate(high=True)
+        assert bench.read() == 0x7FFFFF
+        bench.chip.saturate(high=False)
+        bench.wait_ready()
+        assert bench.read() == -0x800000
+
+    def test_pulses_while_not_ready_are_ignored(self) -> None:
+        """Clocking while DOUT is high shifts nothing and starts no read."""
+        bench = Bench(kg=1.0, offset_counts=0, counts_per_kg=100_000.0)
+        for _ in range(10):
+            bench.chip.set_sck(True)
+            bench.chip.set_sck(False)
+        assert bench.chip.reads_started == 0
+        bench.wait_ready()
+        assert bench.read() == 100_000
+
+    def test_microseconds_advance_with_every_call_and_follow_the_loop(self) -> None:
+        """now_us moves a little per GPIO call and never falls behind the clock."""
+        bench = Bench()
+        a = bench.chip.now_us()
+        b = bench.chip.now_us()
+        bench.t_s = 5.0
+        c = bench.chip.now_us()
+        assert b == a + 1 and c == 5_000_000
+
+    def test_a_load_that_is_not_a_number_reads_as_out_of_range(self) -> None:
+        """A NaN or infinite payload (a scenario typo) gives the clipped codes, not a crash."""
+        for kg, code in ((float("nan"), 0x7FFFFF), (float("inf"), 0x7FFFFF),
+                         (float("-inf"), -0x800000)):
+            bench = Bench(kg=kg)
+            bench.wait_ready()
+            assert bench.read() == code
+
+    def test_lost_gpio_raises_oserror_until_restored(self) -> None:
+        """lose_gpio() makes every line access raise OSError (as lgpio does) until restored."""
+        bench = Bench()
+        bench.chip.lose_gpio()
+        for access in (bench.chip.read_dout, lambda: bench.chip.set_sck(True)):
+            try:
+                access()
+            except OSError as exc:
+                assert "No such device" in str(exc)
+            else:
+                raise AssertionError("no OSError")
+        bench.chip.restore_gpio()
+        bench.wait_ready()

@@ -9,7 +9,7 @@ from hal.backend import Devices
 from hal.ports import WallClock
 
 if TYPE_CHECKING:
-    from robotd.config.settings import Settings
+    from hal.settings import SettingsView
 
 
 @runtime_checkable
@@ -45,7 +45,7 @@ class RobotContext:
         emit: records an event (``emit("beacon.arrived", room="A")``).
     """
 
-    def __init__(self, devices: Devices, settings: Settings, store: KeyValueStore,
+    def __init__(self, devices: Devices, settings: SettingsView, store: KeyValueStore,
                  wall_clock: WallClock, emit: EventSink) -> None:
         self.devices = devices
         self.settings = settings

@@ -2,25 +2,18 @@
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 from behaviours.context import RobotContext
+from hal.options import Order, Section
 
 if TYPE_CHECKING:
-    from robotd.supervisor import Service
+    from behaviours.service import Service
 
 StateTask = Callable[[RobotContext], Awaitable[None]]
 """A long behaviour run while a state is active: started on enter, cancelled on exit."""
-
-PROFILES: dict[str, str] = {
-    "idle": "behaviours.profile:IdleProfile",
-    "square": "behaviours.profiles.square.profile:SquareProfile",
-    "laundry": "behaviours.profiles.laundry.profile:LaundryProfile",
-}
-"""Profile name (``robot.profile``) -> ``module:Class``; the class is built with no arguments."""
-
 
 @runtime_checkable
 class Profile(Protocol):
@@ -69,23 +62,27 @@ class BaseProfile:
         """Called (short, no waiting) whenever ``state`` is left."""
 
 
-class IdleProfile(BaseProfile):
-    """A robot that needs no hardware and has no mission: boots, idles, obeys estop/resume."""
+@dataclass(frozen=True, slots=True)
+class ProfileSpec:
+    """A robot profile as the registry knows it, declared once beside the profile's code.
 
-    name = "idle"
+    The daemon builds ``profile()`` for ``robot.profile = name``; ``check-config`` and
+    ``example-config`` know the profile's own config ``sections`` (and the ``orders`` of its
+    paired limits) from here, without building anything.
+    """
 
+    profile: type[BaseProfile]
+    summary: str
+    """One line: what the robot does (``robotd sim --help``, the docs)."""
+    sections: tuple[Section, ...] = ()
+    orders: tuple[Order, ...] = ()
 
-def load_profile(name: str) -> Profile:
-    """Build the profile registered as ``name``; ValueError with the known names otherwise."""
-    target = PROFILES.get(name)
-    if target is None:
-        msg = f"robot.profile: unknown profile {name!r} (known: {', '.join(sorted(PROFILES))})"
-        raise ValueError(msg)
-    module_name, _, class_name = target.partition(":")
-    try:
-        module = importlib.import_module(module_name)
-    except ImportError as exc:
-        msg = f"robot.profile: profile {name!r} cannot be loaded: {exc}"
-        raise ValueError(msg) from exc
-    profile: Profile = getattr(module, class_name)()
-    return profile
+    @property
+    def name(self) -> str:
+        """The ``robot.profile`` value that selects it."""
+        return self.profile.name
+
+    @property
+    def devices(self) -> tuple[str, ...]:
+        """The ``Devices`` slots it needs."""
+        return self.profile.devices

@@ -28,8 +28,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests" / "support"))
 
-from fleet.pgtest import PgCluster, PgUnavailable  # noqa: E402
+from pgtest import PgCluster, PgUnavailable  # noqa: E402
 
 ROOMS = 40
 WARMUP_S = 3.0

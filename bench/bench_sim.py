@@ -45,18 +45,19 @@ def main() -> int:
     opts = parser.parse_args()
 
     t0_wall, t0_cpu = time.perf_counter(), time.process_time()
-    from behaviours.profile import load_profile
-    from robotd import sim_runner
+    from robotd.profiles import PROFILES
+    from robotd.sim import runner as sim_runner
     from robotd.sim.console import SimConsole
     from robotd.sim.scenario import load_scenario
 
     scenario = load_scenario(opts.scenario)
     # What the runner loads lazily on its first run (the daemon with its state machine and
     # control server, the profile, the fleet's modules): imports, not part of any run.
-    lazy = ["robotd.daemon"] + (["robotd.sim.actors.laundry"] if "fleet" in scenario.raw else [])
-    for module in lazy:
-        importlib.import_module(module)
-    load_profile(scenario.profile)
+    importlib.import_module("robotd.daemon")
+    actors = PROFILES.get(scenario.profile).actors
+    if actors is not None and "fleet" in scenario.raw:
+        actors()
+    PROFILES.build(scenario.profile)
 
     import_wall = time.perf_counter() - t0_wall
     import_cpu = time.process_time() - t0_cpu

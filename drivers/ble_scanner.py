@@ -26,6 +26,8 @@ from bleak.exc import BleakError
 
 from hal.devices import DeviceUnavailable
 from hal.readings import BeaconSighting
+from hal.settings import SettingsView
+from hal.tasks import cancel_and_wait
 
 log = structlog.get_logger(__name__)
 
@@ -191,14 +193,8 @@ class BleBeaconScanner:
     async def close(self) -> None:
         """Stop scanning and the watchdog; safe to call twice."""
         task, self._watchdog = self._watchdog, None
-        if task is not None:
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+        await cancel_and_wait(task)
         await self._stop_scanner()
-
-    async def stop(self) -> None:
-        await self.close()
 
     def status(self) -> dict[str, Any]:
         try:
@@ -315,10 +311,6 @@ class BleBeaconScanner:
             return
         self._alive_since_restart = False
         log.info("ble.restarted", restarts=self.counts["restarts"], after_s=delay_s)
-
-
-class SettingsView(Protocol):
-    def get(self, dotted: str) -> Any: ...
 
 
 def from_settings(settings: SettingsView,

@@ -14,14 +14,13 @@ the recent ones rejected, then a moving average; kg = (average - tare_offset) / 
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import gc
 import math
 import statistics
 from collections import deque
 from collections.abc import Callable
 from enum import Enum
-from typing import Any, Protocol
+from typing import Any
 
 import structlog
 
@@ -29,6 +28,8 @@ from hal.devices import DeviceUnavailable
 from hal.latest import LatestValue
 from hal.ports import Hx711Lines
 from hal.readings import WeightReading
+from hal.settings import SettingsView
+from hal.tasks import cancel_and_wait
 
 log = structlog.get_logger(__name__)
 
@@ -194,10 +195,7 @@ class Hx711:
     async def close(self) -> None:
         """Stop reading and power the chip down; safe to call twice."""
         task, self._task = self._task, None
-        if task is not None:
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+        await cancel_and_wait(task)
         lines, self._lines = self._lines, None
         if lines is None:
             return
@@ -208,9 +206,6 @@ class Hx711:
         close = getattr(lines, "close", None)
         if callable(close):
             close()
-
-    async def stop(self) -> None:
-        await self.close()
 
     def latest(self) -> WeightReading | None:
         return self._latest.latest()
@@ -361,11 +356,6 @@ class Hx711:
         elif key == "outlier_kg":
             self._outlier_kg = float(value)
             self.filter.outlier_counts = self._outlier_kg * abs(self.calibration_factor)
-
-
-class SettingsView(Protocol):
-    def get(self, dotted: str) -> Any: ...
-    def watch(self, prefix: str, listener: Callable[[str, Any], None]) -> Callable[[], None]: ...
 
 
 def from_settings(settings: SettingsView,

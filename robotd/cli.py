@@ -14,8 +14,11 @@ from robotd import __version__
 from robotd.config import ConfigError, Settings, load_config
 from robotd.config.overrides import overrides_path
 from robotd.probes import PROBES
+from robotd.profiles import PROFILES
 
 DEFAULT_CONFIG = "/etc/robotd/robotd.toml"
+
+
 def _scenario_help() -> str:
     from robotd.sim.scenario import builtin_names
 
@@ -46,7 +49,8 @@ def build_parser() -> argparse.ArgumentParser:
         "sim", help="run the daemon on the simulator",
         epilog="exit status: 0 when the scenario's success conditions hold, 1 when one does not "
                "(the reasons are printed), 2 for a scenario or option that cannot be used; "
-               "more robots than one get sockets PATH.NAME")
+               "more robots than one get sockets PATH.NAME. Robot profiles: " + "; ".join(
+                   f"{spec.name}: {spec.summary}" for spec in PROFILES.specs()))
     sim.add_argument("scenario", nargs="?", default="laundry", metavar="SCENARIO",
                      help=_scenario_help())
     sim.add_argument("--config", help="robot config laid over the scenario's")
@@ -134,7 +138,6 @@ def cmd_probe(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from behaviours.profile import load_profile
     from hal.ports import system_wall_clock
     from robotd.daemon import Daemon
     from robotd.hardware import HardwareMissing, build_devices
@@ -156,7 +159,7 @@ def cmd_run(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 2
     try:
-        profile = load_profile(settings.get("robot.profile"))
+        profile = PROFILES.build(settings.get("robot.profile"))
     except ValueError as exc:
         print(f"{config_path}: {exc}", file=sys.stderr)
         return 2

@@ -17,6 +17,7 @@ import structlog
 from behaviours.context import RobotContext
 from behaviours.machine import RobotMachine
 from behaviours.profile import Profile
+from behaviours.service import Service
 from hal.backend import Devices
 from hal.ports import WallClock
 from robotd import __version__
@@ -28,7 +29,7 @@ from robotd.health import LoopMonitor, WatchdogFeeder
 from robotd.logs import set_level
 from robotd.sdnotify import Notifier
 from robotd.store import StateStore
-from robotd.supervisor import DeviceService, RestartPolicy, Service, StartFailed, Supervisor
+from robotd.supervisor import DeviceService, RestartPolicy, StartFailed, Supervisor
 
 log = structlog.get_logger(__name__)
 

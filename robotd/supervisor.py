@@ -6,24 +6,15 @@ import asyncio
 import contextlib
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import Any, Protocol, runtime_checkable
+from typing import Any
 
 import structlog
+
+from behaviours.service import Service
 
 log = structlog.get_logger(__name__)
 
 EventSink = Callable[..., None]
-
-
-@runtime_checkable
-class Service(Protocol):
-    """A long-running task: calls ``ready()`` once it is up; returning or raising is a failure."""
-
-    name: str
-    critical: bool
-    depends_on: tuple[str, ...]
-
-    async def run(self, ready: Callable[[], None]) -> None: ...
 
 
 @dataclass(frozen=True, slots=True)

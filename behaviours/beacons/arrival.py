@@ -21,7 +21,8 @@ from typing import Any
 
 import structlog
 
-from behaviours.beacons.tracker import BeaconTracker, SettingsView
+from behaviours.beacons.tracker import BeaconTracker
+from hal.settings import SettingsView
 
 log = structlog.get_logger(__name__)
 

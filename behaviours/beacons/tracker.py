@@ -13,21 +13,15 @@ import asyncio
 import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any
 
 import structlog
 
 from hal.devices import BeaconScanner
 from hal.readings import BeaconSighting
+from hal.settings import SettingsView
 
 log = structlog.get_logger(__name__)
-
-
-class SettingsView(Protocol):
-    """What behaviours need of ``robotd.config.Settings``: read and watch dotted keys."""
-
-    def get(self, dotted: str) -> Any: ...
-    def watch(self, prefix: str, listener: Callable[[str, Any], None]) -> Callable[[], None]: ...
 
 
 def distance_m(tx_power_dbm: float, rssi_dbm: float, path_loss_exponent: float) -> float:

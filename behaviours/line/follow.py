@@ -25,7 +25,7 @@ from behaviours.line.tracker import LineReading, LineTracker, TrackerParams
 from hal.deadline import DeadlineSleeper
 from hal.devices import Camera, DeviceUnavailable, LinkDown, Motors
 from hal.readings import Frame, MotorCommand
-from robotd.config.settings import Settings
+from hal.settings import SettingsView
 
 log = structlog.get_logger(__name__)
 
@@ -56,7 +56,7 @@ class FollowConfig:
     tracker: TrackerParams
 
     @classmethod
-    def from_settings(cls, settings: Settings) -> FollowConfig:
+    def from_settings(cls, settings: SettingsView) -> FollowConfig:
         """The section as it stands: the settings keep the bands rising and the ROI's top
         above its bottom (config.sections.ORDERS), in the file and in live tuning."""
         s = settings.section("line_follow")
@@ -79,7 +79,7 @@ class LineFollower:
         tracker: the vision step (a fresh LineTracker by default).
     """
 
-    def __init__(self, camera: Camera, motors: Motors, settings: Settings, *,
+    def __init__(self, camera: Camera, motors: Motors, settings: SettingsView, *,
                  tracker: LineTracker | None = None, name: str = "line_follow") -> None:
         self.name = name
         self._camera = camera

@@ -17,13 +17,13 @@ import structlog
 
 from hal.devices import Motors, RangeSensor
 from hal.readings import LinkStats, MotorCommand
-from robotd.config.settings import Settings
+from hal.settings import SettingsView
 
 log = structlog.get_logger(__name__)
 
 
 class ObstacleGuard:
-    def __init__(self, motors: Motors, front_range: RangeSensor, settings: Settings,
+    def __init__(self, motors: Motors, front_range: RangeSensor, settings: SettingsView,
                  emit: Callable[..., None] | None = None) -> None:
         self.motors = motors
         self.front_range = front_range

@@ -19,7 +19,7 @@ class Odometry:
     """Integrates encoder tick deltas into a pose (x, y, theta) in the odometry frame.
 
     Ticks are cumulative and signed, as the motor board reports them; the first reading after
-    ``reset`` or ``rebase`` only sets the reference. A jump larger than ``max_step_ticks`` is
+    ``reset`` only sets the reference. A jump larger than ``max_step_ticks`` is
     taken as a board reset (counters back to zero) and rebases instead of moving the robot.
     """
 
@@ -48,11 +48,6 @@ class Odometry:
         self._x, self._y, self._theta = x_m, y_m, theta_rad
         self._pose = None
         self._last = None
-
-    def rebase(self) -> None:
-        """Take the next reading as the new reference (after a board reset)."""
-        self._last = None
-        self.rebases += 1
 
     def update(self, reading: EncoderReading) -> OdometryPose:
         ticks = (reading.left_ticks, reading.right_ticks)

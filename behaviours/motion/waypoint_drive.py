@@ -17,8 +17,8 @@ import structlog
 from behaviours.motion.odometry import Odometry
 from hal.devices import Encoders, LinkDown, ListenableEncoders, Motors
 from hal.readings import MotorCommand
+from hal.settings import SettingsView
 from hal.timer_sleep import timer_sleep
-from robotd.config.settings import Settings
 
 log = structlog.get_logger(__name__)
 
@@ -38,7 +38,7 @@ class DriveTuning:
     tolerance_m: float
 
     @classmethod
-    def from_settings(cls, settings: Settings) -> DriveTuning:
+    def from_settings(cls, settings: SettingsView) -> DriveTuning:
         s = settings.section("drive")
         return cls(s["max_speed_mps"], s["deadband_pwm"], s["cruise_mps"], s["min_mps"],
                    s["turn_mps"], s["heading_gain"], s["tolerance_m"])
@@ -101,7 +101,7 @@ class OdometryTracker:
 class WaypointDrive:
     """Drives the robot through waypoints given in the odometry frame."""
 
-    def __init__(self, motors: Motors, odometry: Odometry, settings: Settings) -> None:
+    def __init__(self, motors: Motors, odometry: Odometry, settings: SettingsView) -> None:
         self.motors = motors
         self.odometry = odometry
         self.settings = settings

@@ -6,7 +6,7 @@ from drivers.arduino.config import LinkConfig
 from drivers.arduino.framing import Framing
 from drivers.arduino.link import ArduinoLink, CommandNotDelivered, Feed, FirmwareRejected
 from drivers.arduino.outbox import Delivery, Outcome
-from robotd.config.settings import Settings
+from hal.settings import SettingsView
 
 __all__ = [
     "ArduinoLink",
@@ -21,7 +21,7 @@ __all__ = [
 ]
 
 
-def from_settings(settings: Settings) -> ArduinoLink:
+def from_settings(settings: SettingsView) -> ArduinoLink:
     """The real link on ``serial.port`` (``robotd.hardware``'s factory)."""
     from drivers.serial_port import open_serial
 

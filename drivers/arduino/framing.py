@@ -147,11 +147,6 @@ def well_formed(payload: str) -> bool:
     return False
 
 
-def frame_body(body: bytes) -> bytes:
-    """``BODY*CC\\n`` for any body (what the MCU side sends in crc framing)."""
-    return body + f"*{crc8(body):02X}\n".encode("ascii")
-
-
 def parse_line(raw: bytes, framing: Framing) -> Line:
     """Interpret one received line (without its ``\n``); never raises."""
     raw = raw.rstrip(b"\r")

@@ -34,7 +34,8 @@ from hal.readings import (
     MotorCommand,
     RangeReading,
 )
-from robotd.config.settings import Settings
+from hal.settings import SettingsView
+from hal.tasks import cancel_and_wait
 
 log = structlog.get_logger(__name__)
 
@@ -110,7 +111,7 @@ class ArduinoLink:
         self._closing = False
 
     @classmethod
-    def from_settings(cls, opener: SerialOpener, settings: Settings, *,
+    def from_settings(cls, opener: SerialOpener, settings: SettingsView, *,
                       name: str = "arduino") -> ArduinoLink:
         return cls(opener, LinkConfig.from_settings(settings), name=name)
 
@@ -136,10 +137,7 @@ class ArduinoLink:
                 await asyncio.wait_for(self.stop(), self.config.ack_timeout_s)
         self._closing = True
         task, self._task = self._task, None
-        if task is not None:
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+        await cancel_and_wait(task)
 
     def status(self) -> dict[str, Any]:
         stats = self.link_stats()

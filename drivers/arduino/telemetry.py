@@ -22,9 +22,6 @@ class Boot:
 
 Reading = EncoderReading | RangeReading | BatteryReading | Boot
 
-KNOWN = ("ENCODER", "IR", "BAT", "BOOT")
-
-
 class TelemetryError(ValueError):
     """A telemetry line of a known kind whose fields do not fit; says which and why."""
 

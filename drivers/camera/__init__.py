@@ -4,22 +4,19 @@ from __future__ import annotations
 
 import asyncio
 from collections.abc import Mapping
-from typing import Any, Protocol
+from typing import Any
 
 from drivers.camera.capture import CaptureCamera
 from drivers.camera.picamera import PiCamera
 from drivers.camera.uvc import UvcCamera
 from drivers.camera.video_file import VideoFileCamera
 from hal.devices import DeviceUnavailable
+from hal.settings import SettingsView
 
 __all__ = ["CaptureCamera", "PiCamera", "UvcCamera", "VideoFileCamera", "from_settings",
            "open_camera", "probe"]
 
 _KEYS = ("source", "device", "file", "loop", "width", "height", "fps")
-
-
-class SettingsView(Protocol):
-    def get(self, dotted: str) -> Any: ...
 
 
 def from_settings(settings: SettingsView) -> CaptureCamera:

@@ -22,6 +22,7 @@ import structlog
 from hal.devices import DeviceUnavailable
 from hal.latest import LatestValue
 from hal.readings import Frame
+from hal.tasks import cancel_and_wait
 
 log = structlog.get_logger(__name__)
 
@@ -93,15 +94,8 @@ class CaptureCamera:
     async def close(self) -> None:
         """Stop capturing and release the camera; safe to call twice."""
         task, self._task = self._task, None
-        if task is not None:
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+        await cancel_and_wait(task)
         await self._shutdown()
-
-    async def stop(self) -> None:
-        """The same as ``close()`` (older name)."""
-        await self.close()
 
     def status(self) -> dict[str, Any]:
         return {"source": self.source, "width_px": self.width_px, "height_px": self.height_px,

@@ -7,9 +7,10 @@ from __future__ import annotations
 
 import json
 import textwrap
+from collections.abc import Mapping
 from typing import Any
 
-from robotd.config.schema import Option, Section
+from hal.options import Option, Section
 from robotd.config.sections import SECTIONS
 
 HEADER = """\
@@ -28,7 +29,7 @@ SET_IN_EXAMPLE = {"robot.name", "robot.profile", "serial.port"}
 """Keys written uncommented: the ones every robot sets."""
 
 
-def render_example(sections: dict[str, Section] = SECTIONS) -> str:
+def render_example(sections: Mapping[str, Section] = SECTIONS) -> str:
     out = [HEADER]
     for section in sections.values():
         out.append(f"\n[{section.name}]\n# {section.help}\n")

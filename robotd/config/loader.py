@@ -5,11 +5,12 @@ from __future__ import annotations
 import difflib
 import re
 import tomllib
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from hal.options import Order, Section
 from robotd.config.errors import ConfigError, ConfigProblem
-from robotd.config.schema import Order, Section
 from robotd.config.sections import ORDERS, SECTIONS
 
 Values = dict[str, dict[str, Any]]
@@ -20,7 +21,7 @@ _KEY = re.compile(r"^\s*([A-Za-z0-9_\-.\"']+)\s*=")
 _MAX_SYNTAX_ERRORS = 50
 
 
-def defaults(sections: dict[str, Section] = SECTIONS) -> Values:
+def defaults(sections: Mapping[str, Section] = SECTIONS) -> Values:
     """Every section with every key at its default."""
     return {name: {o.key: o.default for o in s.options} for name, s in sections.items()}
 
@@ -55,7 +56,7 @@ def _read(path: Path) -> str:
 
 
 def order_problems(values: Values, path: str, where: dict[tuple[str, str], int],
-                   orders: tuple[Order, ...] = ORDERS) -> list[ConfigProblem]:
+                   orders: Sequence[Order] = ORDERS) -> list[ConfigProblem]:
     """Limits out of order (sections.ORDERS), each at the line of the key that breaks it."""
     def get(dotted: str) -> Any:
         section, key = dotted.split(".", 1)
@@ -76,7 +77,7 @@ def load_config_text(
     path: str = "<config>",
     *,
     fill_defaults: bool = True,
-    sections: dict[str, Section] = SECTIONS,
+    sections: Mapping[str, Section] = SECTIONS,
 ) -> Values:
     """Parse and check TOML text; collect every problem before raising ConfigError."""
     problems: list[ConfigProblem] = []

@@ -6,7 +6,7 @@ import copy
 from collections.abc import Callable
 from typing import Any
 
-from robotd.config.schema import Option
+from hal.options import Option
 from robotd.config.sections import ORDERS, SECTIONS
 
 Values = dict[str, dict[str, Any]]

@@ -150,21 +150,3 @@ def _arrival_failures(scenario: Scenario, events: list[dict[str, Any]]) -> list[
             reasons.append(f"arrived at room {room} {off:.2f} m from its beacon, "
                            f"more than {within:g} m")
     return reasons
-
-
-def request_failures(scenario: Scenario, customers: list[Any]) -> list[str]:
-    """``requests = [{ customer, status, paid? }]``: how each customer's request ended."""
-    reasons = []
-    by_id = {c.plan.customer: c for c in customers}
-    for want in scenario.success.extra.get("requests", []):
-        cid = int(want["customer"])
-        c = by_id.get(cid)
-        if c is None:
-            reasons.append(f"requests: no customer {cid} in [[fleet.customers]]")
-            continue
-        if c.status != want.get("status"):
-            reasons.append(f"customer {cid}'s request ended {c.status}, expected "
-                           f"{want.get('status')}")
-        if "paid" in want and bool(want["paid"]) != c.paid:
-            reasons.append(f"customer {cid} {'did not pay' if want['paid'] else 'paid'}")
-    return reasons

@@ -33,11 +33,9 @@ def robot_settings(scenario: Scenario, spec: RobotSpec, config_path: str | None)
         lay_over(values, config_path)
     values["hal"]["backend"] = "sim"
     values["robot"]["name"] = spec.name
-    values["fleet"]["url"] = ""  # never the server a robot's own config file names
-    if "fleet" in scenario.raw:  # the simulation's (its modules load only when used)
-        from robotd.sim.actors.laundry import FLEET_URL
-
-        values["fleet"]["url"] = FLEET_URL
+    # Never the server a robot's own config file names: the simulation's actors point it at
+    # theirs (SimActors.configure_robot), or at none.
+    values["fleet"]["url"] = ""
     return Settings(values, source=scenario.source)
 
 

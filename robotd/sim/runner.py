@@ -18,11 +18,10 @@ import time
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import structlog
 
-from behaviours.profile import load_profile
 from hal.sim import vclock
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.geometry import Pose
@@ -30,25 +29,16 @@ from hal.timer_chain import timer_chain
 from robotd.config import ConfigError
 from robotd.config.settings import Settings
 from robotd.logs import configure_logging
-from robotd.sim.checks import (
-    RobotRecord,
-    failures,
-    finished,
-    request_failures,
-    summary_figures,
-)
+from robotd.profiles import PROFILES
+from robotd.sim.actors import ActorContext, SimActors
+from robotd.sim.checks import RobotRecord, failures, finished, summary_figures
 from robotd.sim.config import robot_settings
 from robotd.sim.console import SimConsole
 from robotd.sim.report import draw_trajectory, write_events
 from robotd.sim.rig import SimRig, open_sim_rig
-from robotd.sim.scenario import RobotSpec, Scenario, ScenarioError, load_scenario, read_beside
+from robotd.sim.scenario import RobotSpec, Scenario, ScenarioError, load_scenario
 from robotd.sim.script import ScriptPlayer
 from robotd.sim.tracks import PathRecorder, TrackPoint
-
-if TYPE_CHECKING:
-    # The fleet server (FastAPI, SQLAlchemy: seconds of imports) loads only for scenarios
-    # that have one.
-    from robotd.sim.actors.laundry import Customer, InProcessFleet, Staff
 
 log = structlog.get_logger(__name__)
 
@@ -145,49 +135,46 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
         events.append(entry)
 
     rigs: list[SimRig] = []
-    fleet: InProcessFleet | None = None
-    customers: list[Customer] = []
-    staff: Staff | None = None
+    actors: list[SimActors] = []
 
     async def close_hardware() -> None:
         for rig in rigs:
             await rig.close()
-        if fleet is not None:
-            await fleet.close()
+        for a in actors:
+            await a.close()
 
     def set_payload(robot: str, kg: float) -> None:
         if robot in robots:
             robots[robot].body.payload_kg = kg
 
     try:
-        fleet_table = scenario.raw.get("fleet")
-        if isinstance(fleet_table, dict):
-            from fleet.site import parse_site
-            from robotd.sim.actors.laundry import Customer, CustomerPlan, InProcessFleet, Staff
-
-            site = parse_site(read_beside(scenario, str(fleet_table.get("site", ""))),
-                              str(fleet_table.get("site")))
-            fleet = InProcessFleet(workdir, site, dict(fleet_table.get("settings", {})),
-                                   origin)
-            plans = [CustomerPlan.from_table(t, f"fleet.customers[{i}]")
-                     for i, t in enumerate(fleet_table.get("customers", []))]
-            customers = [Customer(p, fleet.client, lambda ev: on_event("", ev), set_payload)
-                         for p in plans]
-            staff = Staff(fleet.client, lambda ev: on_event("", ev), set_payload,
-                          float(fleet_table.get("washing_s", 30.0)))
-            await fleet.start()
-        for index, spec in enumerate(scenario.robots):
-            settings = robot_settings(scenario, spec, getattr(args, "config", None))
+        settings_of = [robot_settings(scenario, spec, getattr(args, "config", None))
+                       for spec in scenario.robots]
+        context = ActorContext(scenario, workdir, origin, lambda ev: on_event("", ev),
+                               set_payload)
+        actors_of: dict[str, SimActors | None] = {}
+        for settings in settings_of:
+            name = settings.get("robot.profile")
+            if name not in actors_of:
+                factory = PROFILES.get(name).actors
+                actors_of[name] = factory()(context) if factory is not None else None
+        actors = [a for a in actors_of.values() if a is not None]
+        for a in actors:
+            await a.start()
+        for index, (spec, settings) in enumerate(zip(scenario.robots, settings_of, strict=True)):
+            mine = actors_of[settings.get("robot.profile")]
+            if mine is not None:
+                mine.configure_robot(settings)
             body = DiffDriveBody(scenario.world, Pose(spec.x_m, spec.y_m, spec.heading_rad),
                                  spec.body, rng=random.Random(f"{seed}:{spec.name}:body"),
                                  payload_kg=spec.payload_kg, clock=loop.time)
-            profile = load_profile(settings.get("robot.profile"))
+            profile = PROFILES.build(settings.get("robot.profile"))
             rig = await open_sim_rig(scenario.world, body, settings, seed=seed, index=index,
                                      mcu=getattr(args, "mcu", "fake") or "fake",
                                      needs=tuple(profile.devices))
             rigs.append(rig)
-            if fleet is not None:
-                rig.devices.network = fleet.transport
+            if mine is not None:
+                mine.attach(rig)
             socket_path = _socket_path(getattr(args, "socket", None), workdir, spec.name, index)
             daemon = Daemon(settings, rig.devices, profile, state_dir=workdir / spec.name,
                             socket_path=socket_path, wall_clock=wall_clock, notify=False,
@@ -228,10 +215,9 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
     daemon_tasks = {n: asyncio.create_task(r.daemon.run(), name=f"daemon.{n}")
                     for n, r in robots.items()}
     tasks.append(asyncio.create_task(player.run(), name="script"))
-    people = [asyncio.create_task(c.run(), name=f"customer.{c.plan.customer}")
-              for c in customers]
-    if staff is not None:
-        tasks.append(asyncio.create_task(staff.run(), name="staff"))
+    people = [asyncio.create_task(coro, name=name) for a in actors for name, coro in a.people()]
+    tasks += [asyncio.create_task(coro, name=name)
+              for a in actors for name, coro in a.background()]
 
     start = loop.time()
     limit = scenario.success.time_limit_s
@@ -276,10 +262,8 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
     for task in [*tasks, *people]:
         task.cancel()
     await asyncio.gather(*tasks, *people, return_exceptions=True)
-    if staff is not None:
-        extra += staff.double_assignments
-    if customers:
-        extra += request_failures(scenario, customers)
+    for a in actors:
+        extra += a.failures()
     await close_hardware()
 
     # Interrupted by hand: the unmet conditions say nothing, only that it was stopped.

@@ -17,7 +17,8 @@ from behaviours.machine_tables import (
     callback_names,
     root_states,
 )
-from behaviours.profile import BaseProfile, IdleProfile, StateTask
+from behaviours.profile import BaseProfile, StateTask
+from behaviours.profiles.idle import IdleProfile
 from hal.backend import Devices
 from hal.ports import system_wall_clock
 from hal.sim import vclock

@@ -9,9 +9,9 @@ from functools import partial
 
 import pytest
 from endpoints import ENDPOINTS, McuEndpoint, Scenario, run_scenario
+from serial_frames import frame_body
 
 from drivers.arduino import Framing, Outcome
-from drivers.arduino.framing import frame_body
 from hal.devices import LinkDown
 from hal.ports import StreamPair
 from hal.readings import MotorCommand

@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from serial_frames import frame_body
 
 from drivers.arduino.framing import (
     Ack,
@@ -15,7 +16,6 @@ from drivers.arduino.framing import (
     Telemetry,
     Unparsed,
     encode_command,
-    frame_body,
     parse_line,
     well_formed,
 )

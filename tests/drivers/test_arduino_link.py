@@ -6,9 +6,9 @@ import asyncio
 
 import pytest
 from arduino_bench import PORT, Bench, on_bench
+from serial_frames import frame_body
 
 from drivers.arduino import ArduinoLink, CommandNotDelivered, LinkConfig, Outcome
-from drivers.arduino.framing import frame_body
 from hal.devices import Battery, DeviceUnavailable, Encoders, Motors, RangeSensor
 from hal.readings import LedMode, MotorCommand
 from hal.sim import vclock

@@ -10,9 +10,9 @@ import pytest
 from arduino_bench import PORT, Bench, on_bench
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from serial_frames import frame_body
 
 from drivers.arduino import ArduinoLink, Framing, LinkConfig
-from drivers.arduino.framing import frame_body
 from hal.devices import LinkDown
 from hal.readings import LedMode, MotorCommand
 from hal.sim import vclock

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import asyncio
 
-from drivers.arduino.framing import Ack, Framing, Garbled, Line, Telemetry, frame_body
+from serial_frames import frame_body
+
+from drivers.arduino.framing import Ack, Framing, Garbled, Line, Telemetry
 from drivers.arduino.receiver import LineReceiver, LinkBroken
 from drivers.arduino.stats import LinkCounters
 from hal.sim import vclock

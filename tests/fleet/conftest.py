@@ -10,10 +10,10 @@ from typing import Any
 import asyncpg
 import pytest
 from fleet_harness import Fleet
+from pgtest import PgCluster, PgUnavailable
 
 from fleet.db import Database
 from fleet.models import Base
-from fleet.pgtest import PgCluster, PgUnavailable
 
 PG_DATABASE = "fleet_test"
 

@@ -18,11 +18,11 @@ import pytest
 import schemathesis
 from hypothesis import HealthCheck, given, settings
 from hypothesis.errors import Unsatisfiable
+from pgtest import PgCluster
 from schemathesis import GenerationMode
 from schemathesis.checks import not_a_server_error
 
 import fleet
-from fleet.pgtest import PgCluster
 
 SITE = Path(fleet.__file__).parent / "sites" / "example.toml"
 

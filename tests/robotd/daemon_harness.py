@@ -12,7 +12,8 @@ from collections.abc import AsyncIterator, Callable
 from pathlib import Path
 from typing import Any
 
-from behaviours.profile import BaseProfile, IdleProfile
+from behaviours.profile import BaseProfile
+from behaviours.profiles.idle import IdleProfile
 from hal.backend import Devices
 from hal.ports import system_wall_clock
 from hal.readings import LinkStats, MotorCommand

@@ -10,9 +10,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from behaviours.profile import load_profile
 from robotd.config.overrides import persist_override, read_overrides, render_toml
 from robotd.control.rpc import RpcError, parse_request, result_line
+from robotd.profiles import PROFILES
 
 JSON = st.recursive(st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False)
                     | st.text(), lambda inner: st.lists(inner) | st.dictionaries(st.text(),
@@ -88,8 +88,8 @@ class TestOverrides:
 class TestProfiles:
     def test_an_unknown_profile_names_the_known_ones(self) -> None:
         with pytest.raises(ValueError, match=r"robot.profile: unknown profile 'toaster' \(known"):
-            load_profile("toaster")
+            PROFILES.build("toaster")
 
     def test_the_idle_profile_needs_no_devices(self) -> None:
-        profile = load_profile("idle")
+        profile = PROFILES.build("idle")
         assert (profile.name, profile.devices) == ("idle", ())

@@ -13,19 +13,15 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
-from typing import Any, Protocol
+from typing import Any
 
 import structlog
 
 from hal.devices import DeviceUnavailable, LoadCell
 from hal.readings import WeightReading
+from hal.settings import SettingsView
 
 log = structlog.get_logger(__name__)
-
-
-class SettingsView(Protocol):
-    def get(self, dotted: str) -> Any: ...
-    def watch(self, prefix: str, listener: Callable[[str, Any], None]) -> Callable[[], None]: ...
 
 
 class LoadVerdict(Enum):

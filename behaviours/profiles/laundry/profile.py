@@ -26,28 +26,13 @@ from behaviours.profiles.laundry.load_check import LoadCheck
 from behaviours.profiles.laundry.local_route import LocalRoute
 from behaviours.profiles.laundry.navigator import AT_BASE, AT_ROOM, TO_BASE, TO_ROOM, Navigator
 from behaviours.profiles.laundry.report import RobotReport
+from behaviours.service import Service, TaskService
 from hal.devices import Motors
 
 if TYPE_CHECKING:
     from behaviours.context import RobotContext
-    from robotd.supervisor import Service
 
 log = structlog.get_logger(__name__)
-
-
-class _Task:
-    """A service that runs one coroutine function for as long as the robot runs."""
-
-    def __init__(self, name: str, run: Callable[[], Any], *, critical: bool = False,
-                 depends_on: tuple[str, ...] = ()) -> None:
-        self.name = name
-        self._run = run
-        self.critical = critical
-        self.depends_on = depends_on
-
-    async def run(self, ready: Callable[[], None]) -> None:
-        ready()
-        await self._run()
 
 
 class LaundryProfile(BaseProfile):
@@ -97,7 +82,7 @@ class LaundryProfile(BaseProfile):
                 for run in sensing:
                     group.create_task(run())
 
-        services: list[Service] = [_Task("laundry.sensing", run_sensing, critical=True)]
+        services: list[Service] = [TaskService("laundry.sensing", run_sensing, critical=True)]
         url = str(ctx.settings.get("fleet.url"))
         if url:
             report = RobotReport(ctx.settings.get("robot.name"), ctx.wall_clock, tracker,
@@ -110,7 +95,7 @@ class LaundryProfile(BaseProfile):
             self.fleet = FleetLink(client, ctx.settings.get("robot.name"), report.build,
                                    on_directive, period_s=ctx.settings.get("fleet.period_s"),
                                    grace_s=ctx.settings.get("laundry.server_grace_s"))
-            services.append(_Task("laundry.fleet", self.fleet.run,
+            services.append(TaskService("laundry.fleet", self.fleet.run,
                                   depends_on=("laundry.sensing",)))
         else:
             s = ctx.settings
@@ -119,7 +104,7 @@ class LaundryProfile(BaseProfile):
                                     follow_color=s.get("laundry.follow_color") or None,
                                     load_wait_s=s.get("laundry.load_wait_s"))
             arrival.on_change(self._route_arrival)
-            services.append(_Task("laundry.route", self.route.run,
+            services.append(TaskService("laundry.route", self.route.run,
                                   depends_on=("laundry.sensing",)))
         return services
 

@@ -7,7 +7,6 @@ the state machine, and is the simulator's first scenario. The side length is tun
 from __future__ import annotations
 
 import asyncio
-from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import structlog
@@ -15,10 +14,10 @@ import structlog
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker, WaypointDrive
 from behaviours.profile import BaseProfile, StateTask
+from behaviours.service import Service, TaskService
 
 if TYPE_CHECKING:
     from behaviours.context import RobotContext
-    from robotd.supervisor import Service
 
 log = structlog.get_logger(__name__)
 
@@ -26,45 +25,6 @@ log = structlog.get_logger(__name__)
 def make_odometry(ctx: RobotContext) -> Odometry:
     drive = ctx.settings.section("drive")
     return Odometry(drive["wheel_base_m"], drive["wheel_radius_m"], drive["ticks_per_rev"])
-
-
-class _OdometryService:
-    """Keeps the profile's odometry current from the encoders for as long as the robot runs."""
-
-    critical = True
-    depends_on: tuple[str, ...] = ()
-
-    def __init__(self, ctx: RobotContext, odometry: Odometry) -> None:
-        self.name = "odometry"
-        self._ctx = ctx
-        self._odometry = odometry
-
-    async def run(self, ready: Callable[[], None]) -> None:
-        encoders = self._ctx.devices.encoders
-        if encoders is None:
-            msg = "the square profile needs encoders"
-            raise RuntimeError(msg)
-        ready()
-        await OdometryTracker(encoders, self._odometry).run()
-
-
-class _AutoStart:
-    """Starts the mission once, as soon as the robot is idle after boot."""
-
-    critical = False
-    depends_on: tuple[str, ...] = ("odometry",)
-
-    def __init__(self, ctx: RobotContext) -> None:
-        self.name = "square.autostart"
-        self._ctx = ctx
-
-    async def run(self, ready: Callable[[], None]) -> None:
-        ready()
-        if self._ctx.store.get("square.done", False):
-            log.info("square.already_done")
-        else:
-            await self._ctx.trigger("start_mission")
-        await _forever()
 
 
 async def _forever() -> None:
@@ -82,8 +42,22 @@ class SquareProfile(BaseProfile):
         return ["square"]
 
     def services(self, ctx: RobotContext) -> list[Service]:
-        self._odometry = make_odometry(ctx)
-        return [_OdometryService(ctx, self._odometry), _AutoStart(ctx)]
+        encoders = ctx.devices.encoders
+        if encoders is None:
+            msg = "the square profile needs encoders"
+            raise RuntimeError(msg)
+        odometry = self._odometry = make_odometry(ctx)
+
+        async def autostart() -> None:
+            """Starts the mission once, as soon as the robot is idle after boot."""
+            if ctx.store.get("square.done", False):
+                log.info("square.already_done")
+            else:
+                await ctx.trigger("start_mission")
+            await _forever()
+
+        return [TaskService("odometry", OdometryTracker(encoders, odometry).run, critical=True),
+                TaskService("square.autostart", autostart, depends_on=("odometry",))]
 
     def state_tasks(self) -> dict[str, StateTask]:
         return {"mission.square": self._drive_square}

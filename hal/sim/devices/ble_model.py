@@ -35,6 +35,7 @@ from bleak.exc import (
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import SimBeacon
 from hal.sim.world.geometry import segments_crossed
+from hal.tasks import cancel_and_wait
 
 APPLE_COMPANY_ID = 0x004C
 ADV_DELAY_MAX_S = 0.010  # BLE adds a random 0-10 ms to every advertising interval
@@ -245,9 +246,7 @@ class SimBleAir:
         try:
             yield self
         finally:
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+            await cancel_and_wait(task)
 
 
 def _advert(manufacturer_data: dict[int, bytes], rssi_dbm: int) -> AdvertisementData:

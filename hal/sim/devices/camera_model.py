@@ -9,7 +9,6 @@ loop's clock; a frame is only rendered when somebody looks at it, so an idle cam
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -22,6 +21,7 @@ from hal.readings import Frame
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import PaintedLine, World
 from hal.sim.world.geometry import Pose, segment_distances
+from hal.tasks import cancel_and_wait
 from hal.timer_chain import timer_chain
 
 F32Array = npt.NDArray[Any]  # float32; cv2 returns loosely typed arrays
@@ -142,14 +142,7 @@ class SimCamera:
     async def close(self) -> None:
         """Stop capturing and release the camera; safe to call twice."""
         task, self._task = self._task, None
-        if task is not None:
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
-
-    async def stop(self) -> None:
-        """The same as ``close()`` (older name)."""
-        await self.close()
+        await cancel_and_wait(task)
 
     def status(self) -> dict[str, Any]:
         return {"source": "sim", "width_px": self.width_px, "height_px": self.height_px,

@@ -25,6 +25,8 @@ from types import TracebackType
 
 import structlog
 
+from hal.tasks import cancel_and_wait
+
 log = structlog.get_logger(__name__)
 
 FIRMWARE_DIR = Path(__file__).resolve().parents[3] / "firmware"
@@ -313,9 +315,7 @@ class SimavrMcu:
             except TimeoutError:
                 self._proc.kill()
                 await self._proc.wait()
-        self._reader.cancel()
-        with contextlib.suppress(asyncio.CancelledError):
-            await self._reader
+        await cancel_and_wait(self._reader)
         if self._workdir is not None:
             self._workdir.cleanup()
         log.info("simavr.stopped", uart=self.uart_path)

@@ -22,6 +22,10 @@ import structlog
 from fleet.app import create_app
 from fleet.clock import loop_clock
 from fleet.site import Site
+from robotd.config.settings import Settings
+from robotd.sim.actors import ActorContext, ActorTask
+from robotd.sim.rig import SimRig
+from robotd.sim.scenario import read_beside
 
 log = structlog.get_logger(__name__)
 
@@ -208,3 +212,66 @@ class Staff:
                 if problem not in self.double_assignments:
                     self.double_assignments.append(problem)
                     self.record({"kind": "double_assignment", "robot": robot, "requests": ids})
+
+
+class LaundryActors:
+    """The laundry site around the robots: the fleet server, its customers and its staff,
+    from the scenario's ``[fleet]`` table (none without one)."""
+
+    def __init__(self, ctx: ActorContext, table: dict[str, Any]) -> None:
+        from fleet.site import parse_site
+
+        self.scenario = ctx.scenario
+        site = parse_site(read_beside(ctx.scenario, str(table.get("site", ""))),
+                          str(table.get("site")))
+        self.fleet = InProcessFleet(ctx.workdir, site, dict(table.get("settings", {})),
+                                    ctx.origin)
+        plans = [CustomerPlan.from_table(t, f"fleet.customers[{i}]")
+                 for i, t in enumerate(table.get("customers", []))]
+        self.customers = [Customer(p, self.fleet.client, ctx.record, ctx.set_payload)
+                          for p in plans]
+        self.staff = Staff(self.fleet.client, ctx.record, ctx.set_payload,
+                           float(table.get("washing_s", 30.0)))
+
+    @classmethod
+    def for_scenario(cls, ctx: ActorContext) -> LaundryActors | None:
+        table = ctx.scenario.raw.get("fleet")
+        return cls(ctx, table) if isinstance(table, dict) else None
+
+    async def start(self) -> None:
+        await self.fleet.start()
+
+    def configure_robot(self, settings: Settings) -> None:
+        settings.set("fleet.url", FLEET_URL)
+
+    def attach(self, rig: SimRig) -> None:
+        rig.devices.network = self.fleet.transport
+
+    def people(self) -> list[ActorTask]:
+        return [(f"customer.{c.plan.customer}", c.run()) for c in self.customers]
+
+    def background(self) -> list[ActorTask]:
+        return [("staff", self.staff.run())]
+
+    def failures(self) -> list[str]:
+        return [*self.staff.double_assignments, *self.request_failures()]
+
+    def request_failures(self) -> list[str]:
+        """``requests = [{ customer, status, paid? }]``: how each customer's request ended."""
+        reasons = []
+        by_id = {c.plan.customer: c for c in self.customers}
+        for want in self.scenario.success.extra.get("requests", []):
+            cid = int(want["customer"])
+            c = by_id.get(cid)
+            if c is None:
+                reasons.append(f"requests: no customer {cid} in [[fleet.customers]]")
+                continue
+            if c.status != want.get("status"):
+                reasons.append(f"customer {cid}'s request ended {c.status}, expected "
+                               f"{want.get('status')}")
+            if "paid" in want and bool(want["paid"]) != c.paid:
+                reasons.append(f"customer {cid} {'did not pay' if want['paid'] else 'paid'}")
+        return reasons
+
+    async def close(self) -> None:
+        await self.fleet.close()

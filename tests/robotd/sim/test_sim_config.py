@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+from datetime import UTC, datetime
 from pathlib import Path
 
 import pytest
 
 from robotd.config import ConfigError
 from robotd.config.settings import Settings
+from robotd.sim.actors import ActorContext
+from robotd.sim.actors.laundry import LaundryActors
 from robotd.sim.config import robot_settings
 from robotd.sim.scenario import load_scenario
 
@@ -36,14 +39,23 @@ class TestConfigFileLaidOver:
         with pytest.raises(ConfigError, match=r"robot.toml:3: weight.max_kg"):
             _settings_with(tmp_path, "[weight]\nmin_kg = 5.0\nmax_kg = 2.0\n")
 
-    def test_a_simulated_robot_never_talks_to_the_fleet_server_the_file_names(
+    async def test_a_simulated_robot_never_talks_to_the_fleet_server_the_file_names(
             self, tmp_path: Path) -> None:
         """A robot's real config laid over a scenario: the simulated robot stays on the
-        simulated hardware and off the real fleet server."""
+        simulated hardware and off the real fleet server; a scenario with a fleet points it
+        at the simulation's (its actors do, before the robot is built)."""
         text = '[fleet]\nurl = "http://fleet.example:8080"\n[hal]\nbackend = "real"\n'
         alone = _settings_with(tmp_path, text)
         assert alone.get("fleet.url") == ""
         assert alone.get("hal.backend") == "sim"
         with_fleet = _settings_with(tmp_path, text, scenario="laundry")
+        assert with_fleet.get("fleet.url") == ""
+        scenario = load_scenario("laundry")
+        actors = LaundryActors.for_scenario(ActorContext(
+            scenario, tmp_path, datetime(2026, 1, 1, tzinfo=UTC), lambda _e: None,
+            lambda _r, _kg: None))
+        assert actors is not None
+        actors.configure_robot(with_fleet)
+        await actors.close()
         assert with_fleet.get("fleet.url").startswith("http://")
         assert "fleet.example" not in with_fleet.get("fleet.url")

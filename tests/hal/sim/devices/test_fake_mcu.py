@@ -6,9 +6,9 @@ import asyncio
 from collections.abc import Awaitable, Callable
 
 import pytest
+from serial_frames import frame_body
 
 from drivers.arduino.crc8 import crc8
-from drivers.arduino.framing import frame_body
 from hal.ports import StreamPair
 from hal.sim import vclock
 from hal.sim.devices.byte_pipe import BytePipe

@@ -5,7 +5,8 @@ from __future__ import annotations
 import asyncio
 from pathlib import Path
 
-from drivers.arduino.framing import frame_body
+from serial_frames import frame_body
+
 from drivers.serial_port import open_serial
 from hal.sim.devices.fake_mcu import FakeMcu
 from hal.sim.devices.pty_mcu import PtyMcu

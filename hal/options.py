@@ -1,4 +1,4 @@
-"""Typed options with bounds and defaults, and how a value is checked against one."""
+"""Typed config options with bounds and defaults, declared beside the code that reads them."""
 
 from __future__ import annotations
 
@@ -27,6 +27,9 @@ class Option:
     choices: tuple[str, ...] | tuple[int, ...] | None = None
     tunable: bool = False
     required: bool = False
+    unknown: str | None = None
+    """What a value outside ``choices`` is called (``unknown profile 'x'``); the known values
+    follow it. None: ``expected one of ...``."""
 
     def check(self, value: Any) -> tuple[Any, str | None]:
         """Return (normalised value, None) or (None, what was expected)."""
@@ -52,6 +55,9 @@ class Option:
             if not isinstance(value, str):
                 return None, f"expected a string, got {_show(value)}"
             if self.choices is not None and value not in self.choices:
+                if self.unknown is not None:
+                    known = ", ".join(map(str, self.choices))
+                    return None, f"{self.unknown} {value!r} (known: {known})"
                 return None, f"expected one of {', '.join(map(repr, self.choices))}, got {value!r}"
             if self.min is not None and len(value) < self.min:
                 return None, f"expected at least {int(self.min)} characters"

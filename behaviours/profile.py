@@ -76,6 +76,10 @@ class ProfileSpec:
     """One line: what the robot does (``robotd sim --help``, the docs)."""
     sections: tuple[Section, ...] = ()
     orders: tuple[Order, ...] = ()
+    sim_actors: str | None = None
+    """``module:callable`` that builds the simulator's actors for such robots (the people and
+    servers around them, under ``robotd/sim/actors/``), or None. A name, not an import:
+    behaviours never import robotd; a test resolves every registered one."""
 
     @property
     def name(self) -> str:

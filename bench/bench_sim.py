@@ -47,6 +47,7 @@ def main() -> int:
     t0_wall, t0_cpu = time.perf_counter(), time.process_time()
     from robotd.profiles import PROFILES
     from robotd.sim import runner as sim_runner
+    from robotd.sim.actors import actors_factory
     from robotd.sim.console import SimConsole
     from robotd.sim.scenario import load_scenario
 
@@ -54,9 +55,8 @@ def main() -> int:
     # What the runner loads lazily on its first run (the daemon with its state machine and
     # control server, the profile, the fleet's modules): imports, not part of any run.
     importlib.import_module("robotd.daemon")
-    actors = PROFILES.get(scenario.profile).actors
-    if actors is not None and "fleet" in scenario.raw:
-        actors()
+    if "fleet" in scenario.raw:
+        actors_factory(PROFILES.get(scenario.profile))
     PROFILES.build(scenario.profile)
 
     import_wall = time.perf_counter() - t0_wall

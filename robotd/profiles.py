@@ -1,32 +1,19 @@
 """The one registry of robot profiles: what ``robot.profile`` may name, and what each brings.
 
 Each profile declares itself beside its code (``behaviours/profiles/<name>/__init__.py``:
-``SPEC``, with its devices and config sections); an entry here adds it, with the simulator's
-actors for it (the people and servers around such a robot) when it has any. ``check-config``,
+``SPEC``: its class, devices, config sections and simulator actors); one line here adds it.
+``check-config``,
 ``example-config``, ``robotd sim`` and the daemon all read this registry.
 """
 
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from collections.abc import Iterator
 
 from behaviours.profile import Profile, ProfileSpec
 from behaviours.profiles import idle, laundry, square
 from hal.options import Order, Section
-
-if TYPE_CHECKING:
-    from robotd.sim.actors import ActorsFactory
-
-
-@dataclass(frozen=True, slots=True)
-class Registered:
-    spec: ProfileSpec
-    actors: Callable[[], ActorsFactory] | None = None
-    """Returns the simulator's actors factory; imported only when a simulation needs it (the
-    laundry fleet server's imports take seconds)."""
 
 
 class ProfileRegistry:
@@ -34,15 +21,14 @@ class ProfileRegistry:
     follows it)."""
 
     def __init__(self) -> None:
-        self._entries: dict[str, Registered] = {}
+        self._entries: dict[str, ProfileSpec] = {}
         self.version = 0
 
-    def register(self, spec: ProfileSpec,
-                 actors: Callable[[], ActorsFactory] | None = None) -> None:
+    def register(self, spec: ProfileSpec) -> None:
         if spec.name in self._entries:
             msg = f"profile {spec.name!r} is registered already"
             raise ValueError(msg)
-        self._entries[spec.name] = Registered(spec, actors)
+        self._entries[spec.name] = spec
         self.version += 1
 
     def unregister(self, name: str) -> None:
@@ -62,10 +48,10 @@ class ProfileRegistry:
         return sorted(self._entries)
 
     def specs(self) -> list[ProfileSpec]:
-        return [self._entries[name].spec for name in self.names()]
+        return [self._entries[name] for name in self.names()]
 
-    def get(self, name: str) -> Registered:
-        """The entry for ``name``; ValueError naming the known profiles otherwise."""
+    def get(self, name: str) -> ProfileSpec:
+        """The profile registered as ``name``; ValueError naming the known ones otherwise."""
         entry = self._entries.get(name)
         if entry is None:
             msg = f"robot.profile: unknown profile {name!r} (known: {', '.join(self.names())})"
@@ -74,7 +60,7 @@ class ProfileRegistry:
 
     def build(self, name: str) -> Profile:
         """A new profile object for ``robot.profile = name``."""
-        profile: Profile = self.get(name).spec.profile()
+        profile: Profile = self.get(name).profile()
         return profile
 
     def sections(self) -> list[Section]:
@@ -85,14 +71,8 @@ class ProfileRegistry:
         return [o for spec in self.specs() for o in spec.orders]
 
 
-def _laundry_actors() -> ActorsFactory:
-    from robotd.sim.actors.laundry import LaundryActors
-
-    return LaundryActors.for_scenario
-
-
 PROFILES = ProfileRegistry()
 """The robot profiles this installation knows."""
 PROFILES.register(idle.SPEC)
 PROFILES.register(square.SPEC)
-PROFILES.register(laundry.SPEC, actors=_laundry_actors)
+PROFILES.register(laundry.SPEC)

@@ -19,11 +19,11 @@ from drivers.serial_port import open_serial
 from hal.backend import Devices
 from hal.sim.devices.ble_model import BleAirParams, SimBleAir
 from hal.sim.devices.camera_model import CameraMount, SimCamera
-from hal.sim.devices.fake_mcu import FakeMcu
 from hal.sim.devices.hx711_model import SimHx711Lines
+from hal.sim.devices.motor_board.fake_mcu import FakeMcu
+from hal.sim.devices.motor_board.simavr_bridge import SimavrBridge
+from hal.sim.devices.motor_board.simavr_mcu import SimavrMcu, SimavrUnavailable, missing_toolchain
 from hal.sim.devices.sim_serial import SimSerialPorts
-from hal.sim.devices.simavr_bridge import SimavrBridge
-from hal.sim.devices.simavr_mcu import SimavrMcu, SimavrUnavailable, missing_toolchain
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import World
 from robotd.config.settings import Settings

@@ -30,7 +30,7 @@ from robotd.config import ConfigError
 from robotd.config.settings import Settings
 from robotd.logs import configure_logging
 from robotd.profiles import PROFILES
-from robotd.sim.actors import ActorContext, SimActors
+from robotd.sim.actors import ActorContext, SimActors, actors_factory
 from robotd.sim.checks import RobotRecord, failures, finished, summary_figures
 from robotd.sim.config import robot_settings
 from robotd.sim.console import SimConsole
@@ -156,8 +156,8 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
         for settings in settings_of:
             name = settings.get("robot.profile")
             if name not in actors_of:
-                factory = PROFILES.get(name).actors
-                actors_of[name] = factory()(context) if factory is not None else None
+                factory = actors_factory(PROFILES.get(name))
+                actors_of[name] = factory(context) if factory is not None else None
         actors = [a for a in actors_of.values() if a is not None]
         for a in actors:
             await a.start()

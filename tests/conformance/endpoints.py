@@ -25,8 +25,8 @@ from drivers.arduino import ArduinoLink
 from drivers.serial_port import open_serial
 from hal.ports import SerialOpener
 from hal.sim import vclock
-from hal.sim.devices.fake_mcu import FakeMcu
-from hal.sim.devices.pty_mcu import PtyMcu
+from hal.sim.devices.motor_board.fake_mcu import FakeMcu
+from hal.sim.devices.motor_board.pty_mcu import PtyMcu
 from hal.sim.devices.sim_serial import SimSerialPorts
 
 FAULTS = frozenset({"corrupt", "unplug", "reset", "delay"})

@@ -15,8 +15,8 @@ import pytest
 from bench import PlantBench, TimedPlant
 from drivers.serial_port import open_serial
 from hal.ports import SerialOpener
-from hal.sim.devices.simavr_bridge import SimavrBridge
-from hal.sim.devices.simavr_mcu import SimavrMcu, missing_toolchain
+from hal.sim.devices.motor_board.simavr_bridge import SimavrBridge
+from hal.sim.devices.motor_board.simavr_mcu import SimavrMcu, missing_toolchain
 
 
 class SimavrEndpoint(PlantBench):

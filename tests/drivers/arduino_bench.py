@@ -10,7 +10,7 @@ from dataclasses import replace
 from drivers.arduino import ArduinoLink, LinkConfig
 from hal.ports import StreamPair
 from hal.sim import vclock
-from hal.sim.devices.fake_mcu import FakeMcu
+from hal.sim.devices.motor_board.fake_mcu import FakeMcu
 from hal.sim.devices.sim_serial import SimSerialPorts
 from hal.sim.world.plant import RecordingPlant
 

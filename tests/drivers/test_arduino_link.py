@@ -12,7 +12,7 @@ from drivers.arduino import ArduinoLink, CommandNotDelivered, LinkConfig, Outcom
 from hal.devices import Battery, DeviceUnavailable, Encoders, Motors, RangeSensor
 from hal.readings import LedMode, MotorCommand
 from hal.sim import vclock
-from hal.sim.devices.fake_mcu import FakeMcu
+from hal.sim.devices.motor_board.fake_mcu import FakeMcu
 from hal.sim.devices.sim_serial import SimSerialPorts
 from hal.sim.world.plant import RecordingPlant
 

@@ -16,7 +16,7 @@ from drivers.arduino import ArduinoLink, Framing, LinkConfig
 from hal.devices import LinkDown
 from hal.readings import LedMode, MotorCommand
 from hal.sim import vclock
-from hal.sim.devices.fake_mcu import FakeMcu
+from hal.sim.devices.motor_board.fake_mcu import FakeMcu
 from hal.sim.devices.sim_serial import SimSerialPorts
 from hal.sim.world.plant import RecordingPlant
 

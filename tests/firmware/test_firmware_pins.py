@@ -6,8 +6,8 @@ import asyncio
 
 from firmware_client import PtyLink
 
-from hal.sim.devices.simavr_bridge import SimavrBridge
-from hal.sim.devices.simavr_mcu import SimavrMcu
+from hal.sim.devices.motor_board.simavr_bridge import SimavrBridge
+from hal.sim.devices.motor_board.simavr_mcu import SimavrMcu
 from hal.sim.world.plant import RecordingPlant
 
 

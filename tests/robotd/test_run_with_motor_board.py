@@ -13,8 +13,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from hal.sim.devices.fake_mcu import FakeMcu
-from hal.sim.devices.pty_mcu import PtyMcu
+from hal.sim.devices.motor_board.fake_mcu import FakeMcu
+from hal.sim.devices.motor_board.pty_mcu import PtyMcu
 from hal.sim.world.plant import RecordingPlant
 
 STOP_LIMIT_S = 5.0

@@ -6,7 +6,7 @@ import errno
 
 from hal.ports import StreamPair
 from hal.sim.devices.byte_pipe import BytePipe
-from hal.sim.devices.fake_mcu import FakeMcu
+from hal.sim.devices.motor_board.fake_mcu import FakeMcu
 
 
 class SimSerialPorts:

@@ -1,18 +1,20 @@
 """Simulated people and servers around a robot (customers, staff, fleet), per profile.
 
-A profile that has actors names a factory for them in the profile registry
-(``robotd/profiles.py``); the runner asks it once per simulation and drives what it returns
+A profile that has actors names their factory in its ``ProfileSpec.sim_actors``
+(``module:callable``); the runner asks it once per simulation and drives what it returns
 through ``SimActors``, with no branch on the profile's name.
 """
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable, Coroutine
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 from typing import Any, Protocol
 
+from behaviours.profile import ProfileSpec
 from robotd.config.settings import Settings
 from robotd.sim.rig import SimRig
 from robotd.sim.scenario import Scenario
@@ -63,3 +65,19 @@ class SimActors(Protocol):
 
 ActorsFactory = Callable[[ActorContext], "SimActors | None"]
 """Builds a profile's actors for a scenario; None when the scenario gives it none."""
+
+
+def actors_factory(spec: ProfileSpec) -> ActorsFactory | None:
+    """The factory ``spec.sim_actors`` names (imported now: the laundry fleet server's imports
+    take seconds, and only simulations need them), or None when it names none."""
+    if spec.sim_actors is None:
+        return None
+    module_name, _, attribute = spec.sim_actors.partition(":")
+    target: object = importlib.import_module(module_name)
+    for part in attribute.split("."):
+        target = getattr(target, part)
+    if not callable(target):
+        msg = f"profile {spec.name!r}: sim_actors {spec.sim_actors!r} is not callable"
+        raise TypeError(msg)
+    factory: ActorsFactory = target
+    return factory

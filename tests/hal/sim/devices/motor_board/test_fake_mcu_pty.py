@@ -8,8 +8,8 @@ from pathlib import Path
 from serial_frames import frame_body
 
 from drivers.serial_port import open_serial
-from hal.sim.devices.fake_mcu import FakeMcu
-from hal.sim.devices.pty_mcu import PtyMcu
+from hal.sim.devices.motor_board.fake_mcu import FakeMcu
+from hal.sim.devices.motor_board.pty_mcu import PtyMcu
 from hal.sim.world.plant import RecordingPlant
 
 

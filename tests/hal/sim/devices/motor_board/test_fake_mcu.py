@@ -12,8 +12,8 @@ from drivers.arduino.crc8 import crc8
 from hal.ports import StreamPair
 from hal.sim import vclock
 from hal.sim.devices.byte_pipe import BytePipe
-from hal.sim.devices.fake_mcu import FakeMcu
-from hal.sim.devices.mcu_frames import ParseError, parse_payload, read_seq
+from hal.sim.devices.motor_board.fake_mcu import FakeMcu
+from hal.sim.devices.motor_board.mcu_frames import ParseError, parse_payload, read_seq
 from hal.sim.devices.sim_serial import SimSerialPorts
 from hal.sim.world.plant import RecordingPlant
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from hal.sim.devices.simavr_mcu import (
+from hal.sim.devices.motor_board.simavr_mcu import (
     ADC_REF_MV,
     IR_ADC_OFFSET,
     IR_K,

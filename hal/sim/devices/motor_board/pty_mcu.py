@@ -5,8 +5,8 @@ the real driver opens like ``/dev/ttyACM0`` (pyserial and all). With ``link`` it
 symlink to the current slave, like ``/dev/serial/by-id``: ``unplug()`` closes the pty (the
 host's reads fail, opening fails) and ``replug()`` makes a new one behind the same link.
 
-``python -m hal.sim.devices.pty_mcu [--link PATH] [--corrupt PCT] [--seed N]`` prints the
-path, serves until killed, and prints what the MCU executed as JSON when it stops.
+``python -m hal.sim.devices.motor_board.pty_mcu [--link PATH] [--corrupt PCT] [--seed N]``
+prints the path, serves until killed, and prints what the MCU executed as JSON when it stops.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from hal.ports import StreamPair
-from hal.sim.devices.fake_mcu import FakeMcu
+from hal.sim.devices.motor_board.fake_mcu import FakeMcu
 from hal.sim.world.plant import RecordingPlant
 
 
@@ -127,7 +127,7 @@ async def _serve(args: argparse.Namespace) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m hal.sim.devices.pty_mcu",
+    parser = argparse.ArgumentParser(prog="python -m hal.sim.devices.motor_board.pty_mcu",
                                      description="Serve a fake motor board on a pty.")
     parser.add_argument("--link", help="keep a symlink to the pty here")
     parser.add_argument("--corrupt", type=float, default=0.0, help="%% of bytes to corrupt")

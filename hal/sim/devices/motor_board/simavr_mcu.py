@@ -6,8 +6,9 @@ Arduino driver opens like ``/dev/ttyACM0``. Its pins (PWM duty and H-bridge inpu
 servo pulse, LEDs) are read from the harness's control channel; encoder edges, the IR range,
 the battery voltage and the dock contacts are injected through it.
 
-``hal.sim.devices.simavr_bridge.SimavrBridge`` closes the loop with the simulated body. The emulator
-runs in wall time, so both need a real event loop (``robotd sim --realtime``), not virtual time.
+``simavr_bridge.SimavrBridge`` (beside this module) closes the loop with the simulated body.
+The emulator runs in wall time, so both need a real event loop (``robotd sim --realtime``),
+not virtual time.
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from hal.tasks import cancel_and_wait
 
 log = structlog.get_logger(__name__)
 
-FIRMWARE_DIR = Path(__file__).resolve().parents[3] / "firmware"
+FIRMWARE_DIR = Path(__file__).resolve().parents[4] / "firmware"
 ELF_PATH = FIRMWARE_DIR / "build" / "robotd_mcu" / "robotd_mcu.elf"
 HARNESS_PATH = FIRMWARE_DIR / "build" / "harness" / "robotd_harness"
 
@@ -331,7 +332,8 @@ async def _serve() -> None:
 
 
 def main() -> None:
-    """``python -m hal.sim.devices.simavr_mcu``: run the emulated board for a technician's tools."""
+    """``python -m hal.sim.devices.motor_board.simavr_mcu``: run the emulated board for a
+    technician's tools."""
     reason = missing_toolchain()
     if reason is not None:
         raise SystemExit(reason)

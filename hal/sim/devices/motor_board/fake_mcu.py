@@ -7,8 +7,8 @@ without executing it again, drives a ``MotorPlant``, sends ``ENCODER``/``IR``/``
 telemetry at fixed rates, and stops the motors 500 ms after the last ``MOTOR``/``HB``.
 Lines starting with ``#`` are crc framing, others plain; telemetry follows the framing of the
 last good command. Fault switches: ``unplug()``, ``replug()``, ``corrupt(pct)``,
-``delay(s)``, ``reset()``. Frame parsing is in ``hal.sim.devices.mcu_frames``, the serial port (line
-assembly, damaged and delayed transmission) in ``hal.sim.devices.mcu_uart``.
+``delay(s)``, ``reset()``. Frame parsing is in ``mcu_frames``, the serial port (line assembly,
+damaged and delayed transmission) in ``mcu_uart`` (both beside this module).
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ import structlog
 
 from hal.ports import StreamPair
 from hal.sim.devices.byte_pipe import BytePipe
-from hal.sim.devices.mcu_frames import (
+from hal.sim.devices.motor_board.mcu_frames import (
     HEX_BYTE,
     ParseError,
     crc8_fast,
@@ -30,7 +30,7 @@ from hal.sim.devices.mcu_frames import (
     parse_payload,
     read_seq,
 )
-from hal.sim.devices.mcu_uart import McuUart
+from hal.sim.devices.motor_board.mcu_uart import McuUart
 from hal.sim.world.plant import MotorPlant
 from hal.timer_chain import timer_chain
 

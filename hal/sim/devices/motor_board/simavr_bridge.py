@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import asyncio
 
-from hal.sim.devices.simavr_mcu import McuPins, SimavrMcu
+from hal.sim.devices.motor_board.simavr_mcu import McuPins, SimavrMcu
 from hal.sim.world.plant import MotorPlant
 
 

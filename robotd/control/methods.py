@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 from robotd import __version__
 from robotd.config.overrides import overrides_path, persist_override, render_toml
+from robotd.config.screen import check_option, parse_option_text
 from robotd.control.rpc import APP_ERROR, INVALID_PARAMS, RpcError
 from robotd.control.server import Client, Handler
 
@@ -107,9 +108,11 @@ class _Methods:
                            "change it in the config file and restart")
         value = params["value"]
         if isinstance(value, str) and option.kind != "str":
-            value, error = option.parse_text(value)
-            if error is not None:
-                raise RpcError(INVALID_PARAMS, f"{key}: {error}")
+            value, error = parse_option_text(option, value)
+        else:
+            value, error = check_option(option, value)
+        if error is not None:
+            raise RpcError(INVALID_PARAMS, f"{key}: {error}")
         try:
             value = settings.check(key, value)
             if persist:

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 from robotd import __version__
 from robotd.config.overrides import overrides_path, persist_override, render_toml
-from robotd.config.screen import check_option, parse_option_text
+from robotd.config.screen import check_option, clip, parse_option_text
 from robotd.control.rpc import APP_ERROR, INVALID_PARAMS, RpcError
 from robotd.control.server import Client, Handler
 
@@ -127,6 +127,10 @@ class _Methods:
                     None, persist_override, path, key, value)
             except OSError as exc:
                 raise RpcError(APP_ERROR, f"{key}: applied but not persisted: {exc}") from None
+            except (ValueError, RecursionError) as exc:  # the file is there but not TOML
+                # Not overwritten: what it held is kept for whoever looks at it.
+                raise RpcError(APP_ERROR, f"{key}: applied but not persisted: {path} cannot "
+                               f"be read ({clip(str(exc))}); fix or remove it") from None
         self.d.emit("tune", key=key, value=value, persisted=persist)
         return {"key": key, "value": value, "persisted": persist}
 
@@ -168,7 +172,7 @@ class _Methods:
 
 def _key(params: dict[str, Any]) -> str:
     key = params.get("key")
-    if not isinstance(key, str) or "." not in key:
+    if not isinstance(key, str) or "." not in key or len(key) > 200:
         raise RpcError(INVALID_PARAMS, "key: expected 'section.key', e.g. 'line_follow.kp'")
     return key
 

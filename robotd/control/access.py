@@ -36,18 +36,20 @@ def group_id(name: str = GROUP) -> int | None:
 def restrict(path: str | Path, mode: int, *, group: str = GROUP) -> None:
     """chmod ``path`` to ``mode`` and give it to ``group`` when that group exists.
 
-    chown to a group needs the daemon to be a member of it (the unit's ``Group=``); when it
-    is not, the mode still holds and the refusal is logged, not raised: the socket stays
-    usable by the daemon's own group."""
+    chown to a group needs the daemon to be a member of it; when it is not (or the unit's
+    system call filter refuses chown), the mode still holds and the refusal is logged, not
+    raised: the socket stays usable by the daemon's own group."""
     os.chmod(path, mode)
     gid = group_id(group)
     if gid is None:
         log.info("control.no_group", group=group, path=str(path),
                  note="kept the daemon's own group")
         return
+    if os.stat(path).st_gid == gid:  # under systemd: Group=robotd made it so already
+        return
     try:
         os.chown(path, -1, gid)
-    except PermissionError:
+    except PermissionError:  # also EPERM from the unit's SystemCallFilter (no @chown)
         log.warning("control.group_refused", group=group, path=str(path),
                     note="the daemon is not a member of the group; kept its own group")
 

@@ -139,6 +139,8 @@ def cmd_probe(args: argparse.Namespace) -> int:
 
 def cmd_run(args: argparse.Namespace) -> int:
     from hal.ports import system_wall_clock
+    from robotd.config.loader import load_config_and_overrides
+    from robotd.control.access import socket_problem
     from robotd.daemon import Daemon
     from robotd.hardware import HardwareMissing, build_devices
     from robotd.logs import configure_logging
@@ -147,16 +149,23 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         values = load_config(config_path)
         state_dir = _state_dir(values["robot"]["state_dir"])
-        values = load_config(config_path, overrides=overrides_path(state_dir))
+        values, ignored = load_config_and_overrides(config_path, overrides_path(state_dir))
     except ConfigError as exc:
         for problem in exc.problems:
             print(problem, file=sys.stderr)
         return 2
+    for problem in ignored:  # tuning kept from before: not worth a robot that does not start
+        print(f"{problem} (overrides file ignored; the robot runs on {config_path})",
+              file=sys.stderr)
     settings = Settings(values, source=str(config_path))
     configure_logging(settings.get("logging.level"))
     if settings.get("hal.backend") == "sim":
         print(f"{config_path}: hal.backend is 'sim': use `robotd sim` for the simulator",
               file=sys.stderr)
+        return 2
+    socket_why = socket_problem(settings.get("control.socket"))
+    if socket_why is not None:  # exit 2: restarting cannot fix it, and no robot runs deaf
+        print(f"{config_path}: control.socket: {socket_why}", file=sys.stderr)
         return 2
     try:
         profile = PROFILES.build(settings.get("robot.profile"))

@@ -42,8 +42,9 @@ class Connection:
             raise CannotConnect(f"no control socket at {path}: is robotd running? "
                                 "(systemctl status robotd; or give --socket PATH)") from None
         except PermissionError:
-            raise CannotConnect(f"permission denied on {path}: the socket is mode 0660; run "
-                                "as the robot user or a member of its group, or use sudo") from None
+            raise CannotConnect(f"permission denied on {path}: the socket is mode 0660, group "
+                                "robotd; join that group (sudo usermod -aG robotd $USER, log in "
+                                "again) or use sudo") from None
         except ConnectionRefusedError:
             raise CannotConnect(f"nothing listens on {path}: robotd is not running (a stale "
                                 "socket left by a crash?)") from None

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 from robotd import __version__
 from robotd.config.overrides import overrides_path, persist_override, render_toml
+from robotd.config.screen import check_option, clip, parse_option_text
 from robotd.control.rpc import APP_ERROR, INVALID_PARAMS, RpcError
 from robotd.control.server import Client, Handler
 
@@ -107,9 +108,11 @@ class _Methods:
                            "change it in the config file and restart")
         value = params["value"]
         if isinstance(value, str) and option.kind != "str":
-            value, error = option.parse_text(value)
-            if error is not None:
-                raise RpcError(INVALID_PARAMS, f"{key}: {error}")
+            value, error = parse_option_text(option, value)
+        else:
+            value, error = check_option(option, value)
+        if error is not None:
+            raise RpcError(INVALID_PARAMS, f"{key}: {error}")
         try:
             value = settings.check(key, value)
             if persist:
@@ -124,6 +127,10 @@ class _Methods:
                     None, persist_override, path, key, value)
             except OSError as exc:
                 raise RpcError(APP_ERROR, f"{key}: applied but not persisted: {exc}") from None
+            except (ValueError, RecursionError) as exc:  # the file is there but not TOML
+                # Not overwritten: what it held is kept for whoever looks at it.
+                raise RpcError(APP_ERROR, f"{key}: applied but not persisted: {path} cannot "
+                               f"be read ({clip(str(exc))}); fix or remove it") from None
         self.d.emit("tune", key=key, value=value, persisted=persist)
         return {"key": key, "value": value, "persisted": persist}
 
@@ -165,7 +172,7 @@ class _Methods:
 
 def _key(params: dict[str, Any]) -> str:
     key = params.get("key")
-    if not isinstance(key, str) or "." not in key:
+    if not isinstance(key, str) or "." not in key or len(key) > 200:
         raise RpcError(INVALID_PARAMS, "key: expected 'section.key', e.g. 'line_follow.kp'")
     return key
 

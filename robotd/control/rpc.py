@@ -16,6 +16,12 @@ APP_ERROR = -32000
 """The daemon refused (e.g. a new config that does not validate)."""
 
 _NO_ID = object()
+MAX_DEPTH = 32
+"""Arrays and objects nested deeper than this are refused (no method needs more than 3)."""
+
+
+class _NotJson(ValueError):
+    """A constant JSON does not have (NaN, Infinity): refused while decoding."""
 
 
 class RpcError(Exception):
@@ -43,10 +49,7 @@ class Request:
 
 def parse_request(line: bytes) -> Request:
     """One line to a Request; RpcError (with the request id when known) when it is not one."""
-    try:
-        message = json.loads(line)
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise RpcError(PARSE_ERROR, f"parse error: {exc}") from None
+    message = decode_line(line)
     if isinstance(message, list):
         raise RpcError(INVALID_REQUEST, "invalid request: batches are not supported")
     if not isinstance(message, dict):
@@ -72,6 +75,54 @@ def parse_request(line: bytes) -> Request:
         raise RpcError(INVALID_PARAMS, "invalid params: expected an object of named parameters",
                        request_id=error_id)
     return Request(method, params, request_id)
+
+
+def decode_line(line: bytes) -> Any:
+    """Strict UTF-8 JSON (no NaN/Infinity, at most MAX_DEPTH deep); RpcError -32700 if not.
+
+    ``json.loads`` alone lets through what the contract refuses (UTF-16/32 bytes, NaN) and
+    raises what it does not call decode errors: ValueError past Python's int-to-str digit
+    limit (4300 digits) and RecursionError for deep nesting, which would end the connection.
+    """
+    try:
+        text = line.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        msg = f"parse error: not UTF-8 at byte {exc.start} ({line[exc.start:exc.start + 1]!r})"
+        raise RpcError(PARSE_ERROR, msg) from None
+    try:
+        message = json.loads(text, parse_constant=_refuse_constant)
+    except _NotJson as exc:
+        raise RpcError(PARSE_ERROR, f"parse error: {exc}") from None
+    except json.JSONDecodeError as exc:
+        raise RpcError(PARSE_ERROR, f"parse error: {exc}") from None
+    except ValueError as exc:  # int-to-str digit limit: the text says how many digits
+        raise RpcError(PARSE_ERROR, f"parse error: number too long: {exc}") from None
+    except RecursionError:
+        msg = f"parse error: nested deeper than {MAX_DEPTH} levels"
+        raise RpcError(PARSE_ERROR, msg) from None
+    if _depth_exceeds(message, MAX_DEPTH):
+        raise RpcError(INVALID_REQUEST, f"invalid request: nested deeper than {MAX_DEPTH} levels")
+    return message
+
+
+def _refuse_constant(name: str) -> Any:
+    msg = f"{name} is not a JSON number"
+    raise _NotJson(msg)
+
+
+def _depth_exceeds(value: Any, limit: int) -> bool:
+    """Whether arrays/objects nest deeper than ``limit`` (iterative: no recursion to exhaust)."""
+    stack: list[tuple[Any, int]] = [(value, 1)]
+    while stack:
+        item, depth = stack.pop()
+        children = item.values() if isinstance(item, dict) else item if isinstance(
+            item, list) else None
+        if children is None:
+            continue
+        if depth > limit:
+            return True
+        stack.extend((child, depth + 1) for child in children)
+    return False
 
 
 def result_line(request_id: Any, result: Any) -> bytes:

@@ -6,15 +6,14 @@ import asyncio
 import contextlib
 import itertools
 import os
-import socket
-import stat
 from collections import deque
 from collections.abc import Awaitable, Callable
-from pathlib import Path
 from typing import Any
 
 import structlog
 
+from robotd.config.system_limits import socket_path_problem
+from robotd.control.access import SOCKET_MODE, claim_path, restrict
 from robotd.control.rpc import (
     APP_ERROR,
     INTERNAL_ERROR,
@@ -30,7 +29,6 @@ from robotd.control.rpc import (
 log = structlog.get_logger(__name__)
 
 MAX_LINE_BYTES = 64 * 1024
-SOCKET_MODE = 0o660
 _READ_CHUNK = 64 * 1024
 
 Handler = Callable[[dict[str, Any], "Client"], Awaitable[Any]]
@@ -100,7 +98,9 @@ class ControlServer:
     """
 
     name = "control"
-    critical = False
+    critical = True
+    """A robot without its socket cannot be stopped or inspected by a technician: the daemon
+    refuses to start rather than run without it."""
     depends_on: tuple[str, ...] = ()
 
     def __init__(self, path: str, handlers: dict[str, Handler], *, max_clients: int = 64,
@@ -114,11 +114,19 @@ class ControlServer:
         self._ids = itertools.count(1)
 
     async def run(self, ready: Callable[[], None]) -> None:
-        _claim_path(self.path)
+        why = socket_path_problem(self.path)
+        if why is not None:
+            msg = f"control.socket {self.path!r}: {why}"
+            raise OSError(msg)
+        try:
+            claim_path(self.path)
+        except OSError as exc:
+            msg = f"control.socket: {exc}"
+            raise OSError(msg) from None
         server = await asyncio.start_unix_server(self._serve, path=self.path,
                                                  limit=self.max_line_bytes)
         try:
-            os.chmod(self.path, SOCKET_MODE)
+            restrict(self.path, SOCKET_MODE)
             log.info("control.listening", path=self.path)
             ready()
             await asyncio.get_running_loop().create_future()
@@ -214,26 +222,3 @@ class ControlServer:
             return
         if not request.is_notification:
             client.send_reply(result_line(request.id, result))
-
-
-def _claim_path(path: str) -> None:
-    """Create the directory; remove a stale socket; refuse if another daemon listens there."""
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    try:
-        mode = target.lstat().st_mode
-    except FileNotFoundError:
-        return
-    if not stat.S_ISSOCK(mode):
-        msg = f"control.socket: {path} exists and is not a socket"
-        raise OSError(msg)
-    probe = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    try:
-        probe.connect(path)
-    except OSError:
-        target.unlink()  # nobody listens: left over from a crash
-        return
-    finally:
-        probe.close()
-    msg = f"control.socket: another robotd is already listening on {path}"
-    raise OSError(msg)

@@ -25,6 +25,7 @@ from hal.devices import DeviceUnavailable
 from robotd.config.errors import ConfigError
 from robotd.config.loader import defaults, load_config
 from robotd.config.settings import Settings
+from robotd.probes.serial_tap import ReceivedTap
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -60,11 +61,15 @@ async def run(args: argparse.Namespace) -> int:
     if args.count < 1 or args.rate < 0:
         print("probe serial: --count must be >= 1 and --rate >= 0", file=sys.stderr)
         return 2
-    link = ArduinoLink(open_serial, config, name="probe")
+    tap = ReceivedTap(open_serial)
+    link = ArduinoLink(tap.open, config, name="probe")
     try:
         await link.start()
     except DeviceUnavailable as exc:
-        print(f"probe serial: {exc}", file=sys.stderr)
+        why = str(exc).rstrip().rstrip(":")
+        if tap.opened:  # the port opened: say what (if anything) the board said
+            why = f"{why}; {tap.summary()}"
+        print(f"probe serial: {why}", file=sys.stderr)
         return 1
     try:
         report = await exercise(link, args.send, args.count, args.rate)

@@ -14,7 +14,8 @@ from robotd.config.overrides import persist_override, read_overrides, render_tom
 from robotd.control.rpc import RpcError, parse_request, result_line
 from robotd.profiles import PROFILES
 
-JSON = st.recursive(st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False)
+JSON = st.recursive(st.none() | st.booleans() | st.integers()
+                    | st.floats(allow_nan=False, allow_infinity=False)  # JSON has neither
                     | st.text(), lambda inner: st.lists(inner) | st.dictionaries(st.text(),
                                                                                   inner),
                     max_leaves=10)

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from enum import Enum
 
 import numpy as np
+import numpy.typing as npt
 
 from drivers.lidar.crc import crc8
 
@@ -95,6 +96,15 @@ class Packet:
         return cls(speed_dps=fields[2], start_cdeg=fields[3], end_cdeg=fields[-2],
                    timestamp_ms=fields[-1], distances_mm=tuple(points[0::2]),
                    intensities=tuple(points[1::2]))
+
+
+def from_records(records: npt.NDArray[np.void]) -> list[Packet]:
+    """``PACKET_DTYPE`` records (what the parser returns) as ``Packet``s."""
+    return [Packet(speed_dps=int(r["speed_dps"]), start_cdeg=int(r["start_cdeg"]),
+                   end_cdeg=int(r["end_cdeg"]), timestamp_ms=int(r["timestamp_ms"]),
+                   distances_mm=tuple(int(d) for d in r["points"]["distance_mm"]),
+                   intensities=tuple(int(i) for i in r["points"]["intensity"]))
+            for r in records]
 
 
 def span_cdeg(start_cdeg: int, end_cdeg: int) -> int:

@@ -1,7 +1,9 @@
 """Packets -> 360 degree ``LidarScan``s in the robot's frame.
 
 Each packet's twelve points lie evenly from its start to its end angle. A scan ends where
-the angle wraps (drops by more than half a turn from one point to the next); the points
+the angle wraps: the sensor only turns one way, so any drop from one point to the next (by
+more than 1 deg, for rounding) means 360 deg was passed, even when a noisy line lost the
+packets around 0 deg (the SDK's rule, 340 -> under 20 deg, merges turns there). The points
 before the first wrap are a partial turn and are dropped, as the SDK drops its first frame.
 
 The LD19's angles grow clockwise seen from above, 0 deg at the arrow on its housing. In the
@@ -29,7 +31,7 @@ from hal.readings import LidarScan
 
 _STEPS = np.arange(POINTS_PER_PACKET, dtype=np.float64)
 _CDEG_TO_RAD = math.pi / 18000.0
-_HALF_TURN_CDEG = FULL_CIRCLE_CDEG / 2
+_WRAP_DROP_CDEG = 100.0
 
 
 class ScanAssembler:
@@ -71,7 +73,7 @@ class ScanAssembler:
         previous = self._last_angle_cdeg
         self._last_angle_cdeg = float(angles[-1])
         drops = np.diff(angles, prepend=angles[0] if previous is None else previous)
-        wraps = np.flatnonzero(drops < -_HALF_TURN_CDEG).tolist()
+        wraps = np.flatnonzero(drops < -_WRAP_DROP_CDEG).tolist()
         scans: list[LidarScan] = []
         begin = 0
         for wrap in wraps:

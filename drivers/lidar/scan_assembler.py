@@ -72,7 +72,10 @@ class ScanAssembler:
         intensities = packets["points"]["intensity"].ravel()
         previous = self._last_angle_cdeg
         self._last_angle_cdeg = float(angles[-1])
-        drops = np.diff(angles, prepend=angles[0] if previous is None else previous)
+        before = np.empty_like(angles)
+        before[0] = angles[0] if previous is None else previous
+        before[1:] = angles[:-1]
+        drops = angles - before
         wraps = np.flatnonzero(drops < -_WRAP_DROP_CDEG).tolist()
         scans: list[LidarScan] = []
         begin = 0
@@ -102,9 +105,12 @@ class ScanAssembler:
         if previous is None:
             if len(timestamps_ms) < 2:
                 return
-            gaps = np.diff(timestamps_ms) % TIMESTAMP_WRAP_MS
+            gaps = (timestamps_ms[1:] - timestamps_ms[:-1]) % TIMESTAMP_WRAP_MS
         else:
-            gaps = np.diff(timestamps_ms, prepend=previous) % TIMESTAMP_WRAP_MS
+            before = np.empty_like(timestamps_ms)
+            before[0] = previous
+            before[1:] = timestamps_ms[:-1]
+            gaps = (timestamps_ms - before) % TIMESTAMP_WRAP_MS
         counters.last_gap_ms = int(gaps[-1])
         counters.max_gap_ms = max(counters.max_gap_ms, int(gaps.max()))
         missed = np.rint(gaps / self._expected_gap_ms) - 1

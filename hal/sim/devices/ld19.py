@@ -94,6 +94,7 @@ class SimLd19:
         self.corrupt_fraction = 0.0
         self.packets_sent = 0
         self.bytes_sent = 0
+        self.writes = 0
         self._rng = np.random.default_rng(seed)
         self._line: _Line | None = None
         self._timer: asyncio.TimerHandle | None = None
@@ -164,6 +165,7 @@ class SimLd19:
         data = self.packets(count)
         try:
             self._line.b[1].write(data)
+            self.writes += 1
         except OSError:
             self.disconnect()
 

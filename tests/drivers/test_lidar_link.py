@@ -17,7 +17,8 @@ from hal.readings import LidarScan
 from hal.sim.devices.ld19 import SimLd19, walls
 from hal.sim.sim_serial import SimSerialPorts
 from robotd import vclock
-from robotd.config.loader import defaults
+from robotd.config.errors import ConfigError
+from robotd.config.loader import defaults, load_config_text
 from robotd.config.settings import Settings
 
 PORT = "/dev/ttyUSB0"
@@ -180,3 +181,12 @@ class TestFromSettings:
         assert lidar.config.port == "/dev/ttyUSB3" and lidar.config.model is Model.STL19P
         assert lidar.config.mount_yaw_rad == pytest.approx(math.pi)
         assert lidar.config.baud == 230400 and lidar.config.stale_s == 0.5
+
+    def test_check_config_names_a_bad_lidar_key_and_its_line(self) -> None:
+        """An unknown model, or a min range above the max: the line and section.key named."""
+        with pytest.raises(ConfigError) as excinfo:
+            load_config_text('[lidar]\nmodel = "ld99"\n', "robotd.toml")
+        assert str(excinfo.value).startswith(
+            "robotd.toml:2: lidar.model: expected one of 'ld19', 'stl19p', got 'ld99'")
+        with pytest.raises(ConfigError, match=r"lidar\.(min|max)_range_m"):
+            load_config_text("[lidar]\nmin_range_m = 5.0\nmax_range_m = 4.0\n", "robotd.toml")

@@ -59,6 +59,14 @@ class TestCutting:
         for a, b in zip(together, single, strict=True):
             np.testing.assert_array_equal(a.ranges_m, b.ranges_m)
 
+    def test_a_turn_still_ends_when_the_packets_around_0_deg_are_lost(self) -> None:
+        """Packets from 250 deg to 110 deg of the next turn missing (a noisy line): the drop
+        from 240 to 120 deg still ends the scan, where the SDK's 340 -> 20 rule would not."""
+        assembler = ScanAssembler(LidarConfig())
+        lost = frozenset(range(63, 87))  # 604.8-835.2 deg: 244.8 deg .. 115.2 deg of turn 2
+        scans = assembler.add(packets(150, lambda _a: 1000, skip=lost), 0.0)
+        assert [len(s.angles_rad) for s in scans] == [12 * 25 + 6, 12 * 25 + 6]
+
     def test_missing_packets_are_estimated_from_the_timestamps(self) -> None:
         """Three packets missing from the middle: lost_packets 3, the largest gap ~10.7 ms."""
         assembler = ScanAssembler(LidarConfig())

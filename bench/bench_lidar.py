@@ -7,6 +7,8 @@ Cases (one core, best of five runs, wall-clock time):
   of line time, what a USB serial read brings) and 4096-byte chunks; clean, and with 5 % of
   bytes bit-flipped (95 % of packets then fail their CRC);
 - driver: parser + scan assembler (scans in the robot's frame), the driver's whole CPU path;
+- false accepts: damaged packets that still pass CRC-8 (1 in 256 of those with two or more
+  bad bits) and the plausibility checks, at 0.1, 1 and 5 % of bytes corrupted (10x S seconds);
 - sim: the simulated LD19 making one turn of packets (450 beams cast on four walls, noise,
   encoding, CRC), and a turn through the whole simulated line into the real driver on the
   virtual-time loop.
@@ -76,6 +78,19 @@ def parse_case(data: bytes, chunk: int, *, assemble: bool) -> dict[str, Any]:
             "x_line_rate": round(rate / LINE_BYTES_PER_S, 1), **result}
 
 
+def false_accepts(seconds: float, corrupt_pct: float) -> dict[str, Any]:
+    """Damaged packets that passed CRC-8 and the plausibility checks (vs the clean stream)."""
+    device = SimLd19(walls(ROOM), seed=1)
+    clean = device.packets(int(seconds * PACKETS_PER_S))
+    intact = {clean[i:i + 47] for i in range(0, len(clean), 47)}
+    parser = PacketParser()
+    records = parser.feed(corrupt_bytes(clean, corrupt_pct / 100.0, random.Random(3)))
+    false = sum(1 for record in records if record.tobytes() not in intact)
+    return {"corrupt_pct": corrupt_pct, "accepted": len(records), "false": false,
+            "false_pct_of_accepted": round(100.0 * false / max(1, len(records)), 3),
+            "implausible": parser.counters.implausible}
+
+
 def sim_turn_ms() -> float:
     """CPU per turn of the simulated LD19 as it is paced: a write every 10 ms (3-4 packets)."""
     device = SimLd19(walls(ROOM), seed=1)
@@ -123,6 +138,7 @@ def main() -> None:
         "parse_5pct": [parse_case(noisy, c, assemble=False) for c in (256, 4096)],
         "driver_clean": [parse_case(clean, c, assemble=True) for c in (256, 4096)],
         "driver_5pct": [parse_case(noisy, c, assemble=True) for c in (256, 4096)],
+        "false_accepts": [false_accepts(10 * args.seconds, pct) for pct in (0.1, 1.0, 5.0)],
         "sim_turn_ms": round(sim_turn_ms(), 3),
         "sim_through_driver": sim_through_driver(args.seconds),
     }
@@ -134,6 +150,10 @@ def main() -> None:
             print(f"{case:13} chunk {row['chunk_bytes']:5} B: {row['x_line_rate']:7.1f}x line "
                   f"rate ({row['mb_per_s']} MB/s), packets {row['packets']}, "
                   f"CRC errors {row['crc_errors']}, scans {row['scans']}")
+    for row in report["false_accepts"]:
+        print(f"{row['corrupt_pct']:4} % bytes corrupted: {row['false']} damaged packets of "
+              f"{row['accepted']} accepted ({row['false_pct_of_accepted']} %) passed CRC-8 and "
+              f"the checks; {row['implausible']} refused as implausible")
     print(f"simulated LD19: {report['sim_turn_ms']} ms of CPU per turn (450 beams, "
           "10 writes)")
     sim = report["sim_through_driver"]

@@ -141,8 +141,24 @@ class DockIr(Device, Protocol):
 
 @runtime_checkable
 class Lidar(Device, Protocol):
+    """A 2D LiDAR: one ``LidarScan`` per turn, in the robot's frame.
+
+    ``stale`` is True once no scan came for the configured time (the port went, the motor
+    stalled, the line is all noise); ``next_reading`` then raises ``LidarStale`` rather than
+    wait on, so a behaviour driving on scans stops. ``listen`` calls back with each scan.
+    """
+
+    @property
+    def stale(self) -> bool: ...
+
     def latest(self) -> LidarScan | None: ...
     async def next_reading(self) -> LidarScan: ...
+    def listen(self, callback: Callable[[LidarScan], object]) -> Callable[[], None]: ...
+    def on_stale_change(self, callback: Callable[[bool], None]) -> None: ...
+
+
+class LidarStale(Exception):
+    """No scan arrived for ``lidar.stale_s``; the message says since when and why."""
 
 
 @runtime_checkable

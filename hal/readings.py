@@ -106,13 +106,34 @@ class WeightReading:
 
 @dataclass(frozen=True, slots=True)
 class LidarScan:
-    """One 360 degree scan: angles (rad, robot frame, counter-clockwise) and ranges (m)."""
+    """One 360 degree scan in the robot's frame: x forward, y left, angles counter-clockwise.
+
+    ``angles_rad`` (ascending, in [-pi, pi)) and ``ranges_m`` are measured from the robot's
+    centre, the mount's yaw and offset already applied; a point with no return or out of the
+    sensor's range has range NaN (``valid`` is False there) and the angle of its beam.
+    ``origin_x_m``/``origin_y_m`` is where the sensor sits, for models that follow each ray.
+    ``t_s`` is when the scan's last packet arrived (event-loop time).
+    """
 
     angles_rad: npt.NDArray[np.float64]
     ranges_m: npt.NDArray[np.float64]
     intensities: npt.NDArray[np.uint8]
     t_s: float
     speed_dps: float = 0.0
+    origin_x_m: float = 0.0
+    origin_y_m: float = 0.0
+    max_range_m: float = 12.0
+
+    @property
+    def valid(self) -> npt.NDArray[np.bool_]:
+        """Which points had a return within range."""
+        return np.isfinite(self.ranges_m)
+
+    def points_xy(self) -> npt.NDArray[np.float64]:
+        """The valid points as an (n, 2) array of x, y in metres (robot frame)."""
+        valid = self.valid
+        ranges, angles = self.ranges_m[valid], self.angles_rad[valid]
+        return np.column_stack((ranges * np.cos(angles), ranges * np.sin(angles)))
 
 
 class DockBeam(Enum):

@@ -49,6 +49,16 @@ def _serial_check(settings: Settings) -> str | None:
     return None
 
 
+def _lidar_check(settings: Settings) -> str | None:
+    port = str(settings.get("lidar.port"))
+    if not Path(port).exists():
+        return (f"LiDAR port {port} does not exist (check lidar.port, the USB cable, and "
+                "ls /dev/ttyUSB*)")
+    if not os.access(port, os.R_OK):
+        return f"no permission to open {port} (is the user in the dialout group?)"
+    return None
+
+
 def _camera_check(settings: Settings) -> str | None:
     if settings.get("camera.source") != "uvc":
         return None
@@ -74,7 +84,7 @@ HARDWARE: dict[str, Hardware] = {
                       "drivers.hx711:from_settings"),
     "dock_ir": Hardware(("dock_ir",), _any_path("/dev/gpiochip*", "GPIO chip"),
                         "drivers.dock_ir:from_settings"),
-    "lidar": Hardware(("lidar",), lambda _s: None, "drivers.lidar:from_settings"),
+    "lidar": Hardware(("lidar",), _lidar_check, "drivers.lidar:from_settings"),
     "audio": Hardware(("audio",), _any_path("/dev/snd/pcm*", "sound card"),
                       "drivers.audio:from_settings"),
 }

@@ -12,6 +12,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from typing import overload
 
 from drivers.arduino.config import SERIAL
+from drivers.lidar.config import LIDAR, LIDAR_ORDERS
 from hal.options import Option, Order, Section
 from robotd.profiles import PROFILES, ProfileRegistry
 
@@ -180,6 +181,7 @@ _CORE: tuple[Section, ...] = (
           min=0.001, max=1000, tunable=True),
         opt("timeout_s", "float", 1.0, "Longest wait for data-ready.", min=0.05, max=10),
     )),
+    LIDAR,
     Section("docking", "Returning to the dock (seed 001).", (
         opt("battery_threshold_pct", "float", 20.0, "Go to the dock below this charge.",
           min=0, max=100, tunable=True),
@@ -199,6 +201,7 @@ _CORE_ORDERS: tuple[Order, ...] = (
            "line_follow.band_strong_px")),
     Order(("line_follow.roi_top", "line_follow.roi_bottom")),
     Order(("safety.stop_distance_cm", "safety.resume_distance_cm"), strict=False),
+    *LIDAR_ORDERS,
 )
 
 

@@ -1,19 +1,27 @@
-"""The simulator's ``SerialOpener``: port names lead to fake MCUs over in-memory byte pipes."""
+"""The simulator's ``SerialOpener``: port names lead to simulated devices over byte pipes."""
 
 from __future__ import annotations
 
 import errno
+from typing import Protocol
 
 from hal.ports import StreamPair
 from hal.sim.devices.byte_pipe import BytePipe
-from hal.sim.devices.motor_board.fake_mcu import FakeMcu
+
+
+class SimSerialDevice(Protocol):
+    """A device on a simulated port (the FakeMcu, the SimLd19): plugged in, and served."""
+
+    plugged: bool
+
+    def connect_pipe(self, pipe: BytePipe) -> None: ...
 
 
 class SimSerialPorts:
-    """Opens ``port`` as a byte pipe to the FakeMcu attached there (a ``SerialOpener``).
+    """Opens ``port`` as a byte pipe to the device attached there (a ``SerialOpener``).
 
-    Opening a port with no MCU, or whose MCU is unplugged, raises FileNotFoundError, as a
-    missing ``/dev/ttyACM0`` does. ``unplug()`` on the MCU breaks the open pipe.
+    Opening a port with no device, or whose device is unplugged, raises FileNotFoundError, as
+    a missing ``/dev/ttyACM0`` does. ``unplug()`` on the device breaks the open pipe.
 
     Args:
         wire_baud: model the wire's byte time at the baud the driver asks for (default True).
@@ -21,13 +29,13 @@ class SimSerialPorts:
     """
 
     def __init__(self, *, wire_baud: bool = True, seed: int = 0) -> None:
-        self._mcus: dict[str, FakeMcu] = {}
+        self._mcus: dict[str, SimSerialDevice] = {}
         self._wire_baud = wire_baud
         self._seed = seed
         self.opens = 0
         self.pipe: BytePipe | None = None
 
-    def attach(self, port: str, mcu: FakeMcu) -> None:
+    def attach(self, port: str, mcu: SimSerialDevice) -> None:
         self._mcus[port] = mcu
 
     async def __call__(self, port: str, baud: int) -> StreamPair:

@@ -7,9 +7,16 @@ building any hardware.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 from robotd.config.schema import Option, Order, Section
 
 opt = Option
+
+IR_RECEIVER_GPIOS = {"omni": 17, "front_left": 27, "front_right": 22, "side_left": 23,
+                     "side_right": 24, "rear": 25}
+"""The dock IR receivers (drivers.dock_ir.RECEIVERS) and their default BCM GPIO lines."""
 
 SECTIONS: dict[str, Section] = {
     s.name: s
@@ -217,6 +224,26 @@ SECTIONS: dict[str, Section] = {
         Section("docking", "Returning to the dock (seed 001).", (
             opt("battery_threshold_pct", "float", 20.0, "Go to the dock below this charge.",
               min=0, max=100, tunable=True),
+            opt("ir_window_s", "float", 0.2,
+                "A dock IR code stays seen this long after it was decoded (OR over a window).",
+                min=0.02, max=5, tunable=True),
+            opt("ir_gpiochip", "int", 0, "GPIO chip of the IR receivers (/dev/gpiochipN).",
+                min=0, max=64),
+            *(opt(f"ir_gpio_{receiver}", "int", gpio,
+                  f"GPIO line of the {receiver.replace('_', ' ')} IR receiver; -1: not fitted.",
+                  min=-1, max=511)
+              for receiver, gpio in IR_RECEIVER_GPIOS.items()),
+            opt("ir_active_low", "bool", True,
+                "The receivers pull their output low while they see the carrier (TSOP-style)."),
+            opt("ir_tolerance_pct", "float", 25.0, "Tolerance of each IR pulse width.",
+                min=5, max=40),
+            opt("ir_codes", "table", {"force_field": 161, "green_buoy": 164, "red_buoy": 168,
+                                      "virtual_wall": 162},
+                "Dock beam name -> 8-bit IR code (defaults: the iRobot OI home base, virtual "
+                "wall); each code once."),
+            opt("ir_combined", "list[str]", ["force_field", "green_buoy", "red_buoy"],
+                "Beams whose codes OR into a combination code when a receiver is in several "
+                "(OI: 161 | 164 = 165)."),
         )),
         Section("sim", "The simulated world (hal.backend = sim).", (
             opt("seed", "int", 1, "Random seed for sensor noise.", min=0),
@@ -224,6 +251,20 @@ SECTIONS: dict[str, Section] = {
         )),
     )
 }
+
+class DistinctCodes(Order):
+    """``docking.ir_codes`` with ``docking.ir_combined``: each code 0-255 and given once, the
+    OR combinations included (a code twice would make two beams one). An Order, so that
+    check-config runs it with the limits at the line of the key: the generic machinery has no
+    per-value check (schema.Option would want a ``validate`` hook)."""
+
+    def problem(self, get: Callable[[str], Any], changed: str | None = None
+                ) -> tuple[str, str] | None:
+        from drivers.dock_ir.oi_codes import table_problem
+
+        why = table_problem(get(self.keys[0]), get(self.keys[1]))
+        return None if why is None else (self.keys[0], why)
+
 
 # Limits that only make sense in order: check-config and `robotctl tune set` refuse a value
 # that breaks one (to widen a range, move the limit on the outside first).
@@ -235,4 +276,5 @@ ORDERS: tuple[Order, ...] = (
     Order(("line_follow.roi_top", "line_follow.roi_bottom")),
     Order(("safety.stop_distance_cm", "safety.resume_distance_cm"), strict=False),
     Order(("weight.min_kg", "weight.max_kg")),
+    DistinctCodes(("docking.ir_codes", "docking.ir_combined")),
 )

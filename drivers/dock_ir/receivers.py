@@ -27,6 +27,10 @@ from hal.readings import DockIrReading
 log = structlog.get_logger(__name__)
 
 PUBLISH_PERIOD_S = 0.05  # 20 Hz, the docking control loop's rate
+FLUSH_LAG_S = 0.06
+"""A frame is closed by the clock only when the line has been quiet this long past its gap:
+edges reach us in batches (lgpio: up to 20 ms late), and a frame whose last edges are still
+in the port's buffer must not be taken for cut short."""
 RETRY_S = 1.0
 
 CodeListener = Callable[[str, int, int], object]
@@ -47,7 +51,8 @@ class DockIrReceivers:
     def __init__(self, open_source: Callable[[], IrEdgeSource], *,
                  receivers: tuple[str, ...], table: CodeTable | None = None,
                  window_s: float = 0.2, active_low: bool = True, tolerance: float = 0.25,
-                 publish_period_s: float = PUBLISH_PERIOD_S, name: str = "dock_ir") -> None:
+                 publish_period_s: float = PUBLISH_PERIOD_S, flush_lag_s: float = FLUSH_LAG_S,
+                 name: str = "dock_ir") -> None:
         self.name = name
         self._open_source = open_source
         self.table = table if table is not None else CodeTable.build()
@@ -56,6 +61,7 @@ class DockIrReceivers:
                                          stats=self.stats[r]) for r in receivers}
         self.window = CodeWindow(receivers, window_s)
         self.publish_period_s = publish_period_s
+        self.flush_lag_us = round(flush_lag_s * 1e6)
         self._source: IrEdgeSource | None = None
         self._tasks: list[asyncio.Task[None]] = []
         self._latest: LatestValue[DockIrReading] = LatestValue()
@@ -132,12 +138,13 @@ class DockIrReceivers:
             if code is not None:
                 self._took(edge.receiver, code, edge.t_us)
 
-    def flush(self, now_us: int) -> None:
-        """Close the frames whose gap has passed by ``now_us``."""
+    def flush(self, quiet_until_us: int) -> None:
+        """Close the frames whose gap had passed by ``quiet_until_us`` (every edge before that
+        time must have been fed)."""
         for receiver, decoder in self._decoders.items():
-            code = decoder.flush(now_us)
+            code = decoder.flush(quiet_until_us)
             if code is not None:
-                self._took(receiver, code, now_us)
+                self._took(receiver, code, quiet_until_us)
 
     def reading(self, now_us: int, t_s: float) -> DockIrReading:
         codes = self.window.seen(now_us)
@@ -176,5 +183,5 @@ class DockIrReceivers:
         while True:
             await asyncio.sleep(self.publish_period_s)
             now_us = source.now_us()
-            self.flush(now_us)
+            self.flush(now_us - self.flush_lag_us)
             self._latest.publish(self.reading(now_us, loop.time()))

@@ -11,7 +11,8 @@ else is counted and dropped, so a damaged frame is never taken for another code:
 - out of tolerance, or mark and space disagreeing, after a bit was read: a collision (two
   emitters overlapping stretch the marks and shorten the spaces);
 - a long gap before the 8th bit: a half code; a 9th mark before the gap: a collision;
-- the same level twice: a dropped edge.
+- the same level twice: a dropped edge; a lost mark start is recovered (the space before
+  it has a known width), a lost mark end loses the frame.
 
 After a lost frame the decoder waits for the next long gap before it reads again.
 
@@ -25,7 +26,19 @@ from drivers.dock_ir.stats import DecodeStats
 
 BIT_MARK_ONE_US = 3000
 BIT_MARK_ZERO_US = 1000
+ONE_SPACE_US = 1000
+ZERO_SPACE_US = 3000
 FRAME_BITS = 8
+INFERRED_MARGIN_US = 500  # an inferred mark width carries two pulses' jitter
+
+
+def _nearest_bit(mark_us: int) -> int:
+    """An inferred mark's bit: within 500 us of 3 ms -> 1, of 1 ms -> 0, else -1."""
+    if abs(mark_us - BIT_MARK_ONE_US) <= INFERRED_MARGIN_US:
+        return 1
+    if abs(mark_us - BIT_MARK_ZERO_US) <= INFERRED_MARGIN_US:
+        return 0
+    return -1
 
 
 class EdgeDecoder:
@@ -73,9 +86,7 @@ class EdgeDecoder:
         dt = t_us - self._last_t
         self._in_mark, self._last_t = mark, t_us
         if mark == was_mark:
-            self.stats.dropped_edges += 1
-            self._lose()
-            return None
+            return self._edge_lost(mark, dt)
         if dt < 0:
             self.stats.clock_steps += 1
             self._lose()
@@ -135,6 +146,34 @@ class EdgeDecoder:
             self.stats.half_codes += 1
         self._start_frame()
         return code
+
+    def _edge_lost(self, mark: bool, dt: int) -> int | None:
+        """The same level twice: the edge between was lost (a missed interrupt).
+
+        A lost mark START is recoverable: from the last mark's end to this edge lie that bit's
+        space, whose width its mark already fixed, and the next mark, so the next mark's width
+        is the rest (two pulses' jitter in it, hence the wider window). A lost mark END hides
+        whether the bit was 3 + 1 or 1 + 3 ms: that frame is lost.
+        """
+        if not mark and self._synced and dt >= 0:
+            if self._nbits == FRAME_BITS and dt > self.gap_us:
+                # The gap after a whole frame came, then a mark whose start we missed.
+                self.stats.recovered_edges += 1
+                code = self._gap()
+                self._lose()  # the frame that mark began cannot be read
+                return code
+            if 0 < self._nbits < FRAME_BITS:
+                space_us = ONE_SPACE_US if self._bit == 1 else ZERO_SPACE_US
+                bit = _nearest_bit(dt - space_us)
+                if bit >= 0:
+                    self.stats.recovered_edges += 1
+                    self._bit = bit
+                    self._nbits += 1
+                    self._bits = (self._bits << 1) | bit
+                    return None
+        self.stats.dropped_edges += 1
+        self._lose()
+        return None
 
     # --- helpers ----------------------------------------------------------------------------
     def _classify(self, width_us: int) -> int:

@@ -19,7 +19,8 @@ class DecodeStats:
     glitches: int = 0  # a pulse out of tolerance at a frame's start, or a noise spike
     half_codes: int = 0  # a frame cut short by a long gap before its 8th bit
     collisions: int = 0  # mark and space widths that disagree mid-frame, or a frame too long
-    dropped_edges: int = 0  # the same level twice in a row: an edge was lost
+    dropped_edges: int = 0  # the same level twice in a row: an edge was lost, and the frame
+    recovered_edges: int = 0  # a lost mark start, the frame read all the same
     clock_steps: int = 0  # an edge stamped before the one before it
 
     @property

@@ -86,6 +86,29 @@ class TestDamagedStreams:
         assert dec.stats.dropped_edges > 0
         assert len(out) + dec.stats.errors >= 0.9 * len(codes)
 
+    def test_a_lost_mark_start_is_recovered(self) -> None:
+        """Without the 3rd mark's start the frame still decodes (the space before is known)."""
+        edges = stream([172, 172], jitter_us=150)
+        del edges[4]  # the 3rd mark's start
+        out, dec = decode(edges)
+        assert out == [172, 172]
+        assert dec.stats.recovered_edges == 1 and dec.stats.errors == 0
+
+    def test_a_lost_mark_end_loses_only_that_frame(self) -> None:
+        """Without a mark's end the bit is unknowable: the frame is counted, the next decodes."""
+        edges = stream([165, 169])
+        del edges[5]  # the 3rd mark's end
+        out, dec = decode(edges)
+        assert out == [169]
+        assert dec.stats.dropped_edges == 1
+
+    def test_a_lost_first_mark_start_keeps_the_frame_before(self) -> None:
+        """The next frame's first mark start lost: the whole frame before it still counts."""
+        edges = stream([161, 164, 168])
+        del edges[16]  # the second frame's first mark start
+        out, _dec = decode(edges)
+        assert out == [161, 168]
+
     def test_two_emitters_colliding_give_no_wrong_code(self) -> None:
         """Two emitters overlapping at random offsets: collisions counted, no invented code."""
         rng = random.Random(5)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 from collections.abc import Callable
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Protocol, runtime_checkable
 
@@ -32,11 +33,27 @@ class Hx711Lines(Protocol):
     def now_us(self) -> int: ...
 
 
+@dataclass(frozen=True, slots=True)
+class IrEdge:
+    """One level change on an IR receiver's pin: the level after it, and when (microseconds)."""
+
+    receiver: str
+    level: bool
+    t_us: int
+
+
 @runtime_checkable
 class IrEdgeSource(Protocol):
-    """Edges seen by the IR receivers: (receiver name, level, timestamp in microseconds)."""
+    """Edges seen by the IR receivers, delivered in batches (never a loop wake-up per edge).
 
-    async def next_edge(self) -> tuple[str, bool, int]: ...
+    ``next_edges`` waits for at least one edge and returns every edge pending, oldest first.
+    ``now_us`` reads the clock the edges are stamped with, so a reader can tell that a line
+    has been quiet long enough to close a frame.
+    """
+
+    async def next_edges(self) -> list[IrEdge]: ...
+    def now_us(self) -> int: ...
+    def close(self) -> None: ...
 
 
 WallClock = Callable[[], datetime]

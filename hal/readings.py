@@ -136,21 +136,21 @@ class LidarScan:
         return np.column_stack((ranges * np.cos(angles), ranges * np.sin(angles)))
 
 
-class DockBeam(Enum):
-    """The dock's IR beams, each sent with its own code."""
-
-    LEFT = "left"
-    RIGHT = "right"
-    CENTER = "center"
-    NEAR = "near"
-
-
 @dataclass(frozen=True, slots=True)
 class DockIrReading:
-    """Which dock beams each receiver on the robot sees (receiver name -> beams)."""
+    """What each dock IR receiver saw over the last window (receiver name -> ...).
 
-    beams: dict[str, frozenset[DockBeam]] = field(default_factory=dict)
+    ``codes``: the 8-bit beam codes decoded (known or not); ``beams``: the names the code
+    table gives them (a combination code names each beam in it, e.g. red_buoy, green_buoy).
+    A receiver that saw nothing has empty sets.
+    """
+
+    codes: dict[str, frozenset[int]] = field(default_factory=dict)
+    beams: dict[str, frozenset[str]] = field(default_factory=dict)
     t_s: float = 0.0
+
+    def sees(self, receiver: str, beam: str) -> bool:
+        return beam in self.beams.get(receiver, frozenset())
 
 
 class LedMode(Enum):

@@ -12,6 +12,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from typing import overload
 
 from drivers.arduino.config import SERIAL
+from drivers.dock_ir.config import IR_OPTIONS, IR_ORDERS
 from drivers.lidar.config import LIDAR, LIDAR_ORDERS
 from hal.options import Option, Order, Section
 from robotd.profiles import PROFILES, ProfileRegistry
@@ -185,6 +186,7 @@ _CORE: tuple[Section, ...] = (
     Section("docking", "Returning to the dock (seed 001).", (
         opt("battery_threshold_pct", "float", 20.0, "Go to the dock below this charge.",
           min=0, max=100, tunable=True),
+        *IR_OPTIONS,
     )),
     Section("sim", "The simulated world (hal.backend = sim).", (
         opt("seed", "int", 1, "Random seed for sensor noise.", min=0),
@@ -202,6 +204,7 @@ _CORE_ORDERS: tuple[Order, ...] = (
     Order(("line_follow.roi_top", "line_follow.roi_bottom")),
     Order(("safety.stop_distance_cm", "safety.resume_distance_cm"), strict=False),
     *LIDAR_ORDERS,
+    *IR_ORDERS,
 )
 
 

@@ -17,6 +17,8 @@ PROBES: dict[str, tuple[str, str]] = {
     "ble": ("robotd.probes.ble", "BLE iBeacons in range: MAC, UUID, major/minor, RSSI"),
     "camera": ("robotd.probes.camera", "the camera: frame rate and size, line detection"),
     "hx711": ("robotd.probes.hx711", "the HX711 load cell: raw counts, kg, noise"),
+    "dockir": ("robotd.probes.dockir", "the dock IR receivers: codes per second, decode errors; "
+               "--replay a Flipper .ir capture"),
 }
 """Device name -> (module path, one-line description)."""
 

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import asyncio
-from collections.abc import Awaitable, Callable
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import structlog
 
+from robotd.sim.actions import ACTIONS, Step
 from robotd.sim.scenario import Scenario, ScenarioError, ScriptStep
 
 if TYPE_CHECKING:
@@ -16,28 +17,8 @@ if TYPE_CHECKING:
 
 log = structlog.get_logger(__name__)
 
-Action = Callable[["SimRig", dict[str, Any]], Awaitable[None] | None]
-
-
-def _person(scenario: Scenario, args: dict[str, Any], present: bool) -> None:
-    name = str(args.get("name", ""))
-    for person in scenario.world.people:
-        if person.name == name:
-            person.present = present
-            if "x_m" in args:
-                person.x_m = float(args["x_m"])
-            if "y_m" in args:
-                person.y_m = float(args["y_m"])
-            return
-    msg = f"no person named {name!r}"
-    raise ScenarioError(msg)
-
-
 class ScriptPlayer:
     """Runs each step at its time (seconds from the start), on the loop's clock."""
-
-    ACTIONS = ("mcu.unplug", "mcu.replug", "mcu.corrupt", "mcu.reset", "payload.set",
-               "person.place", "person.remove", "settings.set")
 
     def __init__(self, scenario: Scenario, rigs: dict[str, SimRig],
                  record: Callable[[dict[str, Any]], None], console: SimConsole,
@@ -51,9 +32,9 @@ class ScriptPlayer:
         self._state_changed = asyncio.Event()
         self._pending: set[asyncio.Task[None]] = set()
         for i, step in enumerate(scenario.script):
-            if step.action not in self.ACTIONS:
+            if step.action not in ACTIONS:
                 msg = (f"script[{i}].action: unknown action {step.action!r} "
-                       f"(known: {', '.join(self.ACTIONS)})")
+                       f"(known: {', '.join(ACTIONS)})")
                 raise ScenarioError(msg)
             robot = step.args.get("robot")
             if robot is not None and robot not in rigs:
@@ -94,26 +75,8 @@ class ScriptPlayer:
                                                                      "delay_s")}})
         self.console.event(asyncio.get_running_loop().time(),
                            f"script: {step.action} {_args_text(args)}".rstrip())
-        duration = args.get("duration_s")
-        if step.action == "mcu.unplug":
-            rig.unplug_mcu()
-            if duration is not None:
-                self._later(float(duration), rig.replug_mcu, "mcu.replug", robot)
-        elif step.action == "mcu.replug":
-            rig.replug_mcu()
-        elif step.action == "mcu.corrupt":
-            rig.corrupt_mcu(float(args.get("pct", 2.0)))
-            if duration is not None:
-                self._later(float(duration), lambda: rig.corrupt_mcu(0.0), "mcu.corrupt_end",
-                            robot)
-        elif step.action == "mcu.reset":
-            rig.reset_mcu()
-        elif step.action == "payload.set":
-            rig.body.payload_kg = float(args.get("kg", 0.0))
-        elif step.action in ("person.place", "person.remove"):
-            _person(self.scenario, args, step.action == "person.place")
-        elif step.action == "settings.set":
-            rig.settings.set(str(args["key"]), args["value"])
+        ACTIONS[step.action](Step(self.scenario, robot, rig, args,
+                                  lambda delay_s, fn, name: self._later(delay_s, fn, name, robot)))
 
     def _later(self, delay_s: float, fn: Callable[[], None], name: str, robot: str) -> None:
         async def later() -> None:

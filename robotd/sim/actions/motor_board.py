@@ -1,0 +1,36 @@
+"""Script actions on a robot's motor board: unplug, replug, corrupt, reset."""
+
+from __future__ import annotations
+
+from robotd.sim.actions.step import Action, Step
+
+
+def _unplug(step: Step) -> None:
+    step.rig.unplug_mcu()
+    duration = step.duration_s()
+    if duration is not None:
+        step.later(duration, step.rig.replug_mcu, "mcu.replug")
+
+
+def _replug(step: Step) -> None:
+    step.rig.replug_mcu()
+
+
+def _corrupt(step: Step) -> None:
+    rig = step.rig
+    rig.corrupt_mcu(float(step.args.get("pct", 2.0)))
+    duration = step.duration_s()
+    if duration is not None:
+        step.later(duration, lambda: rig.corrupt_mcu(0.0), "mcu.corrupt_end")
+
+
+def _reset(step: Step) -> None:
+    step.rig.reset_mcu()
+
+
+MOTOR_BOARD_ACTIONS: dict[str, Action] = {
+    "mcu.unplug": _unplug,
+    "mcu.replug": _replug,
+    "mcu.corrupt": _corrupt,
+    "mcu.reset": _reset,
+}

@@ -1,0 +1,30 @@
+"""One script step as an action sees it."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from robotd.sim.rig import SimRig
+    from robotd.sim.scenario import Scenario
+
+
+@dataclass(frozen=True, slots=True)
+class Step:
+    """The step's robot, its arguments, and how to schedule the end of a timed fault."""
+
+    scenario: Scenario
+    robot: str
+    rig: SimRig
+    args: dict[str, Any]
+    later: Callable[[float, Callable[[], None], str], None]
+    """``later(delay_s, fn, name)``: run ``fn`` then, recorded as the script action ``name``."""
+
+    def duration_s(self) -> float | None:
+        value = self.args.get("duration_s")
+        return None if value is None else float(value)
+
+
+Action = Callable[[Step], None]

@@ -1,1 +1,1 @@
-"""Real device drivers, written against hal ports: Arduino link, camera, BLE, HX711."""
+"""Real device drivers on hal ports: Arduino link, camera, BLE, HX711, dock IR, LD19 LiDAR."""

@@ -1,1 +1,1 @@
-"""Hardware abstraction layer: what behaviours see of the robot's devices."""
+"""Hardware abstraction: device Protocols and readings, ports, the settings view, loop time."""

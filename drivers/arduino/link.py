@@ -35,7 +35,7 @@ from hal.readings import (
     RangeReading,
 )
 from hal.settings import SettingsView
-from hal.tasks import cancel_and_wait
+from hal.tasks import cancel_and_wait, reconnect_forever
 
 log = structlog.get_logger(__name__)
 
@@ -247,18 +247,11 @@ class ArduinoLink:
 
     # -- connection lifecycle ----------------------------------------------------------------
     async def _supervise(self) -> None:
-        backoff_s = self.config.reconnect_min_s
-        while not self._closing:
-            error = await self._connect_once()
-            if error is None:
-                backoff_s = self.config.reconnect_min_s
-            if self._first is not None and not self._first.done():
-                self._first.set_result(error)
-                if error is not None:
-                    return
-            log.info("link.reconnect_wait", port=self.config.port, wait_s=backoff_s)
-            await asyncio.sleep(backoff_s)
-            backoff_s = min(backoff_s * 2, self.config.reconnect_max_s)
+        await reconnect_forever(
+            self._connect_once, first=self._first, min_s=self.config.reconnect_min_s,
+            max_s=self.config.reconnect_max_s, running=lambda: not self._closing,
+            on_wait=lambda wait_s: log.info("link.reconnect_wait", port=self.config.port,
+                                            wait_s=wait_s))
 
     async def _connect_once(self) -> str | None:
         """One connection from open to break; None when it got up, else why it did not."""

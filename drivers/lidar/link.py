@@ -24,7 +24,7 @@ from hal.devices import DeviceUnavailable, LidarStale
 from hal.latest import LatestValue
 from hal.ports import SerialOpener
 from hal.readings import LidarScan
-from hal.tasks import cancel_and_wait
+from hal.tasks import cancel_and_wait, reconnect_forever
 
 log = structlog.get_logger(__name__)
 
@@ -118,18 +118,11 @@ class Ld19Lidar:
 
     # -- connection lifecycle ----------------------------------------------------------------
     async def _supervise(self) -> None:
-        backoff_s = self.config.reconnect_min_s
-        while True:
-            error = await self._connect_once()
-            if error is None:
-                backoff_s = self.config.reconnect_min_s
-            if self._first is not None and not self._first.done():
-                self._first.set_result(error)
-                if error is not None:
-                    return
-            log.info("lidar.reconnect_wait", port=self.config.port, wait_s=backoff_s)
-            await asyncio.sleep(backoff_s)
-            backoff_s = min(backoff_s * 2, self.config.reconnect_max_s)
+        await reconnect_forever(
+            self._connect_once, first=self._first, min_s=self.config.reconnect_min_s,
+            max_s=self.config.reconnect_max_s,
+            on_wait=lambda wait_s: log.info("lidar.reconnect_wait", port=self.config.port,
+                                            wait_s=wait_s))
 
     async def _connect_once(self) -> str | None:
         """One connection from open to loss; None when packets flowed, else why not."""

@@ -20,12 +20,8 @@ from transitions.extensions.asyncio import (
 )
 
 from behaviours.context import RobotContext
-from behaviours.machine_tables import (
-    CORE_TRANSITIONS,
-    MAX_DOCK_RETRIES,
-    callback_names,
-    root_states,
-)
+from behaviours.docking.attempts import DockAttempts
+from behaviours.machine_tables import CORE_TRANSITIONS, callback_names, root_states
 from behaviours.profile import Profile, StateTask
 
 log = structlog.get_logger(__name__)
@@ -49,7 +45,7 @@ class MachineModel:
     def __init__(self, runtime: RobotMachine, profile: Profile) -> None:
         self._runtime = runtime
         self._profile = profile
-        self.dock_attempts = 0
+        self._dock_attempts: DockAttempts | None = None
         self.state = "boot"
 
     def __getattr__(self, name: str) -> Any:
@@ -64,14 +60,40 @@ class MachineModel:
     def timed_out(self, _event: Any) -> None:
         self._runtime.post_timeout()
 
-    def reset_dock_attempts(self, _event: Any) -> None:
-        self.dock_attempts = 0
+    # -- docking, section 4 of the seed (behaviours.docking.attempts) ------------------------
+    @property
+    def dock_attempts(self) -> DockAttempts:
+        if self._dock_attempts is None:
+            ctx = self._runtime.ctx
+            self._dock_attempts = DockAttempts(ctx.emit, ctx.store)
+        return self._dock_attempts
 
-    def count_dock_attempt(self, _event: Any) -> None:
-        self.dock_attempts += 1
+    def start_docking(self, _event: Any) -> None:
+        attempts = self.dock_attempts
+        settings = self._runtime.ctx.settings
+        attempts.max_retries = int(settings.get("docking.max_retries"))
+        attempts.max_fallbacks = int(settings.get("docking.max_fallbacks"))
+        attempts.start(asyncio.get_running_loop().time())
+
+    def count_dock_failure(self, event: Any) -> None:
+        self.dock_attempts.failed(event.event.name, self._runtime.state,
+                                  asyncio.get_running_loop().time(),
+                                  str(event.kwargs.get("reason", "")))
 
     def may_retry_docking(self, _event: Any) -> bool:
-        return self.dock_attempts < MAX_DOCK_RETRIES
+        return self.dock_attempts.may_retry()
+
+    def may_fall_back(self, _event: Any) -> bool:
+        return self.dock_attempts.may_fall_back()
+
+    def fell_back(self, _event: Any) -> None:
+        self.dock_attempts.fell_back()
+
+    def gave_up_docking(self, event: Any) -> None:
+        self.dock_attempts.gave_up(str(event.kwargs.get("reason", "")))
+
+    def dock_succeeded(self, _event: Any) -> None:
+        self.dock_attempts.succeeded(asyncio.get_running_loop().time())
 
 
 @dataclass

@@ -8,32 +8,13 @@ from __future__ import annotations
 
 from typing import Any
 
-DOCK_SEARCH_TIMEOUT_S = 180.0
-DOCK_STEP_TIMEOUT_S = 60.0
-EMPTYING_TIMEOUT_S = 60.0
+from behaviours.docking.tables import DOCKING_TRANSITIONS, docking_states
+
 RECOVERY_TIMEOUT_S = 120.0
-MAX_DOCK_RETRIES = 3
-"""The docking seed: fewer than 3 failed attempts retry, the 3rd falls back (section 4)."""
 
 ROOT_STATES = ("boot", "idle", "mission", "docking", "relocate", "recovery", "estop",
                "maintenance")
 MOVING_STATES = ["mission", "docking", "relocate", "recovery"]
-DOCK_STEPS = ["docking.approach", "docking.align", "docking.dock"]
-
-
-def docking_states() -> list[str | dict[str, Any]]:
-    """Seed 001: search (wall follow, turn to the beam), approach, align, dock, charge, empty."""
-    return [
-        {"name": "search", "initial": "wall_follow", "children": ["wall_follow", "turn_to_beam"],
-         "timeout": DOCK_SEARCH_TIMEOUT_S, "on_timeout": "timed_out"},
-        {"name": "approach", "timeout": DOCK_STEP_TIMEOUT_S, "on_timeout": "timed_out"},
-        {"name": "align", "timeout": DOCK_STEP_TIMEOUT_S, "on_timeout": "timed_out"},
-        {"name": "dock", "timeout": DOCK_STEP_TIMEOUT_S, "on_timeout": "timed_out",
-         "on_enter": "count_dock_attempt"},
-        {"name": "charging", "on_enter": "stop_motors"},
-        {"name": "emptying", "timeout": EMPTYING_TIMEOUT_S, "on_timeout": "timed_out",
-         "on_enter": "stop_motors"},
-    ]
 
 
 def root_states(mission_children: list[str | dict[str, Any]]) -> list[dict[str, Any]]:
@@ -48,7 +29,7 @@ def root_states(mission_children: list[str | dict[str, Any]]) -> list[dict[str, 
         {"name": "idle", "on_enter": "stop_motors"},
         mission,
         {"name": "docking", "initial": "search", "children": docking_states(),
-         "on_enter": "reset_dock_attempts"},
+         "on_enter": "start_docking"},
         {"name": "relocate"},
         {"name": "recovery", "on_enter": "stop_motors", "timeout": RECOVERY_TIMEOUT_S,
          "on_timeout": "timed_out"},
@@ -58,27 +39,12 @@ def root_states(mission_children: list[str | dict[str, Any]]) -> list[dict[str, 
 
 
 CORE_TRANSITIONS: list[dict[str, Any]] = [
+    *DOCKING_TRANSITIONS,
     {"trigger": "booted", "source": "boot", "dest": "idle"},
     {"trigger": "start_mission", "source": "idle", "dest": "mission"},
     {"trigger": "mission_done", "source": "mission", "dest": "idle"},
     {"trigger": "go_dock", "source": ["idle", "mission", "relocate", "recovery"],
      "dest": "docking"},
-    {"trigger": "beam_found", "source": "docking.search", "dest": "docking.approach"},
-    {"trigger": "beams_overlap", "source": "docking.approach", "dest": "docking.align"},
-    {"trigger": "aligned", "source": "docking.align", "dest": "docking.dock"},
-    {"trigger": "misaligned", "source": "docking.dock", "dest": "docking.align"},
-    {"trigger": "contact", "source": "docking.dock", "dest": "docking.charging"},
-    {"trigger": "signal_lost", "source": DOCK_STEPS, "dest": "docking.search",
-     "conditions": "may_retry_docking"},
-    {"trigger": "signal_lost", "source": DOCK_STEPS, "dest": "recovery"},
-    {"trigger": "timeout", "source": DOCK_STEPS, "dest": "docking.search",
-     "conditions": "may_retry_docking"},
-    {"trigger": "timeout", "source": DOCK_STEPS, "dest": "recovery"},
-    {"trigger": "timeout", "source": "docking.search", "dest": "recovery"},
-    {"trigger": "empty_bin", "source": "docking.charging", "dest": "docking.emptying"},
-    {"trigger": "emptied", "source": "docking.emptying", "dest": "docking.charging"},
-    {"trigger": "timeout", "source": "docking.emptying", "dest": "docking.charging"},
-    {"trigger": "undock", "source": "docking.charging", "dest": "idle"},
     {"trigger": "lost", "source": ["idle", "mission"], "dest": "relocate"},
     {"trigger": "relocated", "source": "relocate", "dest": "idle"},
     {"trigger": "fault", "source": ["mission", "docking", "relocate"], "dest": "recovery"},

@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Iterator, Mapping, Sequence
 from typing import overload
 
+from behaviours.docking.config import DOCKING_OPTIONS, DOCKING_ORDERS
 from drivers.arduino.config import SERIAL
 from drivers.dock_ir.config import IR_OPTIONS, IR_ORDERS
 from drivers.lidar.config import LIDAR, LIDAR_ORDERS
@@ -183,11 +184,7 @@ _CORE: tuple[Section, ...] = (
         opt("timeout_s", "float", 1.0, "Longest wait for data-ready.", min=0.05, max=10),
     )),
     LIDAR,
-    Section("docking", "Returning to the dock (seed 001).", (
-        opt("battery_threshold_pct", "float", 20.0, "Go to the dock below this charge.",
-          min=0, max=100, tunable=True),
-        *IR_OPTIONS,
-    )),
+    Section("docking", "Returning to the dock (seed 001).", (*DOCKING_OPTIONS, *IR_OPTIONS)),
     Section("sim", "The simulated world (hal.backend = sim).", (
         opt("seed", "int", 1, "Random seed for sensor noise.", min=0),
         opt("scenario", "str", "", "Scenario file or built-in name the world comes from."),
@@ -205,6 +202,7 @@ _CORE_ORDERS: tuple[Order, ...] = (
     Order(("safety.stop_distance_cm", "safety.resume_distance_cm"), strict=False),
     *LIDAR_ORDERS,
     *IR_ORDERS,
+    *DOCKING_ORDERS,
 )
 
 

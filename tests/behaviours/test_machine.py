@@ -8,11 +8,11 @@ from typing import Any
 import pytest
 
 from behaviours.context import RobotContext
+from behaviours.docking.tables import SEARCH_TIMEOUT_S as DOCK_SEARCH_TIMEOUT_S
+from behaviours.docking.tables import STEP_TIMEOUT_S as DOCK_STEP_TIMEOUT_S
 from behaviours.machine import MachineModel, RobotMachine
 from behaviours.machine_tables import (
     CORE_TRANSITIONS,
-    DOCK_SEARCH_TIMEOUT_S,
-    DOCK_STEP_TIMEOUT_S,
     ROOT_STATES,
     callback_names,
     root_states,
@@ -104,6 +104,13 @@ def run_with(profile: BaseProfile, body: Any) -> Any:
     return vclock.run(main())
 
 
+TO_POSITION = ["beam_detected", "field_detected", "direction_found"]
+TO_DOCK = [*TO_POSITION, "front_seen", "centered", "overlap_reached", "front_both",
+           "in_overlap", "approached", "center_found", "compare", "balanced", "aligned",
+           "touched", "contact_made"]
+FROM_ALIGN = TO_DOCK[TO_DOCK.index("center_found"):]
+
+
 class TestTables:
     def test_every_callback_named_in_the_tables_exists(self) -> None:
         """Each callback/condition string in the core tables is a MachineModel method."""
@@ -130,10 +137,10 @@ class TestTransitions:
         """Entering docking lands in docking.search.wall_follow, shown with dots."""
         async def body(rig: Rig) -> str:
             await rig.machine.trigger("go_dock")
-            await rig.machine.trigger("beam_found")
+            await rig.machine.trigger("beam_detected")
             return rig.machine.state
 
-        assert run_with(IdleProfile(), body) == "docking.approach"
+        assert run_with(IdleProfile(), body) == "docking.search.force_field_detect"
 
     def test_every_transition_is_reported_with_source_destination_and_trigger(self) -> None:
         """on_transition hears (src, dst, trigger) for each transition, in order."""
@@ -154,7 +161,7 @@ class TestTransitions:
         assert run_with(IdleProfile(), body) == (False, False, "idle")
 
     @pytest.mark.parametrize("path", [
-        ["start_mission"], ["go_dock"], ["go_dock", "beam_found", "beams_overlap"],
+        ["start_mission"], ["go_dock"], ["go_dock", *TO_POSITION],
         ["lost"], ["maintenance"], ["start_mission", "fault"],
     ])
     def test_estop_is_reachable_from_every_state_and_stops_the_motors(
@@ -197,11 +204,12 @@ class TestTransitions:
 
 class TestTimeouts:
     def test_a_dock_step_that_takes_too_long_goes_back_to_search(self) -> None:
-        """docking.approach times out after DOCK_STEP_TIMEOUT_S (virtual time)."""
+        """docking.position times out after DOCK_STEP_TIMEOUT_S (virtual time): a failure."""
         async def body(rig: Rig) -> tuple[str, float]:
             loop = asyncio.get_running_loop()
             await rig.machine.trigger("go_dock")
-            await rig.machine.trigger("beam_found")
+            for trigger in TO_POSITION:
+                await rig.machine.trigger(trigger)
             start = loop.time()
             rig.moved.clear()
             await rig.moved.wait()
@@ -215,29 +223,40 @@ class TestTimeouts:
         """Leaving a timed state cancels its timeout: nothing happens at the old deadline."""
         async def body(rig: Rig) -> str:
             await rig.machine.trigger("go_dock")
-            await rig.machine.trigger("beam_found")
+            for trigger in TO_POSITION:
+                await rig.machine.trigger(trigger)
+            await rig.machine.trigger("front_seen")
+            await rig.machine.trigger("centered")
             await asyncio.sleep(DOCK_STEP_TIMEOUT_S - 1)
-            await rig.machine.trigger("beams_overlap")
+            await rig.machine.trigger("overlap_reached")
             await asyncio.sleep(DOCK_STEP_TIMEOUT_S - 2)
             return rig.machine.state
 
-        assert run_with(IdleProfile(), body) == "docking.align"
+        assert run_with(IdleProfile(), body) == "docking.approach.front_beam_detect"
 
-    def test_three_failed_dock_attempts_end_in_recovery(self) -> None:
-        """The seed's retry limit: the third failed attempt falls back to recovery."""
-        async def body(rig: Rig) -> list[str]:
+    def test_the_third_failure_falls_back_and_spent_fallbacks_end_in_recovery(self) -> None:
+        """Section 4: under 3 failures retry, at 3 fall back to wall following (count reset);
+        after docking.max_fallbacks (2) fallbacks the next one is refused: recovery."""
+        async def body(rig: Rig) -> tuple[list[str], list[dict[str, Any]]]:
             await rig.machine.trigger("go_dock")
             seen = []
-            for _ in range(3):
-                await rig.machine.trigger("beam_found")
-                await rig.machine.trigger("beams_overlap")
-                await rig.machine.trigger("aligned")
-                await rig.machine.trigger("signal_lost")
+            for _ in range(9):
+                state = rig.machine.state
+                if state == "docking.dock.retry":
+                    assert await rig.machine.trigger("backed_off")
+                path = TO_DOCK if state.startswith("docking.search") else FROM_ALIGN
+                for trigger in path:
+                    assert await rig.machine.trigger(trigger), trigger
+                await rig.machine.trigger("voltage_abnormal", reason="contacts at 6500 mV")
                 seen.append(rig.machine.state)
-            return seen
+            return seen, [f for k, f in rig.events if k == "dock.result"]
 
-        assert run_with(IdleProfile(), body) == [
-            "docking.search.wall_follow", "docking.search.wall_follow", "recovery"]
+        states, results = run_with(IdleProfile(), body)
+        retry, fallback = "docking.dock.retry", "docking.search.wall_follow"
+        assert states == [retry, retry, fallback] * 2 + [retry, retry, "recovery"]
+        assert [r["error_code"] for r in results] == [906] * 9
+        assert [r["retries"] for r in results] == [1, 2, 3] * 3
+        assert all(r["success"] is False for r in results)
 
 
 class TestStateTasks:
@@ -295,14 +314,21 @@ class TestStateTasks:
         assert "wheel jammed" in events[0][1]["error"]
 
     def test_a_search_that_finds_no_beam_ends_in_recovery(self) -> None:
-        async def body(rig: Rig) -> tuple[str, float]:
+        """Each search times out (904); 3 of them fall back; with the fallbacks spent the
+        robot goes to recovery: 9 searches of DOCK_SEARCH_TIMEOUT_S."""
+        async def body(rig: Rig) -> tuple[str, float, list[int]]:
             loop = asyncio.get_running_loop()
             await rig.machine.trigger("go_dock")
-            rig.moved.clear()
-            await rig.moved.wait()
-            return rig.machine.state, loop.time()
+            while rig.machine.state != "recovery":
+                rig.moved.clear()
+                await rig.moved.wait()
+            codes = [f["error_code"] for k, f in rig.events if k == "dock.result"]
+            return rig.machine.state, loop.time(), codes
 
-        assert run_with(IdleProfile(), body) == ("recovery", DOCK_SEARCH_TIMEOUT_S)
+        state, t_s, codes = run_with(IdleProfile(), body)
+        assert state == "recovery"
+        assert t_s == pytest.approx(9 * DOCK_SEARCH_TIMEOUT_S)
+        assert codes == [904] * 9
 
 
 class TestDriver:

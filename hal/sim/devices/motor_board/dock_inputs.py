@@ -30,7 +30,8 @@ PERIODS_S = {"IRS": 0.05, "DOCK": 0.2, "BUMP": 1.0, "WALL": 0.1, "BIN": 1.0}
 _EARLY_S = 1e-6  # a tick this close to a line's due time sends it (float sums drift)
 
 
-def _read(source: Source[T]) -> T | None:
+def read_source(source: Source[T]) -> T | None:
+    """A source's value now: itself, or what its callable returns."""
     return source() if callable(source) else source
 
 
@@ -51,7 +52,8 @@ class DockInputs:
         self._dock_due: dict[str, float] = {}
         self._bumpers_sent: tuple[bool, bool] | None = None
 
-    def _set_evac(self, on: bool, t_s: float) -> None:
+    def record_evac(self, on: bool, t_s: float) -> None:
+        """The EVAC output is now ``on`` (by command here; the simavr bridge reads the pin)."""
         if on == self.evac:
             return
         self.evac = on
@@ -62,19 +64,19 @@ class DockInputs:
     def _dock_fields(self) -> dict[str, bytes]:
         """The fields of each docking line whose sensor the robot has, read now."""
         fields: dict[str, bytes] = {}
-        if (signal := _read(self.dock_signal)) is not None:
+        if (signal := read_source(self.dock_signal)) is not None:
             fields["IRS"] = b"%d,%d" % (round(signal[0]), round(signal[1]))
-        if (contact_mv := _read(self.contact_mv)) is not None:
+        if (contact_mv := read_source(self.contact_mv)) is not None:
             fields["DOCK"] = b"%d" % round(contact_mv)
-        if (bumpers := _read(self.bumpers)) is not None:
+        if (bumpers := read_source(self.bumpers)) is not None:
             pressed = (bool(bumpers[0]), bool(bumpers[1]))
             fields["BUMP"] = b"%d,%d" % pressed
             if pressed != self._bumpers_sent:
                 self._bumpers_sent = pressed
                 self._dock_due["BUMP"] = 0.0  # a change goes out at once
-        if (wall_cm := _read(self.wall_cm)) is not None:
+        if (wall_cm := read_source(self.wall_cm)) is not None:
             fields["WALL"] = b"%d" % round(wall_cm)
-        if (bin_pct := _read(self.bin_pct)) is not None:
+        if (bin_pct := read_source(self.bin_pct)) is not None:
             fields["BIN"] = b"%d" % round(bin_pct)
         return fields
 

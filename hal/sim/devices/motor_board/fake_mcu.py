@@ -196,7 +196,7 @@ class FakeMcu(DockInputs):
         self._boot_state()
         log.info("fake_mcu.reset", boots=self.boots)
         loop = asyncio.get_running_loop()
-        self._set_evac(False, loop.time())
+        self.record_evac(False, loop.time())
         self.uart.deaf_until_s = loop.time() + self.boot_s
         if self.announce_boot:
             loop.call_at(self.uart.deaf_until_s, self._send_lines,
@@ -293,7 +293,7 @@ class FakeMcu(DockInputs):
         elif word == "HELLO":
             return self._hello()
         elif word == "EVAC":
-            self._set_evac(args[0] == 1, self.executed[-1].t_s)
+            self.record_evac(args[0] == 1, self.executed[-1].t_s)
         else:
             self.leds.append(word)
         return "ACK"

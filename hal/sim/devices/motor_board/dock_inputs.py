@@ -27,7 +27,7 @@ T = TypeVar("T")
 Source: TypeAlias = T | Callable[[], T] | None
 
 PERIODS_S = {"IRS": 0.05, "DOCK": 0.2, "BUMP": 1.0, "WALL": 0.1, "BIN": 1.0}
-_EARLY_S = 1e-6  # a tick this close to a line's due time sends it (float sums drift)
+_SLACK = 0.25
 
 
 def read_source(source: Source[T]) -> T | None:
@@ -43,6 +43,10 @@ class DockInputs:
     bumpers: Source[tuple[bool, bool]]
     wall_cm: Source[float]
     bin_pct: Source[float]
+
+    def __init__(self) -> None:
+        """Standalone: a bench's set of sources (``FakeMcu`` calls ``_init_dock_inputs``)."""
+        self._init_dock_inputs()
 
     def _init_dock_inputs(self) -> None:
         self.dock_signal = self.contact_mv = self.bumpers = self.wall_cm = self.bin_pct = None
@@ -87,13 +91,14 @@ class DockInputs:
             return b""
         out = []
         for name, value in self._dock_fields().items():
-            due_s = self._dock_due.get(name, 0.0)
-            if now_s + _EARLY_S < due_s:
+            due_s, period_s = self._dock_due.get(name, 0.0), PERIODS_S[name]
+            # The ticks come late by the loop's jitter (a pty, real time): a line is due at a
+            # tick within a quarter period of its time, and keeps its cadence; one that is
+            # late by more (just fed, or a bumper change) starts a new cadence from now.
+            if now_s < due_s - _SLACK * period_s:
                 continue
-            period_s = PERIODS_S[name]
-            # On time: keep the cadence; late (just fed, or a change): restart it from now.
             next_s = due_s + period_s
-            self._dock_due[name] = next_s if next_s > now_s + _EARLY_S else now_s + period_s
+            self._dock_due[name] = next_s if next_s > now_s else now_s + period_s
             body = b"%s:%s" % (name.encode(), value)
             out.append(b"%s*%02X\n" % (body, crc8_fast(body)) if crc else body + b"\n")
         return b"".join(out)

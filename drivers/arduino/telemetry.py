@@ -3,12 +3,14 @@
 ``ENCODER:<left>,<right>`` cumulative signed ticks; ``IR:<distance cm>``;
 ``BAT:<mV>,<percent>,<on dock 0|1>``; ``BOOT:<firmware>,<protocol>`` (the MCU has just started,
 optional: firmware that does not send it is detected by nothing worse than a slower resync).
+The docking lines (``IRS``, ``DOCK``, ``BUMP``, ``WALL``, ``BIN``) are in ``dock_telemetry``.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from drivers.arduino.dock_telemetry import DockReading, DockTelemetryError, interpret_dock
 from drivers.arduino.framing import Telemetry
 from hal.readings import BatteryReading, EncoderReading, RangeReading
 
@@ -20,7 +22,8 @@ class Boot:
     t_s: float
 
 
-Reading = EncoderReading | RangeReading | BatteryReading | Boot
+Reading = EncoderReading | RangeReading | BatteryReading | Boot | DockReading
+
 
 class TelemetryError(ValueError):
     """A telemetry line of a known kind whose fields do not fit; says which and why."""
@@ -67,4 +70,7 @@ def interpret(line: Telemetry, t_s: float) -> Reading | None:
             msg = f"BOOT: expected <firmware>,<protocol>, got {','.join(line.fields)!r}"
             raise TelemetryError(msg)
         return Boot(line.fields[0], int(line.fields[1]), t_s)
-    return None
+    try:
+        return interpret_dock(line, t_s)
+    except DockTelemetryError as exc:
+        raise TelemetryError(str(exc)) from None

@@ -61,8 +61,8 @@ DEFAULT_BEAMS: tuple[Beam, ...] = (
     # Slot 0 is the OI home base: force field, red and green buoy sent together, so where
     # they overlap a receiver reads their OR (165, 169, 172, 173).
     Beam("force_field", 161, 0.0, 180.0, 0.6, slot=0),
-    Beam("front_left", 168, -9.0, 13.0, 2.5, apex_left_m=-0.03, slot=0),
-    Beam("front_right", 164, 9.0, 13.0, 2.5, apex_left_m=0.03, slot=0),
+    Beam("front_left", 168, -9.0, 13.0, 2.5, slot=0),
+    Beam("front_right", 164, 9.0, 13.0, 2.5, slot=0),
     # Wide and long, one side each, for the search; they overlap nothing of their own slot.
     Beam("far_left", 184, -50.0, 40.0, 4.0, apex_left_m=-0.10, slot=1),
     Beam("far_right", 180, 50.0, 40.0, 4.0, apex_left_m=0.10, slot=2),

@@ -13,12 +13,13 @@ from typing import Any
 
 import structlog
 
-from drivers import ble_scanner, hx711
+from drivers import ble_scanner, dock_ir, hx711
 from drivers.arduino.link import ArduinoLink
 from drivers.serial_port import open_serial
 from hal.backend import Devices
 from hal.sim.devices.ble_model import BleAirParams, SimBleAir
 from hal.sim.devices.camera_model import CameraMount, SimCamera
+from hal.sim.devices.dock_ir_model import SimDockIr, dock_signal
 from hal.sim.devices.hx711_model import SimHx711Lines
 from hal.sim.devices.motor_board.fake_mcu import FakeMcu
 from hal.sim.devices.motor_board.simavr_bridge import SimavrBridge
@@ -53,6 +54,7 @@ class SimRig:
         self._models: list[Any] = []
         self.air: SimBleAir | None = None
         self.hx711_lines: SimHx711Lines | None = None
+        self.dock_ir: SimDockIr | None = None
         rng_key = f"{seed}:{index}"
         if "camera" in needs:
             mount = CameraMount(width_px=settings.get("camera.width"),
@@ -72,6 +74,13 @@ class SimRig:
                 clock=asyncio.get_running_loop().time)
             self.hx711_lines = lines
             self.devices.load_cell = hx711.from_settings(settings, lambda: lines)
+        if "dock_ir" in needs:
+            # The real driver on the receivers' simulated GPIO lines (only the fitted ones).
+            fitted = dock_ir.DockIrConfig.from_settings(settings).lines
+            source = SimDockIr(body, receivers=tuple(fitted),
+                               rng=random.Random(f"{rng_key}:dock_ir"))
+            self.dock_ir = source
+            self.devices.dock_ir = dock_ir.from_settings(settings, lambda: source)
         self._deadman_seen = 0
 
     async def open_simavr(self) -> None:
@@ -117,6 +126,14 @@ class SimRig:
         stops = self.mcu.deadman_stops[self._deadman_seen:]
         self._deadman_seen = len(self.mcu.deadman_stops)
         return [(t, self.mcu.last_drive_s) for t in stops]
+
+    def dock_values(self) -> dict[str, object]:
+        """What the vacuum's motor board reads from the world now (its new telemetry):
+        ``irs`` (front_left, front_right 0-1023), ``dock_mv``, ``bump`` (left, right),
+        ``wall_cm``, ``bin_pct``. The fake MCU is wired to these when it reports them."""
+        body = self.body
+        return {"irs": dock_signal(body), "dock_mv": body.contact_mv(),
+                "bump": body.bumpers(), "wall_cm": body.wall_cm(), "bin_pct": body.bin_pct}
 
     # -- bench switches for the scenario script -----------------------------------------------
     def unplug_mcu(self) -> None:

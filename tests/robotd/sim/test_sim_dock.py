@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import math
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -12,9 +13,11 @@ import pytest
 from hal.readings import DockIrReading
 from hal.sim import vclock
 from hal.sim.world.body import DiffDriveBody
+from hal.sim.world.dock import DEFAULT_BEAMS
 from hal.sim.world.geometry import Pose
 from robotd.sim.actions import ACTIONS, Step
 from robotd.sim.config import robot_settings
+from robotd.sim.report import draw_trajectory
 from robotd.sim.rig import SimRig, open_sim_rig
 from robotd.sim.scenario import Scenario, ScenarioError, parse_scenario
 
@@ -216,3 +219,26 @@ class TestActions:
 
         with pytest.raises(ScenarioError, match=r"dock.beams_off: the world has no dock"):
             vclock.run(main())
+
+
+class TestReport:
+    def test_trajectory_png_draws_the_dock_and_its_beams(
+            self, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+        """A world with a dock: the plot has one patch per beam and the dock's body."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        shown: list[str] = []
+        real_close = plt.close
+
+        def keep_labels(fig: Any = None) -> None:
+            shown.extend(str(p.get_label()) for p in fig.axes[0].patches)
+            real_close(fig)
+
+        monkeypatch.setattr(plt, "close", keep_labels)
+        draw_trajectory(tmp_path / "t.png", _scenario().world, {}, [], "dock")
+        assert (tmp_path / "t.png").stat().st_size > 10_000
+        assert "dock" in shown
+        assert {f"beam {b.name} ({b.code})" for b in DEFAULT_BEAMS} <= set(shown)

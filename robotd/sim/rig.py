@@ -81,6 +81,8 @@ class SimRig:
                                rng=random.Random(f"{rng_key}:dock_ir"))
             self.dock_ir = source
             self.devices.dock_ir = dock_ir.from_settings(settings, lambda: source)
+            if hasattr(self.mcu, "evac_listeners"):  # the board's docking lines (mcu-dock)
+                self.wire_dock_inputs(self.mcu)
         self._deadman_seen = 0
 
     async def open_simavr(self) -> None:
@@ -134,6 +136,25 @@ class SimRig:
         body = self.body
         return {"irs": dock_signal(body), "dock_mv": body.contact_mv(),
                 "bump": body.bumpers(), "wall_cm": body.wall_cm(), "bin_pct": body.bin_pct}
+
+    def wire_dock_inputs(self, board: Any) -> None:
+        """Feed a motor board's docking inputs from the world, and its EVAC to the station.
+
+        ``board`` has the sources of ``hal.sim.devices.motor_board.dock_inputs`` (each a
+        value or a callable read when its line is due) and ``evac_listeners``."""
+        body = self.body
+        board.dock_signal = lambda: dock_signal(body)
+        board.contact_mv = body.contact_mv
+        board.bumpers = body.bumpers
+        board.wall_cm = body.wall_cm
+        board.bin_pct = lambda: body.bin_pct
+        board.evac_listeners.append(self._evac)
+
+    def _evac(self, on: bool) -> None:
+        """EVAC, signalled through the contacts: the station's suction follows it."""
+        self.body.sync()  # the bin up to now under the old state
+        if self.world.dock is not None:
+            self.world.dock.suction = on
 
     # -- bench switches for the scenario script -----------------------------------------------
     def unplug_mcu(self) -> None:

@@ -102,7 +102,7 @@ class DiffDriveBody:
         self._slip_i = 0
         self._slip_source = _slip_source(self.rng)
         self._slip_rng = self.rng
-        self.bin_pct = 0.0
+        self._bin_pct = 0.0
 
     @property
     def pose(self) -> Pose:
@@ -166,6 +166,7 @@ class DiffDriveBody:
         return self._pose_obj
 
     def servo(self, angle_deg: int) -> None:
+        self.sync()  # the bin door (a vacuum's servo) moves now, not at the last sync
         self.servo_deg = angle_deg
 
     # --- physics ----------------------------------------------------------------------------
@@ -195,6 +196,17 @@ class DiffDriveBody:
         if dock is None:
             return 0
         return dock.voltage_mv(self.pose, self.params.radius_m)
+
+    @property
+    def bin_pct(self) -> float:
+        """How full the dust bin is (0-100 %)."""
+        self.sync()
+        return self._bin_pct
+
+    @bin_pct.setter
+    def bin_pct(self, value: float) -> None:
+        self.sync()
+        self._bin_pct = value
 
     @property
     def bin_door_open(self) -> bool:
@@ -371,11 +383,11 @@ class DiffDriveBody:
         suction on and the bin door open."""
         p = self.params
         if p.cleans and not on_dock:
-            self.bin_pct = min(100.0, self.bin_pct + moved_m * p.bin_fill_pct_per_m)
+            self._bin_pct = min(100.0, self._bin_pct + moved_m * p.bin_fill_pct_per_m)
         dock = self.world.dock
         if (dock is not None and dock.suction and self.bin_door_open
                 and dock.touching(self._pose_now(), p.radius_m)):
-            self.bin_pct = max(0.0, self.bin_pct - elapsed_s * p.evac_pct_per_s)
+            self._bin_pct = max(0.0, self._bin_pct - elapsed_s * p.evac_pct_per_s)
 
     @staticmethod
     def _constants(p: BodyParams, dt_s: float, rng: random.Random) -> tuple[Any, ...]:

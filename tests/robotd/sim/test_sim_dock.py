@@ -242,3 +242,53 @@ class TestReport:
         assert (tmp_path / "t.png").stat().st_size > 10_000
         assert "dock" in shown
         assert {f"beam {b.name} ({b.code})" for b in DEFAULT_BEAMS} <= set(shown)
+
+
+class _Board:
+    """The docking inputs of a motor board (hal.sim.devices.motor_board.dock_inputs)."""
+
+    def __init__(self) -> None:
+        self.dock_signal: Any = None
+        self.contact_mv: Any = None
+        self.bumpers: Any = None
+        self.wall_cm: Any = None
+        self.bin_pct: Any = None
+        self.evac_listeners: list[Callable[[bool], None]] = []
+
+    def read(self) -> list[object]:
+        return [src() for src in (self.dock_signal, self.contact_mv, self.bumpers,
+                                  self.wall_cm, self.bin_pct)]
+
+
+class TestMotorBoardWiring:
+    def test_the_board_reads_the_world_and_evac_runs_the_station(self) -> None:
+        """10 cm out: IRS on both sides; docked: the station's voltage, no bump (the front
+        receivers, beside the emitters now, see nothing); EVAC:1 turns the suction on and
+        the open bin empties."""
+
+        async def main() -> tuple[list[object], bool, float]:
+            scenario = _scenario()
+            rig = await _rig(scenario)
+            dock = scenario.world.dock
+            assert dock is not None
+            docked = dock.docked_pose(rig.body.params.radius_m)
+            board = _Board()
+            rig.wire_dock_inputs(board)
+            rig.body.pose = Pose(docked.x_m + 0.1, docked.y_m, docked.heading_rad)
+            near = board.read()
+            rig.body.pose = docked
+            rig.body.bin_pct = 50.0
+            values = [near[0], *board.read()[1:]]
+            rig.body.servo(90)
+            for listener in board.evac_listeners:
+                listener(True)
+            await asyncio.sleep(2.0)
+            bin_pct = rig.body.bin_pct
+            await rig.close()
+            return values, dock.suction, bin_pct
+
+        (irs, mv, bump, wall, bin_pct), suction, emptied = vclock.run(main())
+        assert isinstance(irs, tuple) and min(irs) > 0
+        assert mv == 16_000 and bump == (False, False)
+        assert isinstance(wall, float) and bin_pct == 50.0
+        assert suction and emptied < 50.0

@@ -13,8 +13,10 @@ from typing import Any
 
 import structlog
 
-from drivers import ble_scanner, dock_ir, hx711
+from drivers import ble_scanner, hx711
 from drivers.arduino.link import ArduinoLink
+from drivers.dock_ir import DockIrConfig
+from drivers.dock_ir import from_settings as dock_ir_from_settings
 from drivers.serial_port import open_serial
 from hal.backend import Devices
 from hal.sim.devices.ble_model import BleAirParams, SimBleAir
@@ -76,11 +78,11 @@ class SimRig:
             self.devices.load_cell = hx711.from_settings(settings, lambda: lines)
         if "dock_ir" in needs:
             # The real driver on the receivers' simulated GPIO lines (only the fitted ones).
-            fitted = dock_ir.DockIrConfig.from_settings(settings).lines
+            fitted = DockIrConfig.from_settings(settings).lines
             source = SimDockIr(body, receivers=tuple(fitted),
                                rng=random.Random(f"{rng_key}:dock_ir"))
             self.dock_ir = source
-            self.devices.dock_ir = dock_ir.from_settings(settings, lambda: source)
+            self.devices.dock_ir = dock_ir_from_settings(settings, lambda: source)
             if hasattr(self.mcu, "evac_listeners"):  # the board's docking lines (mcu-dock)
                 self.wire_dock_inputs(self.mcu)
         self._deadman_seen = 0

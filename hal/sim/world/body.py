@@ -16,8 +16,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from hal.sim.world import touch
 from hal.sim.world.floor_plan import World
-from hal.sim.world.geometry import Pose, raycast_one, wrap_angle
+from hal.sim.world.geometry import Pose, distance_to_segments, raycast_one
 
 _TWO_PI = 2 * math.pi
 _MATH = (math.cos, math.sin, math.pi)
@@ -41,6 +42,12 @@ class BodyParams:
     idle_w: float = 3.0
     motor_w: float = 12.0  # per wheel at full duty
     charge_w: float = 30.0
+    # A vacuum (``cleans``): brushes and suction run while its wheels turn off the dock.
+    cleans: bool = False
+    clean_w: float = 15.0
+    bin_fill_pct_per_m: float = 0.5  # dust picked up per metre cleaned (200 m fill the bin)
+    evac_pct_per_s: float = 6.0  # the station's suction empties a full bin in ~17 s
+    bin_door_open_deg: int = 60  # the bin door is the box servo: open at or past this angle
 
 
 @dataclass(frozen=True, slots=True)
@@ -95,6 +102,7 @@ class DiffDriveBody:
         self._slip_i = 0
         self._slip_source = _slip_source(self.rng)
         self._slip_rng = self.rng
+        self._bin_pct = 0.0
 
     @property
     def pose(self) -> Pose:
@@ -158,6 +166,7 @@ class DiffDriveBody:
         return self._pose_obj
 
     def servo(self, angle_deg: int) -> None:
+        self.sync()  # the bin door (a vacuum's servo) moves now, not at the last sync
         self.servo_deg = angle_deg
 
     # --- physics ----------------------------------------------------------------------------
@@ -166,11 +175,42 @@ class DiffDriveBody:
         return self._docked(*self._xyh)
 
     def _docked(self, x_m: float, y_m: float, heading_rad: float) -> bool:
+        """Charging: both front contacts on the dock's pads, and the pads not faulty."""
         dock = self.world.dock
         if dock is None:
             return False
-        return (math.hypot(x_m - dock.x_m, y_m - dock.y_m) < 0.03
-                and abs(wrap_angle(heading_rad - dock.heading_rad)) < math.radians(10))
+        return dock.charges(Pose(x_m, y_m, heading_rad), self.params.radius_m)
+
+    # --- the vacuum's own sensors (hal.sim.world.touch) --------------------------------------
+    def bumpers(self) -> tuple[bool, bool]:
+        """(left, right) bumper switches: pressed against a wall, the dock or a person."""
+        return touch.bumpers(self.world, self.pose, self.params.radius_m)
+
+    def wall_cm(self) -> float:
+        """The right-side wall sensor's distance (its maximum when nothing is in range)."""
+        return touch.wall_cm(self.world, self.pose, self.params.radius_m)
+
+    def contact_mv(self) -> int:
+        """The voltage across the charging contacts: 0 off the dock, the station's on it."""
+        dock = self.world.dock
+        if dock is None:
+            return 0
+        return dock.voltage_mv(self.pose, self.params.radius_m)
+
+    @property
+    def bin_pct(self) -> float:
+        """How full the dust bin is (0-100 %)."""
+        self.sync()
+        return self._bin_pct
+
+    @bin_pct.setter
+    def bin_pct(self, value: float) -> None:
+        self.sync()
+        self._bin_pct = value
+
+    @property
+    def bin_door_open(self) -> bool:
+        return self.servo_deg >= self.params.bin_door_open_deg
 
     def _target_mps(self, pwm: int, forward: bool) -> float:
         p = self.params
@@ -220,8 +260,12 @@ class DiffDriveBody:
         free_m = self._free_m
         in_contact = self._in_contact
         distance_m = self.distance_m
-        on_dock = self._on_dock if xyh is self._dock_xyh else (
-            has_dock and self._docked(x, y, heading))
+        # With a dock the contacts can fail or the dock move at any time: look afresh.
+        if has_dock:
+            on_dock = self._docked(x, y, heading)
+        else:
+            on_dock = self._on_dock if xyh is self._dock_xyh else False
+        start_s, start_distance_m = time_s, distance_m
         drain_pct = self._drain_for(pwm, on_dock, dt_s)
         stepped = False
         while True:
@@ -277,6 +321,11 @@ class DiffDriveBody:
                         in_contact = True
                         free_m = -1.0
                         blocked = True
+                    elif has_dock:
+                        blocked, by_body, free_m = self._dock_stops(x, y, new_x, new_y, free_m)
+                        if by_body and not in_contact:
+                            self.collisions.append(Collision(time_s, new_x, new_y))
+                        in_contact = in_contact or by_body
                 if not blocked:
                     in_contact = False
                     distance_m += step_m
@@ -308,6 +357,37 @@ class DiffDriveBody:
         self._dock_xyh = xyh
         self._on_dock = on_dock
         self._slip_i = slip_i
+        if self.params.cleans or has_dock:
+            self._dust(time_s - start_s, distance_m - start_distance_m, on_dock)
+
+    def _dock_stops(self, x: float, y: float, new_x: float, new_y: float,
+                    free_m: float) -> tuple[bool, bool, float]:
+        """Whether the dock stops a step: (blocked, by its body (a bump), free distance).
+
+        The station's body is an obstacle like a wall; its pads, in the middle of the face,
+        hold a robot's nose without a bump (their springs)."""
+        dock = self.world.dock
+        assert dock is not None
+        radius_m = self.params.radius_m
+        body_new = distance_to_segments(dock.outline(), new_x, new_y)
+        pads_new = distance_to_segments(dock.pads(), new_x, new_y)
+        free_m = min(free_m, body_new - radius_m, pads_new - radius_m)
+        if body_new < radius_m and body_new < distance_to_segments(dock.outline(), x, y):
+            return True, True, -1.0
+        if pads_new < radius_m and pads_new < distance_to_segments(dock.pads(), x, y):
+            return True, False, -1.0
+        return False, False, free_m
+
+    def _dust(self, elapsed_s: float, moved_m: float, on_dock: bool) -> None:
+        """The bin fills while cleaning; it empties only on the pads with the station's
+        suction on and the bin door open."""
+        p = self.params
+        if p.cleans and not on_dock:
+            self._bin_pct = min(100.0, self._bin_pct + moved_m * p.bin_fill_pct_per_m)
+        dock = self.world.dock
+        if (dock is not None and dock.suction and self.bin_door_open
+                and dock.touching(self._pose_now(), p.radius_m)):
+            self._bin_pct = max(0.0, self._bin_pct - elapsed_s * p.evac_pct_per_s)
 
     @staticmethod
     def _constants(p: BodyParams, dt_s: float, rng: random.Random) -> tuple[Any, ...]:
@@ -321,6 +401,8 @@ class DiffDriveBody:
         p = self.params
         duty = (pwm[0] + pwm[1]) / 255
         watts = p.idle_w + p.motor_w * duty
+        if p.cleans and duty and not on_dock:
+            watts += p.clean_w
         if on_dock:
             watts -= p.charge_w
         return watts * dt_s / 3600 / p.battery_wh * 100

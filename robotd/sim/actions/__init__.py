@@ -7,6 +7,7 @@ brings its actions in a module here and adds them to ``ACTIONS``.
 
 from __future__ import annotations
 
+from robotd.sim.actions.dock import DOCK_ACTIONS
 from robotd.sim.actions.motor_board import MOTOR_BOARD_ACTIONS
 from robotd.sim.actions.step import Action, Step
 from robotd.sim.actions.world import WORLD_ACTIONS
@@ -14,6 +15,7 @@ from robotd.sim.actions.world import WORLD_ACTIONS
 ACTIONS: dict[str, Action] = {
     **MOTOR_BOARD_ACTIONS,
     **WORLD_ACTIONS,
+    **DOCK_ACTIONS,
 }
 """Action name (``script[i].action``) -> what it does."""
 

@@ -12,8 +12,13 @@ from hal.devices import (
     Audio,
     Battery,
     BeaconScanner,
+    BinSensor,
+    BumperSensor,
     Camera,
+    ContactSensor,
     DockIr,
+    DockSignalSensor,
+    DockStation,
     Encoders,
     Leds,
     Lidar,
@@ -21,6 +26,7 @@ from hal.devices import (
     Motors,
     RangeSensor,
     ServoBox,
+    WallSensor,
 )
 
 
@@ -47,6 +53,14 @@ class Devices:
     beacons: BeaconScanner | None = None
     load_cell: LoadCell | None = None
     dock_ir: DockIr | None = None
+    dock_signal: DockSignalSensor | None = None
+    dock_contacts: ContactSensor | None = None
+    bumpers: BumperSensor | None = None
+    wall: WallSensor | None = None
+    bin: BinSensor | None = None
+    station: DockStation | None = None
+    """The docking robot's motor-board senses (front IR strength, contacts, bumpers, right
+    wall sensor, dust bin) and the auto-empty station it signals through the contacts."""
     lidar: Lidar | None = None
     audio: Audio | None = None
     network: httpx.AsyncBaseTransport | None = None

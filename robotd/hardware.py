@@ -75,7 +75,8 @@ def _any_path(pattern: str, what: str) -> Check:
 
 
 HARDWARE: dict[str, Hardware] = {
-    "arduino": Hardware(("motors", "encoders", "front_range", "battery", "servo", "leds"),
+    "arduino": Hardware(("motors", "encoders", "front_range", "battery", "servo", "leds",
+                         "dock_signal", "dock_contacts", "bumpers", "wall", "bin", "station"),
                         _serial_check, "drivers.arduino:from_settings"),
     "camera": Hardware(("camera",), _camera_check, "drivers.camera:from_settings"),
     "ble": Hardware(("beacons",), _any_path("/sys/class/bluetooth/hci*", "Bluetooth adapter"),
@@ -141,4 +142,13 @@ def fill_slots(devices: Devices, slots: tuple[str, ...], device: Any) -> None:
     """Put ``device`` in its slots; a driver that fills several offers each as a facet of the
     same name (the Arduino link's ``.encoders``, ``.front_range``, ``.battery``)."""
     for slot in slots:
-        setattr(devices, slot, getattr(device, slot, device))
+        facet = FACETS.get(slot)
+        if facet is not None and hasattr(device, facet[0]):
+            setattr(devices, slot, getattr(getattr(device, facet[0]), facet[1]))
+        else:
+            setattr(devices, slot, getattr(device, slot, device))
+
+
+FACETS = {"dock_signal": ("dock", "signal"), "dock_contacts": ("dock", "contacts"),
+          "bumpers": ("dock", "bumpers"), "wall": ("dock", "wall"), "bin": ("dock", "bin")}
+"""Slots a driver offers one level down: the Arduino link's docking lines (``link.dock``)."""

@@ -45,11 +45,15 @@ DOCKING_OPTIONS: tuple[Option, ...] = (
     Option("side_turn_deg", "float", 60.0,
            "Left/right approach: how far to turn across the beams.", min=10, max=90,
            tunable=True),
-    Option("balance_ratio", "float", 0.06,
+    Option("balance_ratio", "float", 0.04,
            "L ~ R when |L - R| <= this x max(L, R) (front receivers' strength).", min=0.0,
            max=1.0, tunable=True),
     Option("min_signal", "int", 20, "Front strength below this counts as no signal (0-1023).",
            min=0, max=1023, tunable=True),
+    Option("align_strength", "int", 550,
+           "Close in until the front pair reads this strength (0-1023), then align there "
+           "(unsaturated: the compare still tells left from right).", min=50, max=1000,
+           tunable=True),
     Option("signal_lost_s", "float", 3.0, "No dock beam this long while docking: signal lost.",
            min=0.2, max=60, tunable=True),
     Option("ir_stale_s", "float", 1.5, "No dock IR reading this long: the device is lost.",
@@ -60,7 +64,7 @@ DOCKING_OPTIONS: tuple[Option, ...] = (
            min=0, max=30_000, tunable=True),
     Option("contact_hold_s", "float", 0.5,
            "The voltage must stay within its limits this long.", min=0.0, max=10, tunable=True),
-    Option("contact_travel_m", "float", 0.6,
+    Option("contact_travel_m", "float", 1.0,
            "Slow forward at most this far (from the end of alignment) before contact failed.",
            min=0.05, max=3, tunable=True),
     Option("back_off_m", "float", 0.25, "Back off this far before trying again.", min=0.02,
@@ -101,14 +105,15 @@ class DockingConfig:
     turn_dps: float = 60.0
     micro_turn_deg: float = 4.0
     side_turn_deg: float = 60.0
-    balance_ratio: float = 0.06
+    balance_ratio: float = 0.04
     min_signal: int = 20
+    align_strength: int = 550
     signal_lost_s: float = 3.0
     ir_stale_s: float = 1.5
     contact_min_mv: int = 14_000
     contact_max_mv: int = 19_000
     contact_hold_s: float = 0.5
-    contact_travel_m: float = 0.6
+    contact_travel_m: float = 1.0
     back_off_m: float = 0.25
     empty_min_s: float = 10.0
     empty_max_s: float = 30.0

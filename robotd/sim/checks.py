@@ -107,12 +107,29 @@ def summary_figures(robots: dict[str, RobotRecord], scenario: Scenario | None = 
         }
         if r.mean_cross_track_m is not None:
             fig["mean_cross_track_cm"] = round(r.mean_cross_track_m * 100, 2)
+        if scenario is not None and scenario.world.dock is not None:
+            lateral_m, heading_rad = dock_error(r.body)
+            fig["dock_lateral_cm"] = round(lateral_m * 100, 2)
+            fig["dock_heading_deg"] = round(math.degrees(heading_rad), 2)
         if scenario is not None and events:
             mine = [e for e in events if e.get("robot", name) == name] if len(robots) > 1 \
                 else events
             fig.update(_arrival_figures(scenario, mine))
         out[name] = fig
     return out
+
+
+def dock_error(body: DiffDriveBody) -> tuple[float, float]:
+    """How far a robot is from sitting docked: sideways off the dock's axis (m) and its
+    heading off the docked heading (rad), signed; (inf, inf) in a world without a dock."""
+    dock = body.world.dock
+    if dock is None:
+        return math.inf, math.inf
+    pose, docked = body.pose, dock.docked_pose(body.params.radius_m)
+    _, left_m = dock.face_depth_m(pose.x_m, pose.y_m)
+    heading = math.atan2(math.sin(pose.heading_rad - docked.heading_rad),
+                         math.cos(pose.heading_rad - docked.heading_rad))
+    return left_m, heading
 
 
 def _arrival_figures(scenario: Scenario, events: list[dict[str, Any]]) -> dict[str, float]:

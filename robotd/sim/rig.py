@@ -87,7 +87,19 @@ class SimRig:
             self.devices.dock_ir = dock_ir_from_settings(settings, lambda: source)
             if hasattr(self.mcu, "evac_listeners"):  # the board's docking lines (mcu-dock)
                 self.wire_dock_inputs(self.mcu)
+            self._fill_dock_slots()
         self._deadman_seen = 0
+
+    def _fill_dock_slots(self) -> None:
+        """A docking robot's motor-board senses: the link's docking facets, the link itself
+        as the station (EVAC)."""
+        facets = self.link.dock
+        self.devices.dock_signal = facets.signal
+        self.devices.dock_contacts = facets.contacts
+        self.devices.bumpers = facets.bumpers
+        self.devices.wall = facets.wall
+        self.devices.bin = facets.bin
+        self.devices.station = self.link
 
     async def open_simavr(self) -> None:
         """Put the real firmware, in an emulated ATmega328P, on the body instead of the fake.
@@ -104,6 +116,8 @@ class SimRig:
                 "servo": self.link, "leds": self.link}
         for slot, device in fill.items():
             setattr(self.devices, slot, device)
+        if self.devices.dock_ir is not None:
+            self._fill_dock_slots()
 
     async def run(self) -> None:
         """What the simulated hardware does on its own: beacons advertising, the emulator."""

@@ -1,0 +1,143 @@
+"""Phase 3, align: onto the dock's axis by the centre beam, then square to it by the front pair.
+
+``center_beam_search`` turns side-on to the dock and sweeps across the narrow centre beam
+(+-3 deg, the last metre) both ways; the middle of the two places where the omni receiver
+lost it is the axis (the decoder's window delays both losses alike, one each way, so they
+cancel). The robot stops there and turns back to the dock (``fine_align``). ``signal_compare``
+then compares the front pair's strengths: the pair is crossed, so a stronger left receiver
+means the dock lies to the right (``left_stronger`` -> ``micro_adjust_r``); each adjustment is
+a turn of half ``docking.micro_turn_deg``, halved each time the turn reverses, until L ~ R
+(``balanced``). Near the axis the crossed pair's difference follows the heading closely.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+from typing import TYPE_CHECKING
+
+from behaviours.docking.beams import signal_case
+from behaviours.docking.search import FINE_DPS, scan_dock_dir
+from behaviours.docking.senses import DockSenses, run_phase
+
+if TYPE_CHECKING:
+    from behaviours.context import RobotContext
+
+SWEEP_MPS = 0.04
+SWEEP_FIRST_M = 0.3
+SWEEP_BACK_M = 0.6
+LOST_AFTER_S = 0.1
+OMNI_FORWARD_M = 0.12
+"""Where the omni receiver sits ahead of the robot's centre (a mounting fact: where the
+beam was lost is where the omni was, not the centre)."""
+MAX_COMPARES = 12
+BACK_OUT_MAX_M = 0.8
+
+
+async def _sweep(senses: DockSenses, direction: float, max_m: float) -> float | None:
+    """Drive side-on (``direction`` +1 forward, -1 back) until the centre beam, once seen,
+    is lost; the position along the sweep line where it went, or None."""
+    mover, view = senses.mover, senses.view
+    heading = mover.heading_rad
+    seen = False
+
+    def done() -> bool:
+        nonlocal seen
+        here = view().sees("omni", "centre")
+        seen = seen or here
+        return seen and not here
+
+    await mover.straight(max_m, direction * SWEEP_MPS, heading_rad=heading, until=done)
+    if not (seen and not view().sees("omni", "centre")):
+        return None
+    x, y = mover.position()
+    return x * math.cos(heading) + y * math.sin(heading)
+
+
+async def center_beam_search(ctx: RobotContext, senses: DockSenses) -> None:
+    mover = senses.mover
+    dock_dir = senses.dock_dir()
+    if senses.strength() > senses.config.align_strength:
+        # Too close (after a failed contact): back out to where the pair tells L from R.
+        await mover.turn_to(dock_dir)
+        await mover.straight(BACK_OUT_MAX_M, -senses.config.approach_mps / 2,
+                             until=lambda: senses.strength() <= senses.config.align_strength)
+    await mover.turn_to(dock_dir + math.pi / 2)
+    heading = mover.heading_rad
+    first = await _sweep(senses, 1.0, SWEEP_FIRST_M)
+    second = await _sweep(senses, -1.0, SWEEP_BACK_M + (SWEEP_FIRST_M if first is None else 0))
+    if first is None and second is not None:
+        first = await _sweep(senses, 1.0, SWEEP_BACK_M)
+    if first is None or second is None:
+        await mover.turn_to(dock_dir)
+        await ctx.trigger("signal_lost", reason="center_beam_search: no centre beam")
+        return
+    middle = (first + second) / 2
+    x, y = mover.position()
+    along = x * math.cos(heading) + y * math.sin(heading)
+    shift = middle + OMNI_FORWARD_M - along  # the centre, not the omni, onto the axis
+    await mover.straight(abs(shift), math.copysign(SWEEP_MPS * 2, shift), heading_rad=heading)
+    senses.run.dock_dir_rad = heading - math.pi / 2
+    await ctx.trigger("center_found", beam_width_m=round(abs(first - second), 3))
+
+
+async def fine_align(ctx: RobotContext, senses: DockSenses) -> None:
+    """On the axis: the dock's direction by a slow scan across it, then face it."""
+    run = senses.run
+    run.align_checks = 0
+    run.adjust_sign = 0.0
+    run.adjust_rad = math.radians(senses.config.micro_turn_deg) / 4
+    direction = await scan_dock_dir(senses, dps=FINE_DPS, around=senses.dock_dir())
+    await senses.mover.turn_to(direction if direction is not None else senses.dock_dir())
+    await ctx.trigger("compare")
+
+
+async def signal_compare(ctx: RobotContext, senses: DockSenses) -> None:
+    await asyncio.sleep(0.15)  # fresh IRS lines (20 Hz) after the last turn
+    signal = senses.signal()
+    run = senses.run
+    run.align_checks += 1
+    if signal is None or run.align_checks > MAX_COMPARES:
+        await ctx.trigger("balanced", compares=run.align_checks)
+        return
+    case = signal_case(signal, senses.config.balance_ratio)
+    ctx.emit("dock.signal", case=case, left=signal.front_left, right=signal.front_right)
+    await ctx.trigger(case, left=signal.front_left, right=signal.front_right)
+
+
+async def _adjust(ctx: RobotContext, senses: DockSenses, sign: float) -> None:
+    """A micro turn the seed's way (the pair is crossed: the stronger side's opposite); a turn
+    back the other way halves the step, so the compare closes in on L ~ R."""
+    run = senses.run
+    if run.adjust_sign and sign != run.adjust_sign:
+        run.adjust_rad /= 2
+    run.adjust_sign = sign
+    await senses.mover.turn_by(sign * run.adjust_rad)
+    await ctx.trigger("adjusted", turned_deg=round(math.degrees(sign * run.adjust_rad), 2))
+
+
+async def balanced(ctx: RobotContext, senses: DockSenses) -> None:
+    senses.run.dock_dir_rad = senses.mover.heading_rad
+    await ctx.trigger("aligned")
+
+
+async def _go(ctx: RobotContext, senses: DockSenses, trigger: str) -> None:
+    await ctx.trigger(trigger)
+
+
+def align_handlers() -> dict[str, object]:
+    return {
+        "center_beam_search": center_beam_search,
+        "fine_align": fine_align,
+        "signal_compare": signal_compare,
+        "left_stronger": lambda c, s: _go(c, s, "adjust"),
+        "right_stronger": lambda c, s: _go(c, s, "adjust"),
+        "micro_adjust_r": lambda c, s: _adjust(c, s, -1.0),
+        "micro_adjust_l": lambda c, s: _adjust(c, s, 1.0),
+        "balanced": balanced,
+    }
+
+
+async def run_align(ctx: RobotContext, senses: DockSenses) -> None:
+    """The ``docking.align`` state's task (phase 3)."""
+    await run_phase(ctx, senses, "docking.align", align_handlers())

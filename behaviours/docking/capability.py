@@ -1,0 +1,118 @@
+"""Docking as a capability a profile takes in: the state tasks of every docking state, and
+the watch that runs for the whole of ``docking``.
+
+A profile with dock IR receivers merges ``Docking.state_tasks()`` into its own and fires
+``go_dock``; the tables are the core machine's (``behaviours.docking.tables``). The watch
+sends the robot to ``recovery`` (motors stopped there) when the dock IR device is lost, and
+fires ``signal_lost`` when no dock beam was seen for ``docking.signal_lost_s`` while it is
+closing in on the dock.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import structlog
+
+from behaviours.docking import approach, contact, search, station
+from behaviours.docking.align import run_align
+from behaviours.docking.senses import DockingRun, DockingUnavailable, DockSenses
+from behaviours.motion.odometry import Odometry
+from behaviours.profile import StateTask
+
+if TYPE_CHECKING:
+    from behaviours.context import RobotContext
+
+log = structlog.get_logger(__name__)
+
+WATCH_PERIOD_S = 0.1
+WATCHED = ("docking.position", "docking.approach", "docking.align", "docking.dock")
+"""Where a lost beam is a lost signal (the search looks for it; on the dock it may hide)."""
+PhaseTask = Callable[["RobotContext", DockSenses], "object"]
+
+
+class Docking:
+    """The docking behaviours of one robot.
+
+    Args:
+        odometry: the robot's wheel odometry (kept current by the profile's tracker).
+        next_job: in ``standby``, returns when the robot should undock (None: stay).
+    """
+
+    def __init__(self, odometry: Callable[[], Odometry | None],
+                 next_job: station.NextJob | None = None) -> None:
+        self._odometry = odometry
+        self.next_job = next_job
+        self.run = DockingRun()
+
+    def senses(self, ctx: RobotContext) -> DockSenses:
+        odometry = self._odometry()
+        if odometry is None:
+            msg = "docking needs wheel odometry (the profile's encoders)"
+            raise DockingUnavailable(msg)
+        return DockSenses.from_ctx(ctx, odometry, self.run)
+
+    def state_tasks(self) -> dict[str, StateTask]:
+        def phase(fn: Callable[[RobotContext, DockSenses], object]) -> StateTask:
+            async def task(ctx: RobotContext) -> None:
+                await fn(ctx, self.senses(ctx))  # type: ignore[misc]
+            return task
+
+        return {
+            "docking": self.watch,
+            "docking.search": phase(search.run_search),
+            "docking.position": phase(approach.run_position),
+            "docking.approach": phase(approach.run_approach),
+            "docking.align": phase(run_align),
+            "docking.dock": phase(contact.run_dock),
+            "docking.charging": phase(station.charging),
+            "docking.emptying": phase(station.run_emptying),
+            "docking.standby": phase(lambda c, s: station.run_standby(c, s, self.next_job)),
+            "docking.undock": phase(station.undock),
+        }
+
+    async def watch(self, ctx: RobotContext) -> None:
+        """For the whole of ``docking``: the dock IR device's health and the beam's presence."""
+        self.run.reset()
+        try:
+            senses = self.senses(ctx)
+        except DockingUnavailable as exc:
+            await ctx.trigger("dock_ir_lost", reason=str(exc))
+            return
+        self.run.ir_errors = int(senses.dock_ir.status().get("line_errors", 0) or 0)
+        loop = asyncio.get_running_loop()
+        await asyncio.sleep(senses.config.ir_stale_s)  # the first readings after a start
+        last_seen = loop.time()
+        while True:
+            await asyncio.sleep(WATCH_PERIOD_S)
+            trouble = senses.ir_trouble()
+            if trouble is not None:
+                log.warning("dock.ir_lost", reason=trouble, state=ctx.state)
+                await senses.mover.stop()
+                await ctx.trigger("dock_ir_lost", reason=trouble)
+                return
+            state = ctx.state
+            if senses.view().dock_seen() or senses.contact_mv() > 0 \
+                    or not state.startswith(WATCHED):
+                last_seen = loop.time()
+            elif loop.time() - last_seen > senses.config.signal_lost_s:
+                await ctx.trigger("signal_lost", reason=f"{state}: no dock beam for "
+                                  f"{loop.time() - last_seen:.1f} s")
+                last_seen = loop.time()
+
+    async def resume_if_docked(self, ctx: RobotContext) -> bool:
+        """After a restart: a robot that was docked and still reads a good contact voltage
+        carries on charging (``resume_charging``); True if it did."""
+        if not ctx.store.get("docking.docked", False):
+            return False
+        try:
+            senses = self.senses(ctx)
+        except DockingUnavailable:
+            return False
+        await asyncio.sleep(0.5)  # a DOCK line (5 Hz)
+        if not senses.config.contact_ok(senses.contact_mv()):
+            ctx.store.put("docking.docked", False)
+            return False
+        return await ctx.trigger("resume_charging", contact_mv=senses.contact_mv())

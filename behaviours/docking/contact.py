@@ -1,0 +1,149 @@
+"""Phase 4, dock: forward onto the charging contacts and make sure they charge.
+
+``slow_forward`` closes in on the aligned heading (slower once inside the force field)
+until the contacts show a voltage or the bumper closes (``touched``), at most
+``docking.contact_travel_m`` per attempt (then ``contact_failed``). ``contact_check``: a
+voltage is ``contact_made``; none is ``no_contact`` and ``align_check`` decides between
+pushing on (``alignment_ok``) and ``align_lost`` (the bumper hit the station's body, or no
+beam is seen any more). ``voltage_detect`` holds the voltage for ``docking.contact_hold_s``:
+within ``docking.contact_min_mv``..``contact_max_mv`` throughout is ``voltage_ok`` (outside
+them is never docked: ``voltage_abnormal``). ``motor_stop`` stops the wheels. ``retry`` backs
+off and checks the contacts off the dock (they must read 0) before aligning again.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from typing import TYPE_CHECKING
+
+from behaviours.docking.senses import DockSenses, run_phase
+
+if TYPE_CHECKING:
+    from behaviours.context import RobotContext
+
+CHECK_S = 0.25
+SATURATED = 1000
+RIDE_GAIN_RAD = 0.5  # heading change per unit of (L - R) / (L + R), each 50 ms step
+MAX_PUSHES = 3
+PUSH_M = 0.02
+HOLD_PERIOD_S = 0.05
+
+
+async def slow_forward(ctx: RobotContext, senses: DockSenses) -> None:
+    run, cfg, mover = senses.run, senses.config, senses.mover
+    if run.travel_left_m <= 0 and run.align_checks == 0:
+        run.travel_left_m = cfg.contact_travel_m
+
+    def touched() -> bool:
+        return senses.contact_mv() > 0 or senses.bumped()
+
+    def riding() -> bool:
+        signal = senses.signal()
+        return signal is not None and cfg.min_signal <= max(signal.front_left,
+                                                            signal.front_right) < SATURATED
+
+    hold = senses.dock_dir()
+    if riding():
+        # Ride the beams: keep L ~ R (off the axis the balance points back onto it).
+        run.travel_left_m -= await mover.straight(
+            run.travel_left_m, cfg.dock_mps * 2, heading_rad=hold, steer=lambda: _ride(senses),
+            until=lambda: touched() or not riding())
+        hold = mover.heading_rad
+    if not touched():
+        run.travel_left_m -= await mover.straight(
+            max(0.0, run.travel_left_m), cfg.dock_mps, heading_rad=hold, until=touched)
+    if touched():
+        await ctx.trigger("touched", contact_mv=senses.contact_mv(), bumped=senses.bumped())
+    else:
+        await ctx.trigger("contact_failed",
+                          reason=f"no contact after {cfg.contact_travel_m:.2f} m forward")
+
+
+def _ride(senses: DockSenses) -> float | None:
+    """The heading to hold next: a little towards the weaker front receiver's side."""
+    signal = senses.signal()
+    if signal is None:
+        return None
+    total = signal.front_left + signal.front_right
+    if total <= 0:
+        return None
+    imbalance = (signal.front_left - signal.front_right) / total
+    # The pair is crossed: a stronger left receiver means the dock lies to the right.
+    return senses.mover.heading_rad - RIDE_GAIN_RAD * imbalance
+
+
+async def contact_check(ctx: RobotContext, senses: DockSenses) -> None:
+    await senses.mover.send(0.0, 0.0)
+    await asyncio.sleep(CHECK_S)  # the DOCK line comes at 5 Hz
+    if senses.contact_mv() > 0:
+        await ctx.trigger("contact_made", contact_mv=senses.contact_mv())
+    else:
+        await ctx.trigger("no_contact")
+
+
+async def align_check(ctx: RobotContext, senses: DockSenses) -> None:
+    run = senses.run
+    run.align_checks += 1
+    if senses.bumped() and senses.contact_mv() == 0:
+        # The nose met the station's body beside the pads: off the axis.
+        await senses.mover.straight(0.05, -senses.config.dock_mps)
+        await ctx.trigger("align_lost", reason="bumped the station beside the contacts")
+    elif not senses.view().dock_seen():
+        await ctx.trigger("align_lost", reason="no dock beam at the contacts")
+    elif run.align_checks > MAX_PUSHES:
+        await ctx.trigger("contact_failed", reason=f"no contact after {MAX_PUSHES} pushes")
+    else:
+        run.travel_left_m = max(run.travel_left_m, PUSH_M)
+        await ctx.trigger("alignment_ok")
+
+
+async def voltage_detect(ctx: RobotContext, senses: DockSenses) -> None:
+    cfg = senses.config
+    loop = asyncio.get_running_loop()
+    end = loop.time() + cfg.contact_hold_s
+    worst = senses.contact_mv()
+    while True:
+        mv = senses.contact_mv()
+        if not cfg.contact_ok(mv):
+            worst = mv
+            break
+        if loop.time() >= end:
+            break
+        await asyncio.sleep(HOLD_PERIOD_S)
+    if cfg.contact_ok(worst):
+        await ctx.trigger("voltage_ok", contact_mv=worst)
+    else:
+        await ctx.trigger(
+            "voltage_abnormal",
+            reason=f"contact voltage {worst} mV outside {cfg.contact_min_mv}-"
+                   f"{cfg.contact_max_mv} mV")
+
+
+async def motor_stop(ctx: RobotContext, senses: DockSenses) -> None:
+    await senses.mover.stop()
+    ctx.store.put("docking.docked", True)
+    await ctx.trigger("stopped", contact_mv=senses.contact_mv())
+
+
+async def retry(ctx: RobotContext, senses: DockSenses) -> None:
+    """Back off, then check the contacts off the dock (section 4: "check contacts")."""
+    cfg = senses.config
+    await senses.mover.straight(cfg.back_off_m, -cfg.approach_mps / 2)
+    await asyncio.sleep(CHECK_S)
+    mv = senses.contact_mv()
+    ctx.emit("dock.contacts_checked", contact_mv=mv, ok=mv == 0)
+    senses.run.travel_left_m = 0.0
+    senses.run.align_checks = 0
+    await ctx.trigger("backed_off")
+
+
+HANDLERS = {"slow_forward": slow_forward, "contact_check": contact_check,
+            "align_check": align_check, "voltage_detect": voltage_detect,
+            "motor_stop": motor_stop, "retry": retry}
+
+
+async def run_dock(ctx: RobotContext, senses: DockSenses) -> None:
+    """The ``docking.dock`` state's task (phase 4)."""
+    senses.run.travel_left_m = 0.0
+    senses.run.align_checks = 0
+    await run_phase(ctx, senses, "docking.dock", HANDLERS)

@@ -1,0 +1,160 @@
+"""Phase 1, search: follow the walls until a dock beam is seen, make sure of it, turn to it.
+
+``wall_follow`` keeps the right-side wall sensor near ``WALL_TARGET_CM`` and turns left off a
+bump; it ends as soon as any receiver sees one of the dock's beams (``beam_detected``).
+``force_field_detect`` stops and watches a little: the beam still seen is ``field_detected``,
+gone is ``field_lost`` (back to the walls). ``direction_turn`` turns to the dock, found by a
+turn each way across the arc where the crossed front pair sees it (``scan_dock_dir``), or
+leaves a robot whose rear receiver alone sees it facing away: that is section 2's rear case.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import structlog
+
+from behaviours.docking.beams import FRONT_RECEIVERS, BeamView
+from behaviours.docking.senses import DockSenses, run_phase
+from behaviours.motion.moves import wrap
+
+if TYPE_CHECKING:
+    from behaviours.context import RobotContext
+
+log = structlog.get_logger(__name__)
+
+WALL_TARGET_CM = 8.0
+WALL_RANGE_CM = 30.0
+WALL_GAIN = 0.04  # rad/s per cm of wall-distance error
+BUMP_BACK_M = 0.05
+BUMP_TURN_RAD = math.radians(50)
+CONFIRM_S = 0.4
+SCAN_DPS = 45.0
+FINE_DPS = 12.0
+FINE_START_DEG = 45.0
+PERIOD_S = 0.05
+
+
+async def wall_follow(ctx: RobotContext, senses: DockSenses) -> None:
+    mover, cfg = senses.mover, senses.config
+    while not senses.view().dock_seen():
+        if senses.bumped():
+            await mover.straight(BUMP_BACK_M, -cfg.search_mps)
+            await mover.turn_by(BUMP_TURN_RAD)
+            continue
+        wall = senses.wall_cm()
+        omega = 0.0
+        if wall is not None and wall < WALL_RANGE_CM:
+            omega = -WALL_GAIN * (wall - WALL_TARGET_CM)
+        await mover.send(cfg.search_mps, max(-0.8, min(0.8, omega)))
+        await asyncio.sleep(PERIOD_S)
+    await mover.send(0.0, 0.0)
+    await ctx.trigger("beam_detected")
+
+
+async def force_field_detect(ctx: RobotContext, senses: DockSenses) -> None:
+    await senses.mover.stop()
+    await asyncio.sleep(CONFIRM_S)
+    view = senses.view()
+    if view.dock_seen():
+        ctx.emit("dock.field", beams={r: sorted(b) for r, b in view.reading.beams.items()
+                                      if b})
+        await ctx.trigger("field_detected")
+    else:
+        await ctx.trigger("field_lost")
+
+
+async def direction_turn(ctx: RobotContext, senses: DockSenses) -> None:
+    view = senses.view()
+    if view.sees_any("rear") and not view.front_sees():
+        await ctx.trigger("direction_found", towards="rear")
+        return
+    if await face_dock(senses) is None:
+        await ctx.trigger("field_lost")
+        return
+    await ctx.trigger("direction_found", towards="front")
+
+
+def _both_front(view: BeamView) -> bool:
+    return all(view.sees_any(r) for r in FRONT_RECEIVERS)
+
+
+def _either_front(view: BeamView) -> bool:
+    return view.front_sees()
+
+
+async def scan_dock_dir(senses: DockSenses, *, dps: float = SCAN_DPS,
+                        around: float | None = None) -> float | None:
+    """The dock's direction (odometry frame) from a turn each way across it.
+
+    The front pair is crossed, so both see the dock over an arc centred on it (+-25 deg);
+    turning left then right over that arc, each pass's middle is off by the decoder's delay
+    the way it turned, and the mean of the two is the dock's direction. None when neither
+    front receiver sees the dock in a whole turn. ``around``: where the dock is thought to be
+    (the passes then start just right of it and sweep only the arc round it), turning at
+    ``dps``."""
+    first_limit = 2 * math.pi
+    if around is not None:
+        await senses.mover.turn_to(around - math.radians(FINE_START_DEG))
+        first_limit = math.radians(3 * FINE_START_DEG)
+    for seen in (_both_front, _either_front):
+        middles: list[float] = []
+        for sign, limit in ((1.0, first_limit), (-1.0, math.pi)):
+            middle = await _pass(senses, sign, limit, seen, dps)
+            if middle is None:
+                break
+            middles.append(middle)
+        if len(middles) == 2:
+            a, b = middles
+            direction = wrap(a + wrap(b - a) / 2)
+            senses.run.dock_dir_rad = direction
+            return direction
+    return None
+
+
+async def _pass(senses: DockSenses, sign: float, limit_rad: float,
+                seen: Callable[[BeamView], bool], dps: float) -> float | None:
+    """Turn until the arc where ``seen`` holds has been crossed; its middle, or None."""
+    mover = senses.mover
+    rate = math.radians(dps)
+    last = mover.heading_rad
+    turned = 0.0
+    entered: float | None = None
+    outside = not seen(senses.view())  # a pass measures an arc from its start only
+    result = None
+    while turned < limit_rad:
+        await mover.send(0.0, sign * rate)
+        await asyncio.sleep(PERIOD_S)
+        heading = mover.heading_rad
+        turned += abs(wrap(heading - last))
+        last = heading
+        inside = seen(senses.view())
+        if not inside and not outside:
+            outside = True
+        elif inside and outside and entered is None:
+            entered = heading
+        elif not inside and entered is not None:
+            result = wrap(entered + wrap(heading - entered) / 2)
+            break
+    await mover.send(0.0, 0.0)
+    return result
+
+
+async def face_dock(senses: DockSenses) -> float | None:
+    """Scan for the dock's direction and turn to it; the direction, or None."""
+    direction = await scan_dock_dir(senses)
+    if direction is not None:
+        await senses.mover.turn_to(direction)
+    return direction
+
+
+HANDLERS = {"wall_follow": wall_follow, "force_field_detect": force_field_detect,
+            "direction_turn": direction_turn}
+
+
+async def run_search(ctx: RobotContext, senses: DockSenses) -> None:
+    """The ``docking.search`` state's task."""
+    await run_phase(ctx, senses, "docking.search", HANDLERS)

@@ -1,0 +1,109 @@
+"""The ``vacuum`` profile: clean, check the battery now and then, dock below the threshold.
+
+Mission states (seed section 1): ``mission.cleaning`` and ``mission.battery_check``; every
+``vacuum.battery_check_s`` the robot passes through the check (each a logged transition):
+at or above ``docking.battery_threshold_pct`` it cleans on (``battery_ok``), below it
+``go_dock``. Docking is the shared capability (``behaviours.docking``); in standby the next
+clean is ``vacuum.standby_s`` away, and undocking leads back into ``mission.cleaning``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import random
+from typing import TYPE_CHECKING, Any
+
+import structlog
+
+from behaviours.docking.capability import Docking
+from behaviours.motion.moves import Mover
+from behaviours.motion.odometry import Odometry
+from behaviours.motion.waypoint_drive import OdometryTracker
+from behaviours.profile import BaseProfile, StateTask
+from behaviours.profiles.square.profile import make_odometry
+from behaviours.profiles.vacuum.cleaning import Coverage
+from behaviours.service import Service, TaskService
+
+if TYPE_CHECKING:
+    from behaviours.context import RobotContext
+
+log = structlog.get_logger(__name__)
+
+DEVICES = ("motors", "encoders", "battery", "servo", "dock_ir", "dock_signal",
+           "dock_contacts", "bumpers", "wall", "bin", "station")
+
+
+async def _forever() -> None:
+    await asyncio.Event().wait()
+
+
+class VacuumProfile(BaseProfile):
+    name = "vacuum"
+    devices = DEVICES
+
+    def __init__(self) -> None:
+        self._odometry: Odometry | None = None
+        self.docking = Docking(lambda: self._odometry, next_job=self._next_clean)
+        self._rng = random.Random(0)
+
+    def mission_states(self) -> list[str | dict[str, Any]]:
+        return ["cleaning", "battery_check"]
+
+    def mission_transitions(self) -> list[dict[str, Any]]:
+        return [
+            {"trigger": "check_battery", "source": "mission.cleaning",
+             "dest": "mission.battery_check"},
+            {"trigger": "battery_ok", "source": "mission.battery_check",
+             "dest": "mission.cleaning"},
+        ]
+
+    def services(self, ctx: RobotContext) -> list[Service]:
+        encoders = ctx.devices.encoders
+        if encoders is None:
+            msg = "the vacuum profile needs encoders"
+            raise RuntimeError(msg)
+        odometry = self._odometry = make_odometry(ctx)
+        self._rng = random.Random(str(ctx.settings.get("robot.name")))
+
+        async def autostart() -> None:
+            """Once booted: back to charging if it was docked, else start cleaning."""
+            if not await self.docking.resume_if_docked(ctx) \
+                    and ctx.settings.get("vacuum.autostart"):
+                await ctx.trigger("start_mission")
+            await _forever()
+
+        return [TaskService("odometry", OdometryTracker(encoders, odometry).run, critical=True),
+                TaskService("vacuum.autostart", autostart, depends_on=("odometry",))]
+
+    def state_tasks(self) -> dict[str, StateTask]:
+        return {"mission": self._clean, "mission.cleaning": self._battery_timer,
+                "mission.battery_check": self._battery_check, **self.docking.state_tasks()}
+
+    def _mover(self, ctx: RobotContext) -> Mover:
+        if ctx.devices.motors is None or self._odometry is None:
+            msg = "the vacuum profile needs motors and odometry"
+            raise RuntimeError(msg)
+        return Mover(ctx.devices.motors, self._odometry, ctx.settings)
+
+    async def _clean(self, ctx: RobotContext) -> None:
+        coverage = Coverage(self._mover(ctx), ctx.devices.bumpers, ctx.devices.wall, self._rng)
+        ctx.emit("clean.start")
+        await coverage.run(ctx)
+
+    async def _battery_timer(self, ctx: RobotContext) -> None:
+        await asyncio.sleep(float(ctx.settings.get("vacuum.battery_check_s")))
+        await ctx.trigger("check_battery")
+
+    async def _battery_check(self, ctx: RobotContext) -> None:
+        battery = ctx.devices.battery
+        reading = None if battery is None else battery.latest()
+        threshold = float(ctx.settings.get("docking.battery_threshold_pct"))
+        if reading is not None and reading.percent < threshold:
+            ctx.emit("clean.battery_low", battery_pct=round(reading.percent, 1),
+                     threshold_pct=threshold)
+            await ctx.trigger("go_dock", reason="battery low")
+        else:
+            await ctx.trigger("battery_ok")
+
+    async def _next_clean(self, ctx: RobotContext) -> None:
+        await asyncio.sleep(float(ctx.settings.get("vacuum.standby_s")))

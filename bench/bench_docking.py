@@ -89,6 +89,7 @@ pct = 10
 time_limit_s = {limit}
 states_reached = ["docking.dock"]
 final_state = "docking.charging"
+no_collisions = false
 """
 
 

@@ -117,7 +117,7 @@ async def _adjust(ctx: RobotContext, senses: DockSenses, sign: float) -> None:
 
 
 async def balanced(ctx: RobotContext, senses: DockSenses) -> None:
-    senses.run.dock_dir_rad = senses.mover.heading_rad
+    senses.run.dock_dir_rad = senses.mover.heading_rad  # the heading slow_forward holds
     await ctx.trigger("aligned")
 
 

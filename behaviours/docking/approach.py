@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from behaviours.context import RobotContext
 
 SETTLE_S = 0.25  # a beam cycle (144 ms) into the decoder's window after a move
-STEP_M = 0.12
+STEP_M = 0.5
 FORWARD_MAX_M = 4.0
 OVERLAP_MAX_M = 2.0
 CLOSE_IN_MAX_M = 3.0
@@ -82,13 +82,23 @@ def _far(sign: float) -> str:
 
 
 async def _micro_step(ctx: RobotContext, senses: DockSenses, sign: float, trigger: str) -> None:
-    """Turn a micro angle off the dock's direction (``sign`` +1: left) and drive a step."""
-    run = senses.run
-    micro = math.radians(senses.config.micro_turn_deg)
-    run.offset_rad = max(-MAX_OFFSET_RAD, min(MAX_OFFSET_RAD, run.offset_rad + sign * micro))
-    await senses.mover.turn_to(senses.dock_dir() + run.offset_rad)
-    await senses.mover.straight(STEP_M, senses.config.approach_mps)
-    await ctx.trigger(trigger, offset_deg=round(math.degrees(run.offset_rad), 1))
+    """Turn a micro angle towards the far side of the overlap (``sign`` +1: left) and drive
+    on until the beams change (at most a step); each turn adds to the ones before.
+
+    Only a far beam seen (after turning from the rear): the side-approach angle at once."""
+    cfg, view = senses.config, senses.view
+    before = front_case(view())
+    if before is None:
+        angle = sign * math.radians(cfg.side_turn_deg)
+        step = FORWARD_MAX_M
+    else:
+        angle = sign * math.radians(cfg.micro_turn_deg)
+        step = STEP_M
+    senses.run.offset_rad += angle
+    await senses.mover.turn_by(angle)
+    await senses.mover.straight(step, cfg.approach_mps,
+                                until=lambda: front_case(view()) != before or senses.bumped())
+    await ctx.trigger(trigger, offset_deg=round(math.degrees(senses.run.offset_rad), 1))
 
 
 async def check_skew(ctx: RobotContext, senses: DockSenses) -> None:
@@ -159,7 +169,9 @@ async def overlap_zone(ctx: RobotContext, senses: DockSenses) -> None:
     centre beam's last metre, the pair not yet saturated)."""
     senses.run.offset_rad = 0.0
     view = senses.view
-    await face_dock(senses)
+    run = senses.run
+    if run.scanned_at is None or math.dist(run.scanned_at, senses.mover.position()) > 0.1:
+        await face_dock(senses)
     heading = senses.dock_dir()
     near = senses.config.align_strength
     driven = await senses.mover.straight(

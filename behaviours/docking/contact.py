@@ -1,6 +1,7 @@
 """Phase 4, dock: forward onto the charging contacts and make sure they charge.
 
-``slow_forward`` closes in on the aligned heading (slower once inside the force field)
+``slow_forward`` closes in on the aligned heading, straight (odometry holds it; the front
+pair saturates in the last half metre and tells nothing there)
 until the contacts show a voltage or the bumper closes (``touched``), at most
 ``docking.contact_travel_m`` per attempt (then ``contact_failed``). ``contact_check``: a
 voltage is ``contact_made``; none is ``no_contact`` and ``align_check`` decides between
@@ -22,8 +23,6 @@ if TYPE_CHECKING:
     from behaviours.context import RobotContext
 
 CHECK_S = 0.25
-SATURATED = 1000
-RIDE_GAIN_RAD = 0.5  # heading change per unit of (L - R) / (L + R), each 50 ms step
 MAX_PUSHES = 3
 PUSH_M = 0.02
 HOLD_PERIOD_S = 0.05
@@ -37,18 +36,12 @@ async def slow_forward(ctx: RobotContext, senses: DockSenses) -> None:
     def touched() -> bool:
         return senses.contact_mv() > 0 or senses.bumped()
 
-    def riding() -> bool:
-        signal = senses.signal()
-        return signal is not None and cfg.min_signal <= max(signal.front_left,
-                                                            signal.front_right) < SATURATED
-
     hold = senses.dock_dir()
-    if riding():
-        # Ride the beams: keep L ~ R (off the axis the balance points back onto it).
+    view = senses.view
+    if not view().located("force_field"):
         run.travel_left_m -= await mover.straight(
-            run.travel_left_m, cfg.dock_mps * 2, heading_rad=hold, steer=lambda: _ride(senses),
-            until=lambda: touched() or not riding())
-        hold = mover.heading_rad
+            run.travel_left_m, cfg.approach_mps / 2, heading_rad=hold,
+            until=lambda: touched() or view().located("force_field"))
     if not touched():
         run.travel_left_m -= await mover.straight(
             max(0.0, run.travel_left_m), cfg.dock_mps, heading_rad=hold, until=touched)
@@ -57,19 +50,6 @@ async def slow_forward(ctx: RobotContext, senses: DockSenses) -> None:
     else:
         await ctx.trigger("contact_failed",
                           reason=f"no contact after {cfg.contact_travel_m:.2f} m forward")
-
-
-def _ride(senses: DockSenses) -> float | None:
-    """The heading to hold next: a little towards the weaker front receiver's side."""
-    signal = senses.signal()
-    if signal is None:
-        return None
-    total = signal.front_left + signal.front_right
-    if total <= 0:
-        return None
-    imbalance = (signal.front_left - signal.front_right) / total
-    # The pair is crossed: a stronger left receiver means the dock lies to the right.
-    return senses.mover.heading_rad - RIDE_GAIN_RAD * imbalance
 
 
 async def contact_check(ctx: RobotContext, senses: DockSenses) -> None:

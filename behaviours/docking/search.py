@@ -32,6 +32,7 @@ WALL_GAIN = 0.04  # rad/s per cm of wall-distance error
 BUMP_BACK_M = 0.05
 BUMP_TURN_RAD = math.radians(50)
 CONFIRM_S = 0.4
+MOVE_ON_M = 0.8
 SCAN_DPS = 45.0
 FINE_DPS = 12.0
 FINE_START_DEG = 45.0
@@ -39,8 +40,14 @@ PERIOD_S = 0.05
 
 
 async def wall_follow(ctx: RobotContext, senses: DockSenses) -> None:
-    mover, cfg = senses.mover, senses.config
-    while not senses.view().dock_seen():
+    mover, cfg, run = senses.mover, senses.config, senses.run
+    start = mover.position()
+
+    def heed() -> bool:
+        moved = math.dist(start, mover.position())
+        return moved >= run.moved_for_search_m and senses.view().dock_seen()
+
+    while not heed():
         if senses.bumped():
             await mover.straight(BUMP_BACK_M, -cfg.search_mps)
             await mover.turn_by(BUMP_TURN_RAD)
@@ -52,6 +59,7 @@ async def wall_follow(ctx: RobotContext, senses: DockSenses) -> None:
         await mover.send(cfg.search_mps, max(-0.8, min(0.8, omega)))
         await asyncio.sleep(PERIOD_S)
     await mover.send(0.0, 0.0)
+    run.moved_for_search_m = 0.0
     await ctx.trigger("beam_detected")
 
 
@@ -59,6 +67,8 @@ async def force_field_detect(ctx: RobotContext, senses: DockSenses) -> None:
     await senses.mover.stop()
     await asyncio.sleep(CONFIRM_S)
     view = senses.view()
+    if not view.dock_seen():
+        senses.run.moved_for_search_m = MOVE_ON_M
     if view.dock_seen():
         ctx.emit("dock.field", beams={r: sorted(b) for r, b in view.reading.beams.items()
                                       if b})
@@ -73,6 +83,7 @@ async def direction_turn(ctx: RobotContext, senses: DockSenses) -> None:
         await ctx.trigger("direction_found", towards="rear")
         return
     if await face_dock(senses) is None:
+        senses.run.moved_for_search_m = MOVE_ON_M
         await ctx.trigger("field_lost")
         return
     await ctx.trigger("direction_found", towards="front")
@@ -101,8 +112,13 @@ async def scan_dock_dir(senses: DockSenses, *, dps: float = SCAN_DPS,
         await senses.mover.turn_to(around - math.radians(FINE_START_DEG))
         first_limit = math.radians(3 * FINE_START_DEG)
     for seen in (_both_front, _either_front):
+        first = 1.0
+        if seen(senses.view()):
+            # Inside the arc: leave it to the left, then cross it rightwards and back.
+            await _pass(senses, 1.0, math.pi, _negate(seen), dps)
+            first = -1.0
         middles: list[float] = []
-        for sign, limit in ((1.0, first_limit), (-1.0, math.pi)):
+        for sign, limit in ((first, first_limit), (-first, math.pi)):
             middle = await _pass(senses, sign, limit, seen, dps)
             if middle is None:
                 break
@@ -111,8 +127,13 @@ async def scan_dock_dir(senses: DockSenses, *, dps: float = SCAN_DPS,
             a, b = middles
             direction = wrap(a + wrap(b - a) / 2)
             senses.run.dock_dir_rad = direction
+            senses.run.scanned_at = senses.mover.position()
             return direction
     return None
+
+
+def _negate(seen: Callable[[BeamView], bool]) -> Callable[[BeamView], bool]:
+    return lambda view: not seen(view)
 
 
 async def _pass(senses: DockSenses, sign: float, limit_rad: float,

@@ -45,6 +45,9 @@ class DockingRun:
 
     dock_dir_rad: float | None = None
     """The direction from the robot to the dock, as last measured."""
+    scanned_at: tuple[float, float] | None = None
+    moved_for_search_m: float = 0.0
+    """After a beam that led nowhere: wall follow this far before heeding a beam again."""
     offset_rad: float = 0.0
     """How far the robot has turned off the dock's direction to cross into the overlap."""
     travel_left_m: float = 0.0
@@ -56,6 +59,8 @@ class DockingRun:
 
     def reset(self) -> None:
         self.dock_dir_rad = None
+        self.scanned_at = None
+        self.moved_for_search_m = 0.0
         self.offset_rad = 0.0
         self.travel_left_m = 0.0
         self.align_checks = 0

@@ -15,6 +15,7 @@ Also: the ``docking`` scenario's speed factor (virtual / CPU seconds).
 from __future__ import annotations
 
 import argparse
+import itertools
 import math
 import random
 import statistics
@@ -27,9 +28,9 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from hal.sim import vclock  # noqa: E402
-from robotd.sim.runner import SimConsole, _run  # noqa: E402
-from robotd.sim.scenario import load_scenario  # noqa: E402
+from hal.sim import vclock
+from robotd.sim.runner import SimConsole, _run
+from robotd.sim.scenario import load_scenario
 
 ROOM_W_M, ROOM_H_M = 5.0, 4.0
 DOCK = (0.14, 2.0)
@@ -97,7 +98,7 @@ def _box_walls(box: tuple[float, float, float, float]) -> list[str]:
     x0, y0, x1, y1 = box
     corners = [(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)]
     return [f"    {{ x1 = {a[0]}, y1 = {a[1]}, x2 = {b[0]}, y2 = {b[1]} }},"
-            for a, b in zip(corners, corners[1:], strict=False)]
+            for a, b in itertools.pairwise(corners)]
 
 
 def _clear(x: float, y: float) -> bool:

@@ -53,12 +53,15 @@ def position_case(view: BeamView) -> str | None:
     """Section 2's scan: the trigger of the case the beams call for, None for none.
 
     Rear receiver only: ``rear_seen`` (rear docking is refused: turn round first). In a front
-    beam or the centre beam: ``front_seen``. Far-R: ``far_right_seen`` (left approach);
-    Far-L: ``far_left_seen`` (right approach)."""
+    beam, the centre beam or only the force field (next to the dock): ``front_seen``.
+    Far-R: ``far_right_seen`` (left approach); Far-L: ``far_left_seen`` (right approach)."""
     if view.sees_any("rear") and not view.front_sees():
         return "rear_seen"
     if any(view.located(role) for role in ("front_left", "front_right", "centre")):
         return "front_seen"
+    if view.located("force_field") and not view.located("far_left") \
+            and not view.located("far_right"):
+        return "front_seen"  # next to the dock: alignment backs out to where it can align
     if view.located("far_right"):
         return "far_right_seen"
     if view.located("far_left"):
@@ -83,7 +86,7 @@ def skew_case(view: BeamView) -> str | None:
     """Section 2's front case: ``skew_left`` (Front-L only), ``skew_right`` (Front-R only),
     ``centered`` (both); a far beam counts as its side (after a turn from the rear)."""
     case = front_case(view)
-    if case == "front_both":
+    if case == "front_both" or (case is None and view.located("force_field")):
         return "centered"
     if case == "front_left_only" or (case is None and view.located("far_left")):
         return "skew_left"

@@ -45,7 +45,7 @@ DOCKING_OPTIONS: tuple[Option, ...] = (
     Option("side_turn_deg", "float", 60.0,
            "Left/right approach: how far to turn across the beams.", min=10, max=90,
            tunable=True),
-    Option("balance_ratio", "float", 0.2,
+    Option("balance_ratio", "float", 0.3,
            "L ~ R when |L - R| <= this x max(L, R) (front receivers' strength).", min=0.0,
            max=1.0, tunable=True),
     Option("min_signal", "int", 20, "Front strength below this counts as no signal (0-1023).",
@@ -105,7 +105,7 @@ class DockingConfig:
     turn_dps: float = 60.0
     micro_turn_deg: float = 4.0
     side_turn_deg: float = 60.0
-    balance_ratio: float = 0.2
+    balance_ratio: float = 0.3
     min_signal: int = 20
     align_strength: int = 550
     signal_lost_s: float = 3.0

@@ -177,5 +177,8 @@ HANDLERS = {"wall_follow": wall_follow, "force_field_detect": force_field_detect
 
 
 async def run_search(ctx: RobotContext, senses: DockSenses) -> None:
-    """The ``docking.search`` state's task."""
+    """The ``docking.search`` state's task; next to the dock (after a fallback), it wall
+    follows away first: the beams there say little about where to come in from."""
+    if senses.view().located("force_field"):
+        senses.run.moved_for_search_m = MOVE_ON_M
     await run_phase(ctx, senses, "docking.search", HANDLERS)

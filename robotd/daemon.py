@@ -151,8 +151,8 @@ class Daemon:
         try:
             try:
                 await self.supervisor.start()
-                # The profile's services start in ``idle``, once the devices are up.
-                await self.machine.trigger("booted")
+                self.machine.restore()
+                await self._leave_boot()
                 self.supervisor.add(self.profile.services(self.context))
                 await self.supervisor.start()
             except (StartFailed, ValueError) as exc:
@@ -194,12 +194,24 @@ class Daemon:
         except Exception as exc:  # the link may be down: the MCU's deadman stops them then
             log.warning("motors.stop_failed", error=repr(exc))
 
-    async def estop(self, reason: str) -> bool:
-        """Stop the motors at once, then enter ``estop``."""
-        log.error("estop", reason=reason, state=self.state)
-        self.emit("estop", reason=reason, state=self.state)
+    async def _leave_boot(self) -> None:
+        """To ``idle``, or back to ``estop`` when the latch survived a crash or a stop: the
+        profile's services then start (once the devices are up) with the motors stopped."""
+        latch = self.context.estop_latch.record
+        if latch is None:
+            await self.machine.trigger("booted")
+            return
+        log.error("estop.latched_at_start", **latch)
+        self.emit("estop", restored=True, state=self.state, **latch)
+        await self.machine.trigger("estop", source=str(latch.get("source")),
+                                   reason=str(latch.get("reason")))
+
+    async def estop(self, reason: str, source: str = "robotctl") -> bool:
+        """Stop the motors at once, then enter ``estop`` (latched durably before it returns)."""
+        log.error("estop", reason=reason, source=source, state=self.state)
+        self.emit("estop", reason=reason, source=source, state=self.state)
         await self.stop_motors()
-        return await self.machine.trigger("estop", reason=reason)
+        return await self.machine.trigger("estop", reason=reason, source=source)
 
     def reload(self) -> tuple[bool, list[str]]:
         """Read the config file (and overrides) again; keep the running config if it is bad."""
@@ -226,7 +238,8 @@ class Daemon:
         self.notifier.notify(f"STATUS=state {dst}")
 
     def _critical_failure(self, service: str, error: str) -> None:
-        task = asyncio.ensure_future(self.estop(f"service {service} keeps failing: {error}"))
+        task = asyncio.ensure_future(self.estop(f"service {service} keeps failing: {error}",
+                                                source="fault"))
         task.add_done_callback(lambda t: t.exception() if not t.cancelled() else None)
 
     def _link_changed(self, connected: bool) -> None:

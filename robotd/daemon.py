@@ -76,6 +76,7 @@ class Daemon:
         self._listeners: list[EventListener] = []
         self._stop = asyncio.Event()
         self._started_s: float | None = None
+        self._crashed = False
         self.start_problems: list[str] = []
         self.store = StateStore(self.state_dir / STATE_FILE)
         self.context = RobotContext(devices, settings, self.store, wall_clock, self.emit)
@@ -169,8 +170,27 @@ class Daemon:
             await self._stop.wait()
             return 0
         finally:
-            await self._shutdown()
+            if self._crashed:
+                await self._vanish()
+            else:
+                await self._shutdown()
             self._remove_signals(loop)
+
+    def crash(self) -> None:
+        """Die as under SIGKILL, for the simulator's ``robot.kill``: from now on nothing
+        reaches the state store (what is not written yet is lost) and, once the caller cancels
+        ``run``, no orderly stop runs: the motors are not stopped (the board's deadman does
+        it) and nothing is flushed. Only what an in-process daemon must release is released:
+        its tasks, its socket and its devices' ports."""
+        self._crashed = True
+        self.store.abandon()
+        self.machine.halt_behaviours()
+        log.error("daemon.crashed", state=self.state)
+
+    async def _vanish(self) -> None:
+        self.machine.halt_behaviours()
+        await self.supervisor.stop(self.settings.get("supervisor.stop_timeout_s"))
+        self.notifier.close()
 
     async def _shutdown(self) -> None:
         self.notifier.notify("STOPPING=1")

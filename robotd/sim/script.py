@@ -12,6 +12,7 @@ from robotd.sim.scenario import Scenario, ScenarioError, ScriptStep
 
 if TYPE_CHECKING:
     from robotd.sim.console import SimConsole
+    from robotd.sim.crash import DaemonKeeper
     from robotd.sim.rig import SimRig
 
 log = structlog.get_logger(__name__)
@@ -37,12 +38,14 @@ class ScriptPlayer:
     """Runs each step at its time (seconds from the start), on the loop's clock."""
 
     ACTIONS = ("mcu.unplug", "mcu.replug", "mcu.corrupt", "mcu.reset", "payload.set",
-               "person.place", "person.remove", "settings.set")
+               "person.place", "person.remove", "settings.set", "robot.kill", "robot.restart")
 
     def __init__(self, scenario: Scenario, rigs: dict[str, SimRig],
                  record: Callable[[dict[str, Any]], None], console: SimConsole,
-                 state_of: Callable[[str], str] = lambda _robot: "") -> None:
+                 state_of: Callable[[str], str] = lambda _robot: "",
+                 daemons: DaemonKeeper | None = None) -> None:
         self.scenario = scenario
+        self.daemons = daemons
         self.state_of = state_of
         self.rigs = rigs
         self.record = record
@@ -114,6 +117,11 @@ class ScriptPlayer:
             _person(self.scenario, args, step.action == "person.place")
         elif step.action == "settings.set":
             rig.settings.set(str(args["key"]), args["value"])
+        elif step.action == "robot.kill" and self.daemons is not None:
+            after = args.get("duration_s")  # down this long, then restarted
+            await self.daemons.kill(robot, None if after is None else float(after))
+        elif step.action == "robot.restart" and self.daemons is not None:
+            await self.daemons.restart(robot)
 
     def _later(self, delay_s: float, fn: Callable[[], None], name: str, robot: str) -> None:
         async def later() -> None:

@@ -80,9 +80,6 @@ class LaundryMemory:
         durable before the robot acts on the answer."""
         rid, status = directive.request_id, directive.request_status
         before = self.kept.values()
-        if self._to_reconcile:
-            self._to_reconcile = False
-            self._reconcile(before, rid, status)
         changes: dict[str, Any] = {"request_id": rid, "request_status": status}
         if rid is not None:
             if status in HOLDS_DIRTY:
@@ -97,7 +94,11 @@ class LaundryMemory:
                 changes.update(holding="none", holding_request_id=None)
             else:
                 self._unclaimed(before)
-        if await self.kept.update(**changes):
+        changed = await self.kept.update(**changes)
+        if self._to_reconcile:
+            self._to_reconcile = False
+            self._reconcile(before, rid, status)
+        if changed:
             after = self.kept.values()
             if after["holding"] != before["holding"] or \
                     after["holding_request_id"] != before["holding_request_id"]:
@@ -105,12 +106,15 @@ class LaundryMemory:
                               request_id=after["holding_request_id"], status=status)
 
     def _reconcile(self, held: dict[str, Any], rid: int | None, status: str | None) -> None:
-        agrees = rid == held["request_id"]
-        log.info("laundry.reconciled", request_id=held["request_id"], holding=held["holding"],
-                 server_request_id=rid, server_status=status, agrees=agrees)
-        self.ctx.emit("laundry.reconciled", request_id=held["request_id"],
-                      holding=held["holding"], holding_request_id=held["holding_request_id"],
-                      server_request_id=rid, server_status=status, agrees=agrees)
+        """Told once, after the first answer since the restart has been taken: what the robot
+        remembered, what the server says, and what the robot now holds."""
+        now = self.kept.values()
+        fields = {"request_id": held["request_id"], "restored_holding": held["holding"],
+                  "server_request_id": rid, "server_status": status,
+                  "agrees": rid == held["request_id"], "holding": now["holding"],
+                  "holding_request_id": now["holding_request_id"]}
+        log.info("laundry.reconciled", **fields)
+        self.ctx.emit("laundry.reconciled", **fields)
 
     def _unclaimed(self, held: dict[str, Any]) -> None:
         if self._unclaimed_told:

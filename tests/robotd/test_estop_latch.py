@@ -18,12 +18,14 @@ from contextlib import asynccontextmanager
 from pathlib import Path
 from typing import Any
 
+import pytest
 from daemon_harness import RecordingMotors, RpcClient, running_daemon
 
 from hal.backend import Devices
 from hal.sim.devices.motor_board.fake_mcu import FakeMcu
 from hal.sim.devices.motor_board.pty_mcu import PtyMcu
 from hal.sim.world.plant import RecordingPlant
+from robotd import ctl
 
 START_GUARD_S = 30.0
 
@@ -170,3 +172,17 @@ class TestLatchInProcess:
         async with running_daemon(state_dir=tmp_path) as d:
             state = d.state
         assert state == "idle"
+
+
+class TestRobotctlShowsTheLatch:
+    async def test_status_says_why_and_since_when(self, tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+        """``robotctl status`` shows the latched e-stop's source, reason and time."""
+        async with running_daemon(state_dir=tmp_path) as d:
+            await d.estop("hand on the button", source="robotctl")
+            capsys.readouterr()
+            code = await asyncio.to_thread(ctl.main, ["--socket", str(d.socket_path), "status"])
+            out = capsys.readouterr().out
+        assert code == 0
+        line = next(x for x in out.splitlines() if x.startswith("estop"))
+        assert "YES (latched: robotctl, 'hand on the button', at 20" in line

@@ -55,8 +55,17 @@ def encoded_error(exc: FleetError) -> bytes:
 def reply_json(reply: Reply) -> bytes:
     """The reply as JSON, from pre-encoded parts (it is sent every second by every robot)."""
     nav = reply.navigation
-    return (b'{"ActiveBeacons":[' + nav.encoded_beacons() + b"]," + _encoded_orders(
+    return (b'{"ActiveBeacons":[' + nav.encoded_beacons() + b"]," + _encoded_request(
+        reply.request_id, reply.request_status) + _encoded_orders(
         nav.is_line_following, nav.follow_color, reply.emergency_stop, reply.maintenance_mode))
+
+
+def _encoded_request(request_id: int | None, status: str | None) -> bytes:
+    """``RequestId`` and ``RequestStatus`` (an extension: the robot remembers which request
+    it serves across a restart), each followed by a comma."""
+    if request_id is None:
+        return b'"RequestId":null,"RequestStatus":null,'
+    return b'"RequestId":%d,"RequestStatus":%s,' % (request_id, json.dumps(status).encode())
 
 
 @functools.lru_cache(maxsize=256)

@@ -78,6 +78,8 @@ class ActiveBeacon(BaseModel):
 
 class DataExchangeOut(BaseModel):
     ActiveBeacons: list[ActiveBeacon]
+    RequestId: int | None = None
+    RequestStatus: str | None = None
     IsLineFollowing: bool
     FollowColor: str | None
     EmergencyStop: bool

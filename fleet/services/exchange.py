@@ -45,6 +45,9 @@ class Reply:
     navigation: Navigation
     emergency_stop: bool
     maintenance_mode: bool
+    request_id: int | None = None
+    """The request the robot serves (so it can remember it across a restart), or None."""
+    request_status: str | None = None
 
 
 @dataclass(frozen=True)
@@ -153,7 +156,8 @@ async def exchange(
         views.note_ping(light.robot_id, clock(), report)
         request = light if light.request_id is not None else None
         nav = navigation(site, cfg, request, stopped=light.stopped)
-        return Reply(nav, light.emergency_stop, light.maintenance_mode)
+        return Reply(nav, light.emergency_stop, light.maintenance_mode,
+                     light.request_id, light.status or None)
     async with db.write() as session:
         now = clock()
         robot = await robot_by_name(session, report.robot_name)
@@ -170,7 +174,9 @@ async def exchange(
             weight.evaluate(session, now, cfg, current, report.weight_kg)
         nav = navigation(site, cfg, current,
                          stopped=robot.emergency_stop or robot.maintenance_mode)
-        return Reply(nav, robot.emergency_stop, robot.maintenance_mode)
+        return Reply(nav, robot.emergency_stop, robot.maintenance_mode,
+                     current.id if current is not None else None,
+                     str(current.status) if current is not None else None)
 
 
 def _apply_report(robot: Robot, now: datetime, report: Report) -> None:

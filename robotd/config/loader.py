@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import difflib
+import json
 import os
 import re
 import stat
@@ -25,8 +26,10 @@ _SYNTAX_LINE = re.compile(r"\(at line (\d+), column (\d+)\)")
 # spaces after "[") is matched in linear time, not the cubic time of overlapping \s* runs.
 _HEADER = re.compile(r"^[ \t]*\[\[?([^\[\]#]*)\]\]?[ \t]*(#.*)?$")
 _HEADER_NAME = re.compile(r"[A-Za-z0-9_.\-\"' ]+")
-_KEY = re.compile(r"^\s*([A-Za-z0-9_\-.\"']+)\s*=")
+_KEY_PART = r"""(?:"[^"\n]*"|'[^'\n]*'|[A-Za-z0-9_\-]+)"""
+_KEY = re.compile(rf"^\s*({_KEY_PART}(?:[ \t]*\.[ \t]*{_KEY_PART})*)[ \t]*=")
 _MAX_SYNTAX_ERRORS = 50
+_PLAIN_NAME = re.compile(r"[A-Za-z0-9_\-]+")
 _MAX_DEPTH = 100
 MAX_CONFIG_BYTES = 1 << 20
 """A config file is a few kilobytes; past 1 MiB it is not one (or it is /dev/zero)."""
@@ -151,7 +154,7 @@ def load_config_text(
         section = sections.get(section_name)
         if section is None:
             line = where.get((section_name, ""))
-            problems.append(ConfigProblem(path, line, section_name, "unknown section"
+            problems.append(ConfigProblem(path, line, _shown(section_name), "unknown section"
                                           + _suggest(section_name, list(sections))))
             continue
         if not isinstance(table, dict):
@@ -164,7 +167,8 @@ def load_config_text(
             line = where.get((section_name, key))
             option = section.by_key.get(key)
             if option is None:
-                problems.append(ConfigProblem(path, line, dotted, "unknown key"
+                problems.append(ConfigProblem(path, line, f"{section_name}.{_shown(key)}",
+                                              "unknown key"
                                               + _suggest(key, list(section.by_key))))
                 continue
             checked, error = check_option(option, value)
@@ -315,6 +319,15 @@ def _header_name(line: str) -> str | None:
     if header is None or not _HEADER_NAME.fullmatch(header.group(1)):
         return None
     return header.group(1).strip().strip("\"'")
+
+
+def _shown(name: str) -> str:
+    """A name the file gave, as a problem line can carry it: bare when it is a plain word,
+    else quoted with its colons escaped (``""``, ``"a\\u003ab"``), so that the line still
+    reads ``PATH:LINE: section.key: message``."""
+    if _PLAIN_NAME.fullmatch(name):
+        return name
+    return json.dumps(name).replace(":", "\\u003a")
 
 
 def _suggest(word: str, known: list[str]) -> str:

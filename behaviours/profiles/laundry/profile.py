@@ -19,11 +19,13 @@ from behaviours.beacons.arrival import Arrival
 from behaviours.beacons.tracker import BeaconTracker
 from behaviours.line.follow import LineFollower, LineLostError
 from behaviours.motion.obstacle_guard import ObstacleGuard
+from behaviours.persistence import MissionRecord
 from behaviours.profile import BaseProfile, StateTask
 from behaviours.profiles.laundry.directive import Directive
 from behaviours.profiles.laundry.fleet_link import FleetLink
 from behaviours.profiles.laundry.load_check import LoadCheck
 from behaviours.profiles.laundry.local_route import LocalRoute
+from behaviours.profiles.laundry.memory import LAUNDRY_MISSION, LaundryMemory
 from behaviours.profiles.laundry.navigator import AT_BASE, AT_ROOM, TO_BASE, TO_ROOM, Navigator
 from behaviours.profiles.laundry.report import RobotReport
 from behaviours.service import Service, TaskService
@@ -44,6 +46,10 @@ class LaundryProfile(BaseProfile):
         self.navigator: Navigator | None = None
         self.route: LocalRoute | None = None
         self.fleet: FleetLink | None = None
+        self.memory: LaundryMemory | None = None
+
+    def mission_records(self) -> tuple[MissionRecord, ...]:
+        return (LAUNDRY_MISSION,)
 
     def mission_states(self) -> list[str | dict[str, Any]]:
         return ["to_room", "at_room", "to_base", "at_base"]
@@ -71,7 +77,9 @@ class LaundryProfile(BaseProfile):
         if d.front_range is not None:
             wheels = ObstacleGuard(d.motors, d.front_range, ctx.settings, ctx.emit)
         self.follower = LineFollower(d.camera, wheels, ctx.settings)
-        navigator = Navigator(ctx, tracker, arrival, self.follower.set_follow_colour)
+        memory = LaundryMemory(ctx, str(ctx.settings.get("laundry.base_room")))
+        self.memory = memory
+        navigator = Navigator(ctx, tracker, arrival, self.follower.set_follow_colour, memory)
         self.navigator = navigator
         sensing: list[Callable[[], Any]] = [tracker.run, arrival.run]
         if load is not None:
@@ -86,11 +94,16 @@ class LaundryProfile(BaseProfile):
         url = str(ctx.settings.get("fleet.url"))
         if url:
             report = RobotReport(ctx.settings.get("robot.name"), ctx.wall_clock, tracker,
-                                 arrival, load, d.front_range)
+                                 arrival, load, d.front_range, holding=memory.report)
             client = httpx.AsyncClient(base_url=url, transport=d.network)
 
+            async def follow(directive: Directive) -> None:
+                # What the answer means the robot holds is on disk before the robot acts on it.
+                await memory.observe(directive)
+                await navigator.apply(directive)
+
             def on_directive(directive: Directive) -> None:
-                asyncio.get_running_loop().create_task(navigator.apply(directive))
+                asyncio.get_running_loop().create_task(follow(directive))
 
             self.fleet = FleetLink(client, ctx.settings.get("robot.name"), report.build,
                                    on_directive, period_s=ctx.settings.get("fleet.period_s"),

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+from fleet_harness import bearer, token_for
 
 from fleet.api.schemas import DataExchangeOut
 from fleet.site import SiteError, parse_site
@@ -39,7 +40,7 @@ BAD_EXCHANGES = [
     ("a text RSSI", "robot-1", b'{"DetectedBeacons": [{"MacAddress": "x", "Rssi": "-50"}]}', 422),
     ("beacons not a list", "robot-1", b'{"DetectedBeacons": {"MacAddress": "x"}}', 422),
     ("another robot's name", "robot-1", b'{"RobotName": "robot-2"}', 422),
-    ("an unknown robot", "robot-9", b"{}", 404),
+    ("an unknown robot (robot-1's token)", "robot-9", b"{}", 403),
     ("a control character in the name", "robot%01", b"{}", 422),
 ]
 
@@ -86,8 +87,10 @@ class TestBadRequests:
     async def test_bad_data_exchanges_are_refused(self, fleet, what, robot, body, code):
         await fleet.request(1)
         before = await snapshot(fleet)
-        response = await fleet.http.post(f"/api/Robot/{robot}/data-exchange", content=body,
-                                         headers={"content-type": "application/json"})
+        response = await fleet.http.post(
+            f"/api/Robot/{robot}/data-exchange", content=body,
+            headers={"content-type": "application/json",
+                     **bearer(token_for("robot", "robot-1"))})
         assert response.status_code == code, what
         assert response.json()["detail"]
         assert await snapshot(fleet) == before

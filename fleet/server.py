@@ -63,7 +63,7 @@ class FleetServer:
             settings = settings.public()
         self._settings = settings
         self.cache = SiteCache(self.db)
-        self.views = RobotViews(self.db)
+        self.views = RobotViews(self.db, self.clock)
         self.auth = Authenticator(self.db, max_failures_per_min=auth_failures_per_min)
         self._tasks: list[asyncio.Task[None]] = []
         self.started = False

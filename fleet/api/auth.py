@@ -21,6 +21,7 @@ from starlette.types import ASGIApp, Receive, Scope, Send
 
 from fleet.auth import Authenticator
 from fleet.errors import Forbidden, Unauthorized
+from fleet.timehold import hold_loop_time
 from fleet.tokens import MAX_TOKEN_CHARS, Principal, Role
 
 log = structlog.get_logger(__name__)
@@ -55,7 +56,10 @@ class Authenticate:
                                                           str(retry_after_s).encode())])
             return
         token, problem = _bearer_token(scope)
-        principal = await self.auth.principal(token) if token is not None else None
+        principal = None
+        if token is not None:
+            with hold_loop_time():  # a token lookup may read the database
+                principal = await self.auth.principal(token)
         if principal is None:
             self.auth.limiter.failed(address)
             problem = problem or "the bearer token is unknown or revoked"

@@ -171,13 +171,16 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
                                    origin)
             plans = [CustomerPlan.from_table(t, f"fleet.customers[{i}]")
                      for i, t in enumerate(fleet_table.get("customers", []))]
-            customers = [Customer(p, fleet.client, lambda ev: on_event("", ev), set_payload)
-                         for p in plans]
+            customers = [Customer(p, fleet.customer_client(p.customer),
+                                  lambda ev: on_event("", ev), set_payload) for p in plans]
             staff = Staff(fleet.client, lambda ev: on_event("", ev), set_payload,
                           float(fleet_table.get("washing_s", 30.0)))
             await fleet.start()
         for index, spec in enumerate(scenario.robots):
             settings = robot_settings(scenario, spec, getattr(args, "config", None))
+            token_file = fleet.robot_token_file(spec.name) if fleet is not None else None
+            if token_file is not None:  # each robot its own token, as on a real site
+                settings.set("fleet.token_file", str(token_file))
             body = DiffDriveBody(scenario.world, Pose(spec.x_m, spec.y_m, spec.heading_rad),
                                  spec.body, rng=random.Random(f"{seed}:{spec.name}:body"),
                                  payload_kg=spec.payload_kg, clock=loop.time)

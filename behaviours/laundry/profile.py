@@ -9,6 +9,7 @@ local route in the ``laundry`` section.
 from __future__ import annotations
 
 import asyncio
+import os
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -18,7 +19,7 @@ import structlog
 from behaviours.arrival import Arrival
 from behaviours.beacons import BeaconTracker
 from behaviours.laundry.directive import Directive
-from behaviours.laundry.fleet_link import FleetLink
+from behaviours.laundry.fleet_link import FleetLink, read_token, token_path
 from behaviours.laundry.local_route import LocalRoute
 from behaviours.laundry.navigator import AT_BASE, AT_ROOM, TO_BASE, TO_ROOM, Navigator
 from behaviours.laundry.report import RobotReport
@@ -107,9 +108,12 @@ class LaundryProfile(BaseProfile):
             def on_directive(directive: Directive) -> None:
                 asyncio.get_running_loop().create_task(navigator.apply(directive))
 
+            # Read once at start; a missing or unreadable file stops the start with its path.
+            path = token_path(str(ctx.settings.get("fleet.token_file")), os.environ)
             self.fleet = FleetLink(client, ctx.settings.get("robot.name"), report.build,
                                    on_directive, period_s=ctx.settings.get("fleet.period_s"),
-                                   grace_s=ctx.settings.get("laundry.server_grace_s"))
+                                   grace_s=ctx.settings.get("laundry.server_grace_s"),
+                                   token=read_token(path) if path is not None else None)
             services.append(_Task("laundry.fleet", self.fleet.run,
                                   depends_on=("laundry.sensing",)))
         else:

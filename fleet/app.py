@@ -40,7 +40,7 @@ class FleetApp(FastAPI):
         super().__init__(**kwargs)
         self._front = BodyLimit(AllowedMethods(
             Authenticate(ExchangeFastPath(super().__call__, server), server.auth),
-            lambda: self.router.routes))
+            self.openapi))
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         await self._front(scope, receive, send)

@@ -23,7 +23,7 @@ from fleet.api.schemas import (
     RoomIn,
     RoomOut,
 )
-from fleet.errors import Invalid, NotFound
+from fleet.errors import Conflict, NotFound
 from fleet.models import Beacon, Customer, Notification, Robot, Room
 from fleet.services import admin
 from fleet.services.common import robot_by_name
@@ -151,14 +151,15 @@ async def get_settings(http: HttpRequest) -> dict[str, Any]:
     return (await server_of(http).settings()).public()
 
 
-@router.put("/settings", responses=errors(413))
+@router.put("/settings", responses=errors(409, 413))
 async def put_settings(body: SettingsUpdate, http: HttpRequest) -> dict[str, Any]:
-    """Change settings (AutoAccept, timeouts, weights...); only the keys given change."""
+    """Change settings (AutoAccept, timeouts, weights...); only the keys given change. 409
+    when the result would not hold together (MinWeightKg not below MaxWeightKg)."""
     async with server_of(http).db.write() as session:
         try:
             merged = await store_settings(session, body.given())
         except ValidationError as exc:
-            raise Invalid("; ".join(str(e["msg"]) for e in exc.errors())) from exc
+            raise Conflict("; ".join(str(e["msg"]) for e in exc.errors())) from exc
     server_of(http).cache.invalidate()
     return merged.public()
 

@@ -4,32 +4,36 @@ Starlette answers a method a path does not take with the ``Allow`` of the first 
 path matched, although a path often has several routes (``GET`` and ``POST /api/robots``),
 and answers ``OPTIONS`` with 405. ``AllowedMethods`` looks at every route of the path:
 ``OPTIONS`` gets 204 with every method the path takes, any other method the path does not
-take gets 405 with the same ``Allow``. Both come before authentication: what a path takes is
-public (it is in the OpenAPI document).
+take gets 405 with the same ``Allow``. What a path takes is read from the app's own OpenAPI
+document, so ``Allow`` and the document cannot disagree. Both come before authentication:
+what a path takes is public (it is in the document).
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Iterable
+import re
+from collections.abc import Callable
 from typing import Any
 
-from starlette.routing import BaseRoute
 from starlette.types import ASGIApp, Receive, Scope, Send
 
 # What one path takes, remembered per path (bounded: paths are client-chosen).
 _CACHE_MAX = 4096
+_HTTP_METHODS = frozenset({"get", "put", "post", "delete", "options", "head", "patch", "trace"})
 
 
 class AllowedMethods:
     """Args:
         app: the application behind.
-        routes: returns the app's routes (read lazily: routes are added after the app).
+        openapi: returns the app's OpenAPI document (read at the first request: routes are
+            added after the app is made).
     """
 
-    def __init__(self, app: ASGIApp, routes: Callable[[], Iterable[BaseRoute]]) -> None:
+    def __init__(self, app: ASGIApp, openapi: Callable[[], dict[str, Any]]) -> None:
         self.app = app
-        self._routes = routes
+        self._openapi = openapi
+        self._paths: list[tuple[re.Pattern[str], frozenset[str]]] | None = None
         self._allowed: dict[str, frozenset[str]] = {}
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
@@ -58,14 +62,27 @@ class AllowedMethods:
         """Every method the path takes, OPTIONS included; empty for a path no route has."""
         found = self._allowed.get(path)
         if found is None:
+            if self._paths is None:
+                self._paths = _documented_paths(self._openapi())
             methods: set[str] = set()
-            for route in self._routes():
-                regex: Any = getattr(route, "path_regex", None)
-                route_methods = getattr(route, "methods", None)
-                if regex is not None and route_methods and regex.match(path):
-                    methods.update(route_methods)
+            for regex, documented in self._paths:
+                if regex.fullmatch(path):
+                    methods.update(documented)
             found = frozenset(methods | {"OPTIONS"}) if methods else frozenset()
             if len(self._allowed) >= _CACHE_MAX:
                 self._allowed.clear()
             self._allowed[path] = found
         return found
+
+
+def _documented_paths(document: dict[str, Any]) -> list[tuple[re.Pattern[str], frozenset[str]]]:
+    """Each path template of the document as a regex ({name} is one path segment), with its
+    methods."""
+    paths = []
+    for template, item in document.get("paths", {}).items():
+        pattern = "".join(
+            "[^/]+" if part.startswith("{") else re.escape(part)
+            for part in re.split(r"(\{[^}]*\})", template))
+        methods = frozenset(m.upper() for m in item if m in _HTTP_METHODS)
+        paths.append((re.compile(pattern), methods))
+    return paths

@@ -17,13 +17,14 @@ def _whole_number(value: object) -> object:
     return value
 
 
+# Last in an Annotated (it then runs first), so the constraints before it stay in the schema.
 Whole = BeforeValidator(_whole_number)
-Id = Annotated[int, Whole, Field(strict=True, ge=1, le=2**31 - 1)]
+Id = Annotated[int, Field(strict=True, ge=1, le=2**31 - 1), Whole]
 Text = Annotated[str, StringConstraints(min_length=1, max_length=100,
                                         pattern=r"^[^\x00-\x1f\x7f]+$")]
 Mac = Annotated[str, StringConstraints(pattern=r"^[0-9A-Fa-f]{2}(:[0-9A-Fa-f]{2}){5}$")]
 Real = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-1e6, le=1e6)]
-Rssi = Annotated[int, Whole, Field(strict=True, ge=-200, le=50)]
+Rssi = Annotated[int, Field(strict=True, ge=-200, le=50), Whole]
 Flag = Annotated[bool, Field(strict=True)]
 
 
@@ -61,8 +62,8 @@ class DetectedBeacon(BaseModel):
 
     MacAddress: Annotated[str, StringConstraints(min_length=1, max_length=64)]
     Uuid: Annotated[str, StringConstraints(max_length=64)] | None = None
-    Major: Annotated[int, Whole, Field(strict=True, ge=0, le=65535)] | None = None
-    Minor: Annotated[int, Whole, Field(strict=True, ge=0, le=65535)] | None = None
+    Major: Annotated[int, Field(strict=True, ge=0, le=65535), Whole] | None = None
+    Minor: Annotated[int, Field(strict=True, ge=0, le=65535), Whole] | None = None
     Rssi: Rssi
     Distance: Real | None = None
 

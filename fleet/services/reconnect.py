@@ -65,6 +65,8 @@ class Reconnects(Generic[R]):
                         batch, self._pending = self._pending[:MAX_BATCH], self._pending[MAX_BATCH:]
                         await self._restore(session, batch)
                 except Exception as exc:
+                    if not batch:  # failed before taking one: fail those waiting, not loop
+                        batch, self._pending = self._pending, []
                     log.exception("fleet.reconnect.failed", robots=len(batch))
                     for _, _, future in batch:
                         if not future.done():

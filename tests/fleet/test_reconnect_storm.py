@@ -54,3 +54,25 @@ class TestReconnectStorm:
             await fleet.exchange("robot-1", beacons=[beacon("C3:00:00:00:00:01")],
                                  in_target=True, weight_kg=3.0)
             assert await fleet.status(request["Id"]) == "Washing"
+
+
+class TestReconnectFailure:
+    async def test_a_failed_batch_fails_its_waiters_and_the_next_one_runs(self, fleet):
+        """A batch whose transaction fails answers its robots with the error (they report
+        again a second later); the batcher does not spin, and the next batch works."""
+        from fleet.services.reconnect import Reconnects
+
+        calls: list[str] = []
+
+        def apply(_robot, _now, report: str) -> None:
+            calls.append(report)
+            if report == "bad":
+                raise RuntimeError("disk full")
+
+        reconnects: Reconnects[str] = Reconnects(fleet.server.db, fleet.clock, apply)
+        results = await asyncio.gather(reconnects.restore("robot-1", "bad"),
+                                       return_exceptions=True)
+        assert isinstance(results[0], RuntimeError)
+        await reconnects.restore("robot-1", "good")
+        assert calls == ["bad", "good"]
+        assert reconnects.batches == 1

@@ -155,7 +155,11 @@ async def apply_site(session: AsyncSession, now: datetime, site: Site) -> None:
                 msg = (f"{site.source}: tokens[{i}].role: must be one of "
                        f"{', '.join(Role)}, got {t['role']!r}")
                 raise SiteError(msg)
-            await tokens.create(session, now, Role(t["role"]), t["subject"], t["token"])
+            try:
+                await tokens.create(session, now, Role(t["role"]), t["subject"], t["token"])
+            except FleetError as exc:
+                msg = f"{site.source}: tokens[{i}]: {exc.message}"
+                raise SiteError(msg) from exc
     except ValidationError as exc:
         msg = f"{site.source}: settings: {exc.errors()[0]['msg']}"
         raise SiteError(msg) from exc

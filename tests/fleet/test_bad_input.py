@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import pytest
 from fleet_harness import bearer, token_for
 
@@ -176,6 +178,24 @@ class TestSiteFile:
         fleet = Fleet(f"sqlite:///{tmp_path / 'x.db'}",
                       site_toml="[[beacons]]\nmac='C3:00:00:00:00:01'\nname='b'\nroom='Nowhere'\n")
         with pytest.raises(SiteError, match="room 'Nowhere' does not exist"):
+            await fleet.server.start(monitors=False)
+        await fleet.server.db.dispose()
+        await fleet.http.aclose()
+
+    @pytest.mark.parametrize(("entry", "message"), [
+        ('role = "robot"\nsubject = "robot-1"\ntoken = "short"',
+         "tokens[0]: a token must have 24 to 512 characters"),
+        ('role = "root"\nsubject = "x"\ntoken = "long-enough-token-0123456789"',
+         "tokens[0].role: must be one of robot, customer, admin"),
+        ('role = "robot"\nsubject = "robot-9"\ntoken = "long-enough-token-0123456789"',
+         "tokens[0]: robot 'robot-9' is not registered"),
+    ])
+    async def test_a_bad_token_entry_fails_at_start_naming_it(self, tmp_path, entry, message):
+        from fleet_harness import Fleet
+
+        fleet = Fleet(f"sqlite:///{tmp_path / 'x.db'}",
+                      site_toml=f"[[robots]]\nname = 'robot-1'\n[[tokens]]\n{entry}\n")
+        with pytest.raises(SiteError, match=re.escape(message)):
             await fleet.server.start(monitors=False)
         await fleet.server.db.dispose()
         await fleet.http.aclose()

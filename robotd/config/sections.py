@@ -125,6 +125,10 @@ _CORE: tuple[Section, ...] = (
     Section("fleet", "The fleet server's data exchange (seed 000 section 8).", (
         opt("url", "str", "", "Base URL of the fleet server; empty: no fleet server."),
         opt("period_s", "float", 1.0, "Data exchange period.", min=0.1, max=60, tunable=True),
+        opt("token_file", "str", "",
+            "File holding the robot's bearer token (robotd-fleet token create --robot); "
+            "empty: none. Relative or empty with $CREDENTIALS_DIRECTORY set (systemd "
+            "LoadCredential=): the credential of that name, fleet-token when empty."),
     )),
     Section("safety", "Stopping for what is in front of the robot.", (
         opt("stop_distance_cm", "float", 30.0,

@@ -9,6 +9,7 @@ local route in the ``laundry`` section.
 from __future__ import annotations
 
 import asyncio
+import os
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -22,7 +23,7 @@ from behaviours.motion.obstacle_guard import ObstacleGuard
 from behaviours.persistence import MissionRecord
 from behaviours.profile import BaseProfile, StateTask
 from behaviours.profiles.laundry.directive import Directive
-from behaviours.profiles.laundry.fleet_link import FleetLink
+from behaviours.profiles.laundry.fleet_link import FleetLink, read_token, token_path
 from behaviours.profiles.laundry.load_check import LoadCheck
 from behaviours.profiles.laundry.local_route import LocalRoute
 from behaviours.profiles.laundry.memory import LAUNDRY_MISSION, LaundryMemory
@@ -105,9 +106,12 @@ class LaundryProfile(BaseProfile):
             def on_directive(directive: Directive) -> None:
                 asyncio.get_running_loop().create_task(follow(directive))
 
+            # Read once at start; a missing or unreadable file stops the start with its path.
+            path = token_path(str(ctx.settings.get("fleet.token_file")), os.environ)
             self.fleet = FleetLink(client, ctx.settings.get("robot.name"), report.build,
                                    on_directive, period_s=ctx.settings.get("fleet.period_s"),
-                                   grace_s=ctx.settings.get("laundry.server_grace_s"))
+                                   grace_s=ctx.settings.get("laundry.server_grace_s"),
+                                   token=read_token(path) if path is not None else None)
             services.append(TaskService("laundry.fleet", self.fleet.run,
                                   depends_on=("laundry.sensing",)))
         else:

@@ -14,8 +14,8 @@ from typing import Any
 import structlog
 
 from drivers import ble_scanner, hx711
-from drivers.arduino.dock_telemetry import DockFacets
 from drivers.arduino.link import ArduinoLink
+from drivers.arduino.telemetry import DockFacets
 from drivers.serial_port import open_serial
 from hal.backend import Devices
 from hal.sim.devices.ble_model import BleAirParams, SimBleAir

@@ -13,7 +13,11 @@ from typing import Any, Protocol, runtime_checkable
 from hal.readings import (
     BatteryReading,
     BeaconSighting,
+    BinLevel,
+    Bumpers,
+    DockContacts,
     DockIrReading,
+    DockSignal,
     EncoderReading,
     Frame,
     LedMode,
@@ -21,6 +25,7 @@ from hal.readings import (
     LinkStats,
     MotorCommand,
     RangeReading,
+    WallDistance,
     WeightReading,
 )
 
@@ -96,6 +101,51 @@ class RangeSensor(Protocol):
 class Battery(Protocol):
     def latest(self) -> BatteryReading | None: ...
     async def next_reading(self) -> BatteryReading: ...
+
+
+@runtime_checkable
+class DockSignalSensor(Protocol):
+    """The front dock receivers' beam strength (``IRS``), for fine alignment."""
+
+    def latest(self) -> DockSignal | None: ...
+    async def next_reading(self) -> DockSignal: ...
+
+
+@runtime_checkable
+class ContactSensor(Protocol):
+    """The charging contacts' voltage (``DOCK``)."""
+
+    def latest(self) -> DockContacts | None: ...
+    async def next_reading(self) -> DockContacts: ...
+
+
+@runtime_checkable
+class BumperSensor(Protocol):
+    def latest(self) -> Bumpers | None: ...
+    async def next_reading(self) -> Bumpers: ...
+
+
+@runtime_checkable
+class WallSensor(Protocol):
+    def latest(self) -> WallDistance | None: ...
+    async def next_reading(self) -> WallDistance: ...
+
+
+@runtime_checkable
+class BinSensor(Protocol):
+    def latest(self) -> BinLevel | None: ...
+    async def next_reading(self) -> BinLevel: ...
+
+
+@runtime_checkable
+class DockStation(Protocol):
+    """The auto-empty station, reached through the charging contacts.
+
+    ``evacuate(True)`` asks the station to run its suction (the bin door is the ``ServoBox``);
+    it returns once the board acknowledged and raises ``LinkDown`` when it could not be told.
+    """
+
+    async def evacuate(self, on: bool) -> None: ...
 
 
 @runtime_checkable

@@ -76,6 +76,59 @@ class BatteryReading:
 
 
 @dataclass(frozen=True, slots=True)
+class DockSignal:
+    """Strength of the dock's beams at the two front receivers: 10-bit ADC counts, 0-1023.
+
+    From the motor board's ``IRS`` line (20 Hz); comparing left with right aligns the robot.
+    """
+
+    front_left: int
+    front_right: int
+    t_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class DockContacts:
+    """Voltage across the charging contacts in millivolts (0 off the dock).
+
+    The board only measures; whether it is within the limits that count as docked is the
+    behaviour's to judge (``docking`` settings).
+    """
+
+    mv: int
+    t_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class Bumpers:
+    """The front bumper's two switches (True: pressed)."""
+
+    left: bool
+    right: bool
+    t_s: float
+
+    @property
+    def any(self) -> bool:
+        return self.left or self.right
+
+
+@dataclass(frozen=True, slots=True)
+class WallDistance:
+    """The right-side wall sensor's distance."""
+
+    distance_cm: float
+    t_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class BinLevel:
+    """How full the dust bin is, 0-100 %."""
+
+    percent: float
+    t_s: float
+
+
+@dataclass(frozen=True, slots=True)
 class Frame:
     """A camera frame: BGR uint8 image, shape (height, width, 3)."""
 

@@ -131,6 +131,7 @@ _WORDS = frozenset({"LED_IDLE", "LED_WAITING", "LED_MOVING", "SUCCESS_SCAN", "FA
                     "STOP", "HB", "HELLO"})
 _MOTOR = re.compile(r"MOTOR:(\d{1,3}),(\d{1,3}),([01]),([01])")
 _SERVO = re.compile(r"SERVO:(\d{1,3})")
+_EVAC = re.compile(r"EVAC:[01]")
 
 
 def well_formed(payload: str) -> bool:
@@ -144,7 +145,7 @@ def well_formed(payload: str) -> bool:
         return int(motor.group(1)) <= 255 and int(motor.group(2)) <= 255
     if (servo := _SERVO.fullmatch(payload)) is not None:
         return int(servo.group(1)) <= 180
-    return False
+    return _EVAC.fullmatch(payload) is not None
 
 
 def parse_line(raw: bytes, framing: Framing) -> Line:

@@ -1,18 +1,21 @@
-"""The Arduino motor board driver: motors, servo and LEDs out; encoders, range, battery in.
+"""The Arduino motor board driver: motors, servo, LEDs and EVAC out; encoders, range, battery
+and the docking sensors in.
 
-One ``ArduinoLink`` is the robot's ``Motors``, ``ServoBox`` and ``Leds``; its ``encoders``,
-``front_range`` and ``battery`` attributes are the sensor facets. It opens the port through a
-``SerialOpener``, does the ``HELLO`` handshake, and reconnects with exponential backoff when
-the port disappears or falls silent. While the link is down ``connected`` is False,
-``drive()`` raises ``LinkDown`` and the board's own deadman has stopped the wheels.
+One ``ArduinoLink`` is the robot's ``Motors``, ``ServoBox``, ``Leds`` and ``DockStation``; its
+``encoders``, ``front_range`` and ``battery`` attributes are the sensor facets, ``dock`` holds
+the docking ones (``dock.signal``, ``contacts``, ``bumpers``, ``wall``, ``bin``). It opens
+the port through a ``SerialOpener``, does the ``HELLO`` handshake, and reconnects with
+exponential backoff when the port disappears or falls silent. While the link is down
+``connected`` is False, ``drive()`` raises ``LinkDown`` and the board's own deadman has
+stopped the wheels.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
-from collections.abc import Callable, Coroutine
-from typing import Any, Generic, TypeVar
+from collections.abc import Callable
+from typing import Any
 
 import structlog
 
@@ -22,9 +25,8 @@ from drivers.arduino.outbox import Command, Delivery, Outbox, Outcome
 from drivers.arduino.receiver import LinkBroken
 from drivers.arduino.session import Session
 from drivers.arduino.stats import LinkCounters
-from drivers.arduino.telemetry import Boot, TelemetryError, interpret
+from drivers.arduino.telemetry import Boot, DockFacets, Feed, TelemetryError, interpret
 from hal.devices import DeviceUnavailable, LinkDown
-from hal.latest import LatestValue
 from hal.ports import SerialOpener
 from hal.readings import (
     BatteryReading,
@@ -39,7 +41,7 @@ from hal.tasks import cancel_and_wait, reconnect_forever
 
 log = structlog.get_logger(__name__)
 
-T = TypeVar("T")
+__all__ = ["ArduinoLink", "CommandNotDelivered", "Feed", "FirmwareRejected"]
 
 
 class CommandNotDelivered(LinkDown):
@@ -52,28 +54,6 @@ class CommandNotDelivered(LinkDown):
 
 class FirmwareRejected(Exception):
     """The board answered HELLO with a protocol version older than accepted."""
-
-
-class Feed(Generic[T]):
-    """A sensor facet of the link: newest reading and the next one (fails on link down)."""
-
-    def __init__(self) -> None:
-        self._latest: LatestValue[T] = LatestValue()
-        self.publish: Callable[[T], None] = self._latest.publish  # no frame of our own
-
-    def latest(self) -> T | None:
-        return self._latest.latest()
-
-    def listen(self, callback: Callable[[T], object]) -> Callable[[], None]:
-        """Call ``callback(reading)`` as each reading arrives; returns the unsubscriber."""
-        return self._latest.listen(callback)
-
-    def next_reading(self) -> Coroutine[Any, Any, T]:
-        """Awaitable: the next reading (LinkDown when the link goes down first)."""
-        return self._latest.next()  # its coroutine itself: one frame less per reading
-
-    def fail(self, exc: BaseException) -> None:
-        self._latest.fail(exc)
 
 
 class ArduinoLink:
@@ -94,6 +74,7 @@ class ArduinoLink:
         self.encoders: Feed[EncoderReading] = Feed()
         self.front_range: Feed[RangeReading] = Feed()
         self.battery: Feed[BatteryReading] = Feed()
+        self.dock = DockFacets()
         self.counters = LinkCounters()
         self.firmware: str | None = None
         self.protocol: int | None = None
@@ -150,6 +131,7 @@ class ArduinoLink:
             "rtt_p99_ms": stats.rtt_p99_ms, "queued": len(self._outbox),
             **self.counters.extras(),
             "superseded": self.counters.superseded + self._outbox.superseded,
+            **self.dock.status(),
         }
 
     # -- Motors ------------------------------------------------------------------------------
@@ -201,6 +183,13 @@ class ArduinoLink:
             log.debug("link.led_skipped", mode=mode.value)
             return
         self.submit(mode.value)
+
+    # -- DockStation -------------------------------------------------------------------------
+    async def evacuate(self, on: bool) -> None:
+        """Ask the station to run (True) or stop (False) its suction: ``EVAC:<0|1>``."""
+        delivery = await self.submit(f"EVAC:{int(on)}")
+        if not delivery.ok:
+            raise CommandNotDelivered(delivery)
 
     # -- any command -------------------------------------------------------------------------
     def submit(self, payload: str) -> asyncio.Future[Delivery]:
@@ -288,6 +277,7 @@ class ArduinoLink:
                 down = LinkDown(f"{self.name} on {self.config.port}: {reason}")
                 for feed in (self.encoders, self.front_range, self.battery):
                     feed.fail(down)
+                self.dock.fail(down)
                 if self._closing:
                     log.info("link.closed", port=self.config.port)
                 else:
@@ -357,6 +347,8 @@ class ArduinoLink:
             self.battery.publish(reading)
         elif isinstance(reading, Boot):
             self._on_boot(reading)
+        else:
+            self.dock.publish(reading)
 
     def _on_boot(self, boot: Boot) -> None:
         """The board restarted: its counters start at zero, so keep ours continuous."""

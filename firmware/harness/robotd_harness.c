@@ -9,14 +9,16 @@
  * udev name); --free-run runs as fast as it can instead of at wall-clock speed.
  *
  * stdout (control channel): "UART <path>" then "READY", then replies and events:
- *   EV t_us=.. pwm_l=.. pwm_r=.. in_l=.. in_r=.. servo_us=.. leds=..   whenever a pin changes
+ *   EV t_us=.. pwm_l=.. pwm_r=.. in_l=.. in_r=.. servo_us=.. leds=.. evac=..
+ *                     whenever a pin changes (leds and evac through the 74HC595, see below)
  * stdin commands (one a line), each answered with one line:
  *   STATE             -> "STATE t_us=.. <pin fields as in EV>"
  *   ENC <dl> <dr>     -> queue quadrature steps per wheel (signed ticks) -> "OK ENC"
  *   ENCSTAT           -> "ENCSTAT queued_l=.. queued_r=.. played_l=.. played_r=..
  *                         overridden_l=.. overridden_r=.." (signed totals since start)
  *   ADC <ch> <mV>     -> set analog input ch (0-7) in millivolts         -> "OK ADC"
- *   DOCK <0|1>        -> drive the dock contact pin (A2)                 -> "OK DOCK"
+ *   MUX <ch> <mV>     -> set input ch (0-7) of the 74HC4051 on A2       -> "OK MUX"
+ *   DOCK <0|1>        -> a 16.8 V charger on the contacts, or none (MUX 0) -> "OK DOCK"
  *   LOOP              -> "LOOP n=.. period_p50_us=.. .. busy_p99_us=.. busy_max_us=.."
  *   LOOPRESET         -> "OK LOOPRESET"
  *   TIME              -> "TIME t_us=.. cycles=.. lag_us=.."
@@ -36,6 +38,11 @@
  * consistent (a GPIOR2 write after each command and at the end of each loop), so a command is
  * never seen half-applied (left motor set, right not yet), and every 5 ms when no mark came
  * (a hung or resetting MCU).
+ *
+ * The docking I/O (firmware/robotd_mcu/dock_io.h) is emulated here too: a 74HC595 on A3 (SER),
+ * A4 (SRCLK), A5 (RCLK) whose outputs are the eyes, the red LED, EVAC and the select lines of
+ * a 74HC4051; the 4051 puts the voltage of the selected input (MUX) on A2's ADC channel as soon
+ * as the register latches, before the firmware starts its conversion.
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -78,6 +85,7 @@ typedef struct {
 	int servo_us;          /* pulse width on D9, 0 when no pulse */
 	int servo_period_us;
 	int leds;              /* bit0 eye L, bit1 eye R, bit2 green, bit3 red */
+	int evac;              /* the 595's EVAC output (Q3) */
 } pins_t;
 
 static avr_t *avr;
@@ -101,7 +109,7 @@ static int64_t enc_pending[2];
 static int64_t enc_queued[2], enc_played[2];  /* signed totals: ENC asked, transitions made */
 static int64_t enc_overridden[2];              /* steps that found a pin not at our level */
 static int enc_phase[2];
-static avr_irq_t *enc_a[2], *enc_b[2], *dock_pin;
+static avr_irq_t *enc_a[2], *enc_b[2];
 typedef struct {
 	uint64_t n, sum, min, max;
 	uint32_t hist[LOOP_HIST_US + 1];  /* by microsecond */
@@ -115,7 +123,14 @@ static double corrupt_pct;
 static int unplugged, reset_pending;
 static const char *link_path;
 static uint32_t adc_mv[8];
-static int dock_level;
+/* 74HC595: shift stage, latched outputs, data pin level; 74HC4051: its inputs in mV. */
+static uint8_t sr_shift, sr_out;
+static int sr_data;
+static uint32_t mux_mv[8];
+#define SR_MUX(out) (((out) >> 4) & 7)
+#define MUX_ADC 2            /* the 4051's common output is on A2 */
+#define CHARGER_MV 16800     /* DOCK 1: a 4S charger's voltage on the contacts */
+#define CONTACT_DIVIDER 6
 
 static uint64_t now_cycles(void) { return avr->cycle + cycle_base; }
 
@@ -145,7 +160,8 @@ static pins_t read_pins(void) {
 	unsigned icr = avr->data[R_ICR1L] | (avr->data[R_ICR1H] << 8);
 	p.servo_us = (bit(R_TCCR1A, 7) && ps) ? (int)(ocr * ps / 16) : 0;
 	p.servo_period_us = ps ? (int)((icr + 1) * ps / 16) : 0;
-	p.leds = bit(R_PORTC, 3) | bit(R_PORTC, 4) << 1 | bit(R_PORTB, 5) << 2 | bit(R_PORTC, 5) << 3;
+	p.leds = (sr_out & 1) | (sr_out & 2) | bit(R_PORTB, 5) << 2 | ((sr_out >> 2) & 1) << 3;
+	p.evac = (sr_out >> 3) & 1;
 	return p;
 }
 
@@ -162,8 +178,8 @@ static void sample_pins(void) {
 
 static void print_pins(const char *tag, const pins_t *p) {
 	fprintf(ctl, "%s t_us=%llu pwm_l=%d pwm_r=%d in_l=%02d in_r=%02d servo_us=%d "
-	        "servo_period_us=%d leds=%d\n", tag, (unsigned long long)now_us(), p->pwm_l,
-	        p->pwm_r, p->in_l, p->in_r, p->servo_us, p->servo_period_us, p->leds);
+	        "servo_period_us=%d leds=%d evac=%d\n", tag, (unsigned long long)now_us(), p->pwm_l,
+	        p->pwm_r, p->in_l, p->in_r, p->servo_us, p->servo_period_us, p->leds, p->evac);
 }
 
 static void flush_tx(void);
@@ -294,6 +310,36 @@ static void drive_pin(char port, int pin, avr_irq_t *irq, int level) {
 	avr_raise_irq(irq, (uint32_t)level);
 }
 
+/* ---- 74HC595 (outputs) and 74HC4051 (docking sensors) ---------------------------------------
+ * The pin irqs of PC3-PC5 fire when the firmware changes those outputs: SRCLK's rising edge
+ * shifts SER in, RCLK's rising edge latches; the latch also selects the 4051's input. */
+static void mux_update(void) {
+	avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + MUX_ADC),
+	              mux_mv[SR_MUX(sr_out)]);
+}
+
+static void sr_pin_hook(avr_irq_t *irq, uint32_t value, void *param) {
+	(void)irq;
+	static uint32_t level[3];
+	int pin = (int)(intptr_t)param;  /* 0 SER, 1 SRCLK, 2 RCLK */
+	int rising = value && !level[pin];
+	level[pin] = value;
+	if (pin == 0) {
+		sr_data = value ? 1 : 0;
+	} else if (pin == 1 && rising) {
+		sr_shift = (uint8_t)(sr_shift << 1 | sr_data);
+	} else if (pin == 2 && rising) {
+		sr_out = sr_shift;
+		mux_update();
+	}
+}
+
+static void connect_shift_register(void) {
+	for (int pin = 0; pin < 3; pin++)
+		avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('C'), 3 + pin),
+		                        sr_pin_hook, (void *)(intptr_t)pin);
+}
+
 /* ---- encoders: one quadrature transition per wheel per tick -------------------------------- */
 /* A leads B going forward: AB = 00, 10, 11, 01. */
 static const int ENC_A[4] = {0, 1, 1, 0}, ENC_B[4] = {0, 0, 1, 1};  /* by phase */
@@ -382,9 +428,13 @@ static void handle_command(char *line) {
 		adc_mv[a] = (uint32_t)(b < 0 ? 0 : b);
 		avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + (int)a), adc_mv[a]);
 		fprintf(ctl, "OK ADC\n");
+	} else if (sscanf(line, "MUX %ld %ld", &a, &b) == 2 && a >= 0 && a < 8) {
+		mux_mv[a] = (uint32_t)(b < 0 ? 0 : b);
+		mux_update();
+		fprintf(ctl, "OK MUX\n");
 	} else if (sscanf(line, "DOCK %ld", &a) == 1) {
-		dock_level = a ? 1 : 0;
-		drive_pin('C', 2, dock_pin, dock_level);
+		mux_mv[0] = a ? CHARGER_MV / CONTACT_DIVIDER : 0;
+		mux_update();
 		fprintf(ctl, "OK DOCK\n");
 	} else if (strcmp(line, "LOOP") == 0) {
 		fprintf(ctl, "LOOP n=%llu", (unsigned long long)loop_period.n);
@@ -466,9 +516,9 @@ static void drive_inputs(void) {
 		drive_pin('D', side ? 3 : 2, enc_a[side], ENC_A[enc_phase[side]]);
 		drive_pin('D', side ? 7 : 4, enc_b[side], ENC_B[enc_phase[side]]);
 	}
-	drive_pin('C', 2, dock_pin, dock_level);
 	for (int ch = 0; ch < 8; ch++)
 		avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + ch), adc_mv[ch]);
+	mux_update();
 }
 
 static avr_cycle_count_t tick(avr_t *a, avr_cycle_count_t when, void *param);
@@ -537,10 +587,13 @@ int main(int argc, char **argv) {
 		enc_b[side] = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('D'), side ? 7 : 4);
 		enc_phase[side] = 2;
 	}
-	dock_pin = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('C'), 2);
-	/* Power-on defaults: nothing in front (150 cm), a full 12.6 V battery (4.2 V at A1). */
+	connect_shift_register();
+	/* Power-on defaults: nothing in front (150 cm), a full 12.6 V battery (4.2 V at A1); off
+	 * the dock, no beam, no wall within 30 cm (0.4 V), an empty bin (0.5 V), bumpers free. */
 	adc_mv[0] = 391;
 	adc_mv[1] = 4200;
+	mux_mv[3] = 400;
+	mux_mv[4] = 500;
 	drive_inputs();
 	avr->sleep = no_sleep;
 	avr_register_io_write(avr, R_GPIOR0, loop_marker_write, NULL);

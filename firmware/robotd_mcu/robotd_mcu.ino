@@ -2,13 +2,16 @@
 //
 // Speaks DESIGN.md "Serial link to the Arduino": CRC framing (`#SEQ PAYLOAD*CC`) and the
 // seed's plain lines, detected per line. Drives an L298N-style H-bridge, the box servo and the
-// LED eyes; counts two quadrature encoders; reads a Sharp IR range sensor, the battery and the
-// dock contacts; sends telemetry at fixed rates; stops the motors 500 ms after the last
-// MOTOR/HB. No heap: fixed buffers only. Documentation: docs/firmware.md.
+// LED eyes; counts two quadrature encoders; reads a Sharp IR range sensor and the battery;
+// for docking reads the dock receivers' strength, the contact voltage, bumpers, a wall sensor
+// and the bin level, and signals the station's suction (EVAC) (dock_io.h); sends telemetry at
+// fixed rates; stops the motors 500 ms after the last MOTOR/HB. No heap: fixed buffers only.
+// Documentation: docs/firmware.md.
 #include <Arduino.h>
 #include <avr/interrupt.h>
 #include <avr/sleep.h>
 #include "link.h"
+#include "dock_io.h"
 
 // ---- pin map (Arduino Uno) -----------------------------------------------------------------
 const uint8_t PIN_ENC_L_A = 2;    // INT0
@@ -25,13 +28,11 @@ const uint8_t PIN_R_IN2 = 12;     // L298N IN4
 const uint8_t PIN_LED_OK = 13;    // green status LED (on-board LED)
 const uint8_t PIN_IR = A0;        // Sharp GP2Y0A02 analog output
 const uint8_t PIN_BATTERY = A1;   // battery through a 20k/10k divider (1/3)
-const uint8_t PIN_DOCK = A2;      // dock charging contacts, HIGH when on the dock
-const uint8_t PIN_EYE_L = A3;
-const uint8_t PIN_EYE_R = A4;
-const uint8_t PIN_LED_FAIL = A5;  // red status LED
+// A2-A5: the docking multiplexer and the shift register for the eyes, red LED and EVAC
+// (dock_io.h). A2 was the dock contacts' digital input: they are now measured through the mux.
 
 // ---- constants -----------------------------------------------------------------------------
-#define FIRMWARE_ID "robotd-mcu-1.0.0"
+#define FIRMWARE_ID "robotd-mcu-1.1.0"
 const uint8_t PROTOCOL_VERSION = 1;
 const uint32_t BAUD = 115200;
 const uint8_t LINE_MAX = 64;                // bytes per line including '\n' (contract)
@@ -39,6 +40,11 @@ const uint32_t DEADMAN_US = 500000UL;      // motors stop this long after the la
 const uint16_t ENCODER_PERIOD_MS = 50;      // 20 Hz
 const uint16_t IR_PERIOD_MS = 200;          // 5 Hz
 const uint16_t BAT_PERIOD_MS = 200;         // 5 Hz
+const uint16_t IRS_PERIOD_MS = 50;          // 20 Hz; the bumpers are sampled with it
+const uint16_t DOCK_PERIOD_MS = 200;        // 5 Hz
+const uint16_t WALL_PERIOD_MS = 100;        // 10 Hz
+const uint16_t BIN_PERIOD_MS = 1000;        // 1 Hz
+const uint16_t BUMP_PERIOD_MS = 1000;       // 1 Hz, and at once on a change
 const uint16_t SERVO_MIN_US = 544;          // 0 degrees (same span as Arduino's Servo library)
 const uint16_t SERVO_MAX_US = 2400;         // 180 degrees
 const uint16_t SERVO_PERIOD_TICKS = 40000;  // 20 ms at 16 MHz / 8
@@ -73,6 +79,13 @@ static uint32_t anim_start_ms = 0;
 static uint32_t next_encoder_ms = 0;
 static uint32_t next_ir_ms = 20;
 static uint32_t next_bat_ms = 120;
+static uint32_t next_irs_ms = 10;
+static uint32_t next_dock_ms = 70;
+static uint32_t next_wall_ms = 30;
+static uint32_t next_bin_ms = 170;
+static uint32_t next_bump_ms = 90;
+static uint8_t bumpers = 0;            // as last sampled (bit 0 left, bit 1 right)
+static uint8_t bumpers_sent = 0xFF;    // as last sent: none yet
 static uint8_t loop_marker = 0;
 
 volatile int32_t enc_ticks[2] = {0, 0};
@@ -205,10 +218,10 @@ static void leds_update(uint32_t now_ms) {
     t_ms = 0;
   }
   uint8_t bits = anim_frame(anim, t_ms);
-  digitalWrite(PIN_EYE_L, (bits & 0x01) ? HIGH : LOW);
-  digitalWrite(PIN_EYE_R, (bits & 0x02) ? HIGH : LOW);
+  sr_set(SR_EYE_L | SR_EYE_R | SR_LED_FAIL,
+         (uint8_t)((bits & 0x01 ? SR_EYE_L : 0) | (bits & 0x02 ? SR_EYE_R : 0) |
+                   (bits & 0x08 ? SR_LED_FAIL : 0)));
   digitalWrite(PIN_LED_OK, (bits & 0x04) ? HIGH : LOW);
-  digitalWrite(PIN_LED_FAIL, (bits & 0x08) ? HIGH : LOW);
 }
 
 // ---- sensors -------------------------------------------------------------------------------
@@ -288,6 +301,47 @@ static void send_nak_crc(uint8_t seq) {
   send_line(buf, n, FRAMING_CRC);
 }
 
+static uint8_t put_pair(char *dst, int32_t a, int32_t b) {
+  uint8_t n = put_int(dst, a);
+  dst[n++] = ',';
+  return (uint8_t)(n + put_int(dst + n, b));
+}
+
+// The docking lines, one per call like the others: IRS (and a bumper sample) 20 Hz, BUMP on a
+// change and 1 Hz, DOCK 5 Hz, WALL 10 Hz, BIN 1 Hz.
+static void send_dock_telemetry(uint32_t now_ms) {
+  char buf[LINE_MAX];
+  uint8_t n = 0;
+  if ((int32_t)(now_ms - next_irs_ms) >= 0) {
+    next_irs_ms += IRS_PERIOD_MS;
+    uint16_t left = mux_read(MUX_IRS_L);
+    uint16_t right = mux_read(MUX_IRS_R);
+    bumpers = bumpers_read();
+    n = put_str(buf, "IRS:");
+    n += put_pair(buf + n, left, right);
+  } else if (bumpers != bumpers_sent || (int32_t)(now_ms - next_bump_ms) >= 0) {
+    next_bump_ms = now_ms + BUMP_PERIOD_MS;
+    bumpers_sent = bumpers;
+    n = put_str(buf, "BUMP:");
+    n += put_pair(buf + n, bumpers & 1, (bumpers >> 1) & 1);
+  } else if ((int32_t)(now_ms - next_dock_ms) >= 0) {
+    next_dock_ms += DOCK_PERIOD_MS;
+    n = put_str(buf, "DOCK:");
+    n += put_int(buf + n, contact_mv());
+  } else if ((int32_t)(now_ms - next_wall_ms) >= 0) {
+    next_wall_ms += WALL_PERIOD_MS;
+    n = put_str(buf, "WALL:");
+    n += put_int(buf + n, wall_cm());
+  } else if ((int32_t)(now_ms - next_bin_ms) >= 0) {
+    next_bin_ms += BIN_PERIOD_MS;
+    n = put_str(buf, "BIN:");
+    n += put_int(buf + n, bin_pct());
+  } else {
+    return;
+  }
+  send_line(buf, n, framing);
+}
+
 static void send_telemetry(uint32_t now_ms) {
   char buf[LINE_MAX];
   uint8_t n = 0;
@@ -313,13 +367,15 @@ static void send_telemetry(uint32_t now_ms) {
     buf[n++] = ',';
     n += put_int(buf + n, battery_pct(mv));
     buf[n++] = ',';
-    buf[n++] = digitalRead(PIN_DOCK) == HIGH ? '1' : '0';
+    buf[n++] = contact_mv() >= DOCK_PRESENT_MV ? '1' : '0';
     send_line(buf, n, framing);
+  } else {
+    send_dock_telemetry(now_ms);
   }
 }
 
 // ---- commands ------------------------------------------------------------------------------
-enum Cmd : uint8_t { CMD_MOTOR, CMD_SERVO, CMD_LED_IDLE, CMD_LED_WAITING, CMD_LED_MOVING,
+enum Cmd : uint8_t { CMD_MOTOR, CMD_SERVO, CMD_EVAC, CMD_LED_IDLE, CMD_LED_WAITING, CMD_LED_MOVING,
                      CMD_SUCCESS, CMD_FAILURE, CMD_STOP, CMD_HB, CMD_HELLO };
 
 struct Command {
@@ -353,6 +409,8 @@ static uint8_t parse_command(const char *payload, Command *c) {
   static const int32_t MOTOR_HI[4] = {255, 255, 1, 1};
   static const int32_t SERVO_LO[1] = {0};
   static const int32_t SERVO_HI[1] = {180};
+  static const int32_t EVAC_LO[1] = {0};
+  static const int32_t EVAC_HI[1] = {1};
   const char *rest;
   if (starts_with(payload, "MOTOR:", &rest)) {
     c->cmd = CMD_MOTOR;
@@ -361,6 +419,10 @@ static uint8_t parse_command(const char *payload, Command *c) {
   if (starts_with(payload, "SERVO:", &rest)) {
     c->cmd = CMD_SERVO;
     return parse_args(rest, 1, SERVO_LO, SERVO_HI, c->args);
+  }
+  if (starts_with(payload, "EVAC:", &rest)) {
+    c->cmd = CMD_EVAC;
+    return parse_args(rest, 1, EVAC_LO, EVAC_HI, c->args);
   }
   static const struct { const char *name; Cmd cmd; } WORDS[] = {
     {"LED_IDLE", CMD_LED_IDLE}, {"LED_WAITING", CMD_LED_WAITING},
@@ -391,6 +453,7 @@ static Reply execute(const Command *c, uint32_t now_ms) {
       feed_deadman();
       break;
     case CMD_SERVO: servo_write((uint8_t)c->args[0]); break;
+    case CMD_EVAC: sr_set(SR_EVAC, c->args[0] == 1 ? SR_EVAC : 0); break;
     case CMD_LED_IDLE: anim_start(ANIM_IDLE, now_ms); break;
     case CMD_LED_WAITING: anim_start(ANIM_WAITING, now_ms); break;
     case CMD_LED_MOVING: anim_start(ANIM_MOVING, now_ms); break;
@@ -511,11 +574,8 @@ void setup() {
   pinMode(PIN_R_IN1, OUTPUT);
   pinMode(PIN_R_IN2, OUTPUT);
   motors_stop();
-  pinMode(PIN_EYE_L, OUTPUT);
-  pinMode(PIN_EYE_R, OUTPUT);
   pinMode(PIN_LED_OK, OUTPUT);
-  pinMode(PIN_LED_FAIL, OUTPUT);
-  pinMode(PIN_DOCK, INPUT);
+  dock_io_begin();
   servo_begin();
   encoders_begin();
   Serial.begin(BAUD);
@@ -524,6 +584,11 @@ void setup() {
   next_encoder_ms = now_ms + ENCODER_PERIOD_MS;
   next_ir_ms = now_ms + 20;
   next_bat_ms = now_ms + 120;
+  next_irs_ms = now_ms + 10;
+  next_dock_ms = now_ms + 70;
+  next_wall_ms = now_ms + 30;
+  next_bin_ms = now_ms + 170;
+  next_bump_ms = now_ms + 90;
 }
 
 // Idle sleep until the next interrupt: Timer0 (millis, every 1.024 ms), a received byte, a

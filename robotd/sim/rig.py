@@ -15,11 +15,13 @@ import structlog
 
 from drivers import ble_scanner, hx711
 from drivers.arduino.link import ArduinoLink
+from drivers.arduino.telemetry import DockFacets
 from drivers.serial_port import open_serial
 from hal.backend import Devices
 from hal.sim.devices.ble_model import BleAirParams, SimBleAir
 from hal.sim.devices.camera_model import CameraMount, SimCamera
 from hal.sim.devices.hx711_model import SimHx711Lines
+from hal.sim.devices.motor_board.dock_inputs import DockInputs
 from hal.sim.devices.motor_board.fake_mcu import FakeMcu
 from hal.sim.devices.motor_board.simavr_bridge import SimavrBridge
 from hal.sim.devices.motor_board.simavr_mcu import SimavrMcu, SimavrUnavailable, missing_toolchain
@@ -81,7 +83,7 @@ class SimRig:
         The real Arduino driver opens the emulator's UART pseudo-terminal like /dev/ttyACM0.
         """
         self.simavr = await SimavrMcu.start()
-        self.bridge = SimavrBridge(self.simavr, self.body)
+        self.bridge = SimavrBridge(self.simavr, self.body, dock=self.mcu)
         self.settings.set("serial.port", self.simavr.uart_path)
         self.link = ArduinoLink.from_settings(open_serial, self.settings)
         fill = {"motors": self.link, "encoders": self.link.encoders,
@@ -102,6 +104,19 @@ class SimRig:
         await self.mcu.close()
         if self.simavr is not None:
             await self.simavr.close()
+
+    @property
+    def dock_inputs(self) -> DockInputs:
+        """Where the world puts what the motor board's docking sensors measure and reads EVAC
+        (``dock_signal``, ``contact_mv``, ``bumpers``, ``wall_cm``, ``bin_pct``, ``evac``,
+        ``evac_listeners``); the same for the fake board and the emulated firmware."""
+        return self.mcu
+
+    @property
+    def dock(self) -> DockFacets:
+        """The driver's docking facets (``signal``, ``contacts``, ``bumpers``, ``wall``,
+        ``bin``); the link itself is the ``DockStation`` (``evacuate``)."""
+        return self.link.dock
 
     @property
     def board(self) -> FakeMcu | SimavrMcu:

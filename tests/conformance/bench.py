@@ -8,6 +8,7 @@ from typing import Any
 
 from drivers.arduino import ArduinoLink, LinkConfig
 from hal.ports import SerialOpener
+from hal.sim.devices.motor_board.dock_inputs import DockInputs
 from hal.sim.world.plant import RecordingPlant
 
 
@@ -27,11 +28,13 @@ class TimedPlant(RecordingPlant):
 class PlantBench:
     """A board on a bench: a TimedPlant for its outputs and inputs; ``mcu`` has the switches.
 
-    Subclasses set ``plant``, ``opener``, ``port`` and provide ``mcu`` (anything with
-    ``corrupt``, ``unplug``, ``replug``, ``reset`` and ``delay``).
+    Subclasses set ``plant``, ``opener``, ``port``, ``dock`` (the docking sensors' sources and
+    the EVAC record) and provide ``mcu`` (anything with ``corrupt``, ``unplug``, ``replug``,
+    ``reset`` and ``delay``).
     """
 
     plant: TimedPlant
+    dock: DockInputs
     opener: SerialOpener
     port: str
     mcu: Any
@@ -54,6 +57,21 @@ class PlantBench:
             self.plant.range_cm = range_cm
         if battery is not None:
             self.plant.voltage_v, self.plant.charge_pct, self.plant.on_dock = battery
+
+    def set_dock_inputs(self, *, signal: tuple[int, int] | None = None,
+                        contact_mv: int | None = None, bumpers: tuple[bool, bool] | None = None,
+                        wall_cm: float | None = None, bin_pct: float | None = None) -> None:
+        """What the docking sensors measure from now on (None: leave as it is)."""
+        dock = self.dock
+        dock.dock_signal = signal if signal is not None else dock.dock_signal
+        dock.contact_mv = contact_mv if contact_mv is not None else dock.contact_mv
+        dock.bumpers = bumpers if bumpers is not None else dock.bumpers
+        dock.wall_cm = wall_cm if wall_cm is not None else dock.wall_cm
+        dock.bin_pct = bin_pct if bin_pct is not None else dock.bin_pct
+
+    def evac_log(self) -> list[bool]:
+        """Each change of the EVAC output, in order."""
+        return [on for _t, on in self.dock.evac_log]
 
     def corrupt(self, pct: float) -> None:
         self.mcu.corrupt(pct)

@@ -66,6 +66,14 @@ class McuEndpoint(Protocol):
                     battery: tuple[float, float, bool] | None = None) -> None:
         """What the encoders, range sensor and battery (V, %, on dock) report from now on."""
 
+    def set_dock_inputs(self, *, signal: tuple[int, int] | None = None,
+                        contact_mv: int | None = None, bumpers: tuple[bool, bool] | None = None,
+                        wall_cm: float | None = None, bin_pct: float | None = None) -> None:
+        """What the docking sensors (IRS, DOCK, BUMP, WALL, BIN) report from now on."""
+
+    def evac_log(self) -> list[bool]:
+        """Each change of the board's EVAC output, in order."""
+
     def corrupt(self, pct: float) -> None: ...
     def unplug(self) -> None: ...
     def replug(self) -> None: ...
@@ -86,6 +94,7 @@ class _FakeMcuEndpoint(PlantBench):
     def __init__(self, seed: int = 7) -> None:
         self.plant = TimedPlant()
         self.mcu = FakeMcu(self.plant, seed=seed)
+        self.dock = self.mcu
         self.opener: SerialOpener = SimSerialPorts()
 
     async def start(self) -> None: ...

@@ -15,6 +15,7 @@ import pytest
 from bench import PlantBench, TimedPlant
 from drivers.serial_port import open_serial
 from hal.ports import SerialOpener
+from hal.sim.devices.motor_board.dock_inputs import DockInputs
 from hal.sim.devices.motor_board.simavr_bridge import SimavrBridge
 from hal.sim.devices.motor_board.simavr_mcu import SimavrMcu, missing_toolchain
 
@@ -32,6 +33,7 @@ class SimavrEndpoint(PlantBench):
         if reason is not None:
             pytest.skip(reason)
         self.plant = TimedPlant()
+        self.dock = DockInputs()
         self.opener: SerialOpener = open_serial
         self.port = ""
         self._mcu: SimavrMcu | None = None
@@ -45,7 +47,7 @@ class SimavrEndpoint(PlantBench):
     async def start(self) -> None:
         self._mcu = await SimavrMcu.start()
         self.port = self._mcu.uart_path
-        bridge = SimavrBridge(self._mcu, self.plant)
+        bridge = SimavrBridge(self._mcu, self.plant, dock=self.dock)
         self._feed = asyncio.get_running_loop().create_task(bridge.run())
 
     async def close(self) -> None:

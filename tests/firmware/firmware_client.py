@@ -37,6 +37,9 @@ class PtyLink:
         self.lines: asyncio.Queue[str] = asyncio.Queue()
         self.telemetry: list[str] = []
         self._buf = b""
+        # Opening the port (tty.setraw flushes) can cut the line on the wire in two: like a
+        # host resyncing, drop a first line that is no whole frame.
+        self._synced = False
         asyncio.get_running_loop().add_reader(fd, self._on_readable)
 
     @classmethod
@@ -51,6 +54,10 @@ class PtyLink:
         except BlockingIOError:
             return
         *lines, self._buf = self._buf.split(b"\n")
+        if lines and not self._synced:
+            self._synced = True
+            if unframe(lines[0].decode(errors="replace")) is None:
+                lines = lines[1:]
         for raw in lines:
             line = raw.decode(errors="replace")
             body = unframe(line)

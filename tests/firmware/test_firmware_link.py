@@ -151,6 +151,6 @@ class TestRobustness:
                     assert unframe(line) is not None, line
                 if line.startswith("#42 "):
                     break
-        assert unframe(line) == "#42 HELLO:robotd-mcu-1.0.0,1"
+        assert unframe(line) == "#42 HELLO:robotd-mcu-1.1.0,1"
         pins = await mcu.state()
         assert pins.drive[:2] == (0, 0)

@@ -4,7 +4,8 @@
 bytes, answers ``#SEQ ACK`` / ``#SEQ NAK:<CRC|PARSE|RANGE>`` / ``#SEQ HELLO:<fw>,<protocol>``,
 drops a frame whose SEQ it cannot read, acknowledges a resend of the SEQ it executed last
 without executing it again, drives a ``MotorPlant``, sends ``ENCODER``/``IR``/``BAT``
-telemetry at fixed rates, and stops the motors 500 ms after the last ``MOTOR``/``HB``.
+telemetry at fixed rates (and the docking lines the world feeds: ``dock_inputs``), records
+``EVAC``, and stops the motors 500 ms after the last ``MOTOR``/``HB``.
 Lines starting with ``#`` are crc framing, others plain; telemetry follows the framing of the
 last good command. Fault switches: ``unplug()``, ``replug()``, ``corrupt(pct)``,
 ``delay(s)``, ``reset()``. Frame parsing is in ``mcu_frames``, the serial port (line assembly,
@@ -16,14 +17,15 @@ from __future__ import annotations
 import asyncio
 import collections
 from collections.abc import Callable
-from typing import NamedTuple
 
 import structlog
 
 from hal.ports import StreamPair
 from hal.sim.devices.byte_pipe import BytePipe
+from hal.sim.devices.motor_board.dock_inputs import DockInputs
 from hal.sim.devices.motor_board.mcu_frames import (
     HEX_BYTE,
+    Executed,
     ParseError,
     crc8_fast,
     crc8_join,
@@ -42,15 +44,7 @@ _TELEMETRY_HEADS = {name: (b"%s:" % name.encode(), crc8_fast(b"%s:" % name.encod
 _PAYLOADS_KEPT = 1024
 
 
-class Executed(NamedTuple):
-    """One command the MCU carried out (``seq`` None in plain framing)."""
-
-    t_s: float
-    seq: int | None
-    payload: str
-
-
-class FakeMcu:
+class FakeMcu(DockInputs):
     """A simulated motor board. Records what it executed; has a bench's fault switches.
 
     Args:
@@ -88,6 +82,7 @@ class FakeMcu:
         self.last_drive_s: float | None = None
         self.plugged = True
         self.plug_listeners: list[Callable[[bool], None]] = []
+        self._init_dock_inputs()
         self._boot_state()
         self._streams: StreamPair | None = None
         self._pipe: BytePipe | None = None
@@ -201,6 +196,7 @@ class FakeMcu:
         self._boot_state()
         log.info("fake_mcu.reset", boots=self.boots)
         loop = asyncio.get_running_loop()
+        self.record_evac(False, loop.time())
         self.uart.deaf_until_s = loop.time() + self.boot_s
         if self.announce_boot:
             loop.call_at(self.uart.deaf_until_s, self._send_lines,
@@ -296,6 +292,8 @@ class FakeMcu:
             self.plant.servo(args[0])
         elif word == "HELLO":
             return self._hello()
+        elif word == "EVAC":
+            self.record_evac(args[0] == 1, self.executed[-1].t_s)
         else:
             self.leds.append(word)
         return "ACK"
@@ -374,6 +372,8 @@ class FakeMcu:
             if loop.time() >= self.uart.deaf_until_s:
                 crc = self.crc_framing
                 data = b"".join([self._telemetry_line(name, crc) for name in lines])
+                if "ENCODER" in lines:
+                    data += self._dock_lines(loop.time(), crc)
                 if self._streams is not None:
                     self.uart.send(data)
             next_s = min(due.values())

@@ -7,11 +7,12 @@ CRC is computed bit by bit as the firmware does, then tabulated once for speed.
 from __future__ import annotations
 
 import re
+from typing import NamedTuple
 
 _WORDS = frozenset({"LED_IDLE", "LED_WAITING", "LED_MOVING", "SUCCESS_SCAN", "FAILURE_SCAN",
                     "STOP", "HB", "HELLO"})
-_LIMITS = {"MOTOR:": ((0, 255), (0, 255), (0, 1), (0, 1)), "SERVO:": ((0, 180),)}
-_PREFIX_CHARS = 6  # every prefix above: "MOTOR:", "SERVO:"
+_LIMITS = {"MOTOR:": ((0, 255), (0, 255), (0, 1), (0, 1)), "SERVO:": ((0, 180),),
+           "EVAC:": ((0, 1),)}
 # The firmware's atoi-with-checks: each field an optional minus and ASCII digits.
 _FIELDS = {prefix: re.compile(",".join([r"(-?[0-9]+)"] * len(limits)))
            for prefix, limits in _LIMITS.items()}
@@ -52,6 +53,14 @@ def crc8_join(crc_head: int, crc_tail: int, tail_bytes: int) -> int:
     return _ZEROS[tail_bytes][crc_head] ^ crc_tail
 
 
+class Executed(NamedTuple):
+    """One command the MCU carried out (``seq`` None in plain framing)."""
+
+    t_s: float
+    seq: int | None
+    payload: str
+
+
 class ParseError(Exception):
     def __init__(self, reason: str) -> None:
         super().__init__(reason)
@@ -62,11 +71,11 @@ def parse_payload(payload: str) -> tuple[str, tuple[int, ...]]:
     """(command word, integer arguments); ParseError("PARSE" | "RANGE") when bad."""
     if payload in _WORDS:
         return payload, ()
-    prefix = payload[:_PREFIX_CHARS]
+    prefix = payload[:payload.find(":") + 1]
     limits = _LIMITS.get(prefix)
     if limits is None:
         raise ParseError("PARSE")
-    fields = _FIELDS[prefix].fullmatch(payload, _PREFIX_CHARS)
+    fields = _FIELDS[prefix].fullmatch(payload, len(prefix))
     if fields is None:
         raise ParseError("PARSE")
     values = tuple(map(int, fields.groups()))

@@ -3,8 +3,9 @@
 ``SimavrMcu`` builds the sketch and the harness (``firmware/Makefile``) when needed, runs the
 harness as a subprocess, and gives the sketch's UART as a pseudo-terminal path that the real
 Arduino driver opens like ``/dev/ttyACM0``. Its pins (PWM duty and H-bridge inputs per motor,
-servo pulse, LEDs) are read from the harness's control channel; encoder edges, the IR range,
-the battery voltage and the dock contacts are injected through it.
+servo pulse, LEDs, EVAC) are read from the harness's control channel; encoder edges, the IR
+range, the battery voltage and the docking sensors (behind the board's 74HC4051) are injected
+through it.
 
 ``simavr_bridge.SimavrBridge`` (beside this module) closes the loop with the simulated body.
 The emulator runs in wall time, so both need a real event loop (``robotd sim --realtime``),
@@ -41,6 +42,12 @@ ADC_REF_MV = 5000
 IR_K = 9462  # Sharp GP2Y0A02 fit: cm = IR_K / (adc - IR_ADC_OFFSET)
 IR_ADC_OFFSET = 17
 BATTERY_DIVIDER = 3
+# The docking multiplexer's inputs (firmware/robotd_mcu/dock_io.h).
+MUX_CONTACTS, MUX_IRS_L, MUX_IRS_R, MUX_WALL, MUX_BIN, MUX_BUMP_L, MUX_BUMP_R = range(7)
+CONTACT_DIVIDER = 6
+WALL_K = 2076  # Sharp GP2Y0A41SK0F fit: cm = WALL_K / (adc - WALL_ADC_OFFSET)
+WALL_ADC_OFFSET = 11
+BIN_EMPTY_MV, BIN_FULL_MV = 500, 4500
 SERVO_MIN_US = 544
 SERVO_MAX_US = 2400
 _TOOLS = ("make", "avr-gcc", "avr-size", "cc", "pkg-config", "flock")
@@ -105,6 +112,7 @@ class McuPins:
     servo_us: int  # pulse width on D9, 0 when the servo gets no pulse
     servo_period_us: int
     leds: int  # bit 0 left eye, 1 right eye, 2 green, 3 red
+    evac: int = 0  # the station's suction signal (EVAC), through the 74HC595
 
     @classmethod
     def parse(cls, line: str) -> McuPins:
@@ -112,7 +120,8 @@ class McuPins:
         return cls(t_us=int(fields["t_us"]), pwm_l=int(fields["pwm_l"]),
                    pwm_r=int(fields["pwm_r"]), in_l=fields["in_l"], in_r=fields["in_r"],
                    servo_us=int(fields["servo_us"]),
-                   servo_period_us=int(fields["servo_period_us"]), leds=int(fields["leds"]))
+                   servo_period_us=int(fields["servo_period_us"]), leds=int(fields["leds"]),
+                   evac=int(fields.get("evac", "0")))
 
     @property
     def drive(self) -> tuple[int, int, bool, bool]:
@@ -134,6 +143,11 @@ def ir_millivolts(range_cm: float) -> int:
     cm = min(150.0, max(20.0, range_cm))
     adc = IR_K / cm + IR_ADC_OFFSET
     return round(adc * ADC_REF_MV / 1023)
+
+
+def counts_mv(counts: float) -> int:
+    """The millivolts the 10-bit ADC reads as ``counts`` (the middle of that count's step)."""
+    return round((counts + 0.5) * ADC_REF_MV / 1023)
 
 
 class SimavrMcu:
@@ -256,7 +270,33 @@ class SimavrMcu:
         await self.set_adc_mv(ADC_BATTERY, round(voltage_v * 1000 / BATTERY_DIVIDER))
 
     async def set_dock(self, on_dock: bool) -> None:
+        """A charger on the contacts (16.8 V) or none."""
         await self.command(f"DOCK {int(on_dock)}")
+
+    async def set_mux_mv(self, channel: int, millivolts: int) -> None:
+        """The voltage on one input of the board's docking multiplexer."""
+        await self.command(f"MUX {channel} {millivolts}")
+
+    async def set_contact_mv(self, contact_mv: int) -> None:
+        await self.set_mux_mv(MUX_CONTACTS, round(contact_mv / CONTACT_DIVIDER))
+
+    async def set_dock_signal(self, front_left: int, front_right: int) -> None:
+        """The front receivers' strength as the 10-bit counts the firmware should read."""
+        for channel, counts in ((MUX_IRS_L, front_left), (MUX_IRS_R, front_right)):
+            await self.set_mux_mv(channel, counts_mv(counts))
+
+    async def set_bumpers(self, left: bool, right: bool) -> None:
+        await self.set_mux_mv(MUX_BUMP_L, ADC_REF_MV if left else 0)
+        await self.set_mux_mv(MUX_BUMP_R, ADC_REF_MV if right else 0)
+
+    async def set_wall_cm(self, wall_cm: float) -> None:
+        cm = min(30.0, max(4.0, wall_cm))
+        await self.set_mux_mv(MUX_WALL, counts_mv(WALL_K / cm + WALL_ADC_OFFSET))
+
+    async def set_bin_pct(self, bin_pct: float) -> None:
+        pct = min(100.0, max(0.0, bin_pct))
+        await self.set_mux_mv(MUX_BIN, round(BIN_EMPTY_MV + pct * (BIN_FULL_MV - BIN_EMPTY_MV)
+                                             / 100))
 
     async def loop_stats(self, reset: bool = False) -> dict[str, float]:
         """The firmware's main-loop period in emulated time (min/p50/p99/max/mean, us)."""

@@ -209,3 +209,37 @@ class TestSegmentCells:
         rows, cols = segment_cells(grid, (0.5, 0.5), (3.5, 1.5))
         assert set(zip(rows.tolist(), cols.tolist(), strict=True)) == {
             (0, 0), (0, 1), (1, 2), (1, 3)}
+
+
+class TestRealMap:
+    # Feature: relaybot-autonomous-delivery, Property 8: For any pair of valid coordinates in
+    # the environment, the navigation system should generate a valid path (non-empty list of
+    # waypoints).
+    @given(st.tuples(st.floats(-2.2, 2.2), st.floats(-2.5, 2.5)),
+           st.tuples(st.floats(-2.2, 2.2), st.floats(-2.5, 2.5)))
+    @settings(max_examples=100, deadline=None)
+    def test_property_8_on_the_turtlebot3_map(self, start: tuple[float, float],
+                                              goal: tuple[float, float]) -> None:
+        """On the map_saver map: free points inside the arena always get a path."""
+        planner = _turtlebot3_planner()
+        try:
+            plan = planner.plan(start, goal)
+        except NoPath as exc:
+            assert exc.reason in ("start_in_collision", "goal_in_collision"), str(exc)
+            return
+        assert plan.points[0] == start and plan.points[-1] == goal
+        obstacles = _obstacle_centres(planner.grid)
+        assert min_distance_to_path(plan.points, obstacles) >= 0.30 - 1e-9
+
+
+_CACHE: dict[str, Planner] = {}
+
+
+def _turtlebot3_planner() -> Planner:
+    if "tb3" not in _CACHE:
+        from importlib import resources
+
+        from hal.occupancy_map import read_map_yaml
+        path = resources.files("robotd.sim") / "scenarios" / "maps" / "turtlebot3_world.yaml"
+        _CACHE["tb3"] = Planner(Grid.from_map(read_map_yaml(str(path))))
+    return _CACHE["tb3"]

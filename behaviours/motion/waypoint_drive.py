@@ -17,9 +17,9 @@ import structlog
 
 from behaviours.motion.odometry import Odometry, OdometryPose
 from hal.devices import Encoders, LinkDown, ListenableEncoders, Motors
+from hal.looptime.timer_sleep import timer_sleep
 from hal.readings import MotorCommand
 from hal.settings import SettingsView
-from hal.timer_sleep import timer_sleep
 
 log = structlog.get_logger(__name__)
 

@@ -22,10 +22,10 @@ from typing import Any
 
 import structlog
 
+from hal.looptime.timer_chain import timer_chain
 from hal.sim import vclock
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.geometry import Pose
-from hal.timer_chain import timer_chain
 from robotd.config import ConfigError
 from robotd.config.settings import Settings
 from robotd.logs import configure_logging

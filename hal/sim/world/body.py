@@ -66,6 +66,8 @@ class DiffDriveBody(VacuumParts):
     by hand (tests).
     """
 
+    params: BodyParams
+
     def __init__(self, world: World, pose: Pose, params: BodyParams | None = None, *,
                  rng: random.Random | None = None, charge_pct: float = 100.0,
                  payload_kg: float = 0.0, clock: Callable[[], float] | None = None,

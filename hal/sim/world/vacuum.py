@@ -8,21 +8,33 @@ pads with the station's suction on and the bin door (the box servo) open.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from hal.sim.world import touch
 from hal.sim.world.floor_plan import World
 from hal.sim.world.geometry import Pose, distance_to_segments
 
-if TYPE_CHECKING:
-    from hal.sim.world.body import BodyParams
+
+class VacuumParams(Protocol):
+    """The parts of ``BodyParams`` these read (a Protocol: body.py imports this module)."""
+
+    @property
+    def radius_m(self) -> float: ...
+    @property
+    def cleans(self) -> bool: ...
+    @property
+    def bin_fill_pct_per_m(self) -> float: ...
+    @property
+    def evac_pct_per_s(self) -> float: ...
+    @property
+    def bin_door_open_deg(self) -> int: ...
 
 
 class VacuumParts:
     """What ``DiffDriveBody`` gains for docking and cleaning."""
 
     world: World
-    params: BodyParams
+    params: VacuumParams
     servo_deg: int
     _bin_pct: float
 

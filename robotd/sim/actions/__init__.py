@@ -13,9 +13,9 @@ from robotd.sim.actions.step import Action, Step
 from robotd.sim.actions.world import WORLD_ACTIONS
 
 ACTIONS: dict[str, Action] = {
+    **DOCK_ACTIONS,
     **MOTOR_BOARD_ACTIONS,
     **WORLD_ACTIONS,
-    **DOCK_ACTIONS,
 }
 """Action name (``script[i].action``) -> what it does."""
 

@@ -9,7 +9,11 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from hal.sim.world.dock import Dock
 from hal.sim.world.floor_plan import World
+from hal.sim.world.geometry import FloatArray, raycast
 from robotd.sim.tracks import TrackPoint
 
 _EVENT_MARKERS = {
@@ -43,6 +47,37 @@ def _round(value: Any) -> Any:
     if isinstance(value, list | tuple):
         return [_round(v) for v in value]
     return value
+
+
+_BEAM_COLOURS = {"force_field": "#9b59b6", "front_left": "#e74c3c", "front_right": "#27ae60",
+                 "far_left": "#f5b7b1", "far_right": "#abebc6", "centre": "#f1c40f"}
+
+
+def _draw_dock(ax: Any, dock: Dock, walls: FloatArray) -> None:
+    """The dock's beams as translucent sectors cut off by the walls (widest underneath),
+    its body and its pads."""
+    from matplotlib.patches import Polygon
+
+    for beam in sorted(dock.beams, key=lambda b: -b.range_m * b.half_angle_deg):
+        x, y = beam.apex(dock.pose)
+        colour = _BEAM_COLOURS.get(beam.name, "#95a5a6")
+        middle = dock.heading_rad + math.radians(beam.centre_deg)
+        half = math.radians(min(beam.half_angle_deg, 180.0))
+        angles = np.linspace(middle - half, middle + half, 121)
+        reach = raycast(walls, x, y, angles, beam.range_m)
+        outline = [(x, y), *zip((x + reach * np.cos(angles)).tolist(),
+                                (y + reach * np.sin(angles)).tolist(), strict=True)]
+        ax.add_patch(Polygon(outline, closed=True, facecolor=colour, edgecolor=colour,
+                             alpha=0.22, lw=0.8, zorder=0.5,
+                             label=f"beam {beam.name} ({beam.code})"))
+    pose = dock.pose
+    half = dock.width_m / 2
+    corners = [pose.to_world(0.0, -half), pose.to_world(-dock.depth_m, -half),
+               pose.to_world(-dock.depth_m, half), pose.to_world(0.0, half)]
+    ax.add_patch(Polygon(corners, closed=True, facecolor="#2e7d32", edgecolor="black",
+                         lw=1.0, zorder=3, label="dock"))
+    pads = dock.pads()[0]
+    ax.plot([pads[0], pads[2]], [pads[1], pads[3]], color="gold", lw=3, zorder=3.5)
 
 
 def draw_trajectory(
@@ -84,8 +119,7 @@ def draw_trajectory(
         ax.annotate(beacon.room or beacon.mac[-5:], (beacon.x_m, beacon.y_m), fontsize=7,
                     xytext=(4, 4), textcoords="offset points", color="tab:blue")
     if world.dock is not None:
-        d = world.dock
-        ax.plot(d.x_m, d.y_m, marker="s", color="green", ms=10, zorder=3, label="dock")
+        _draw_dock(ax, world.dock, world.walls)
     for person in world.people:
         ax.plot(person.x_m, person.y_m, marker="o", color="purple", ms=9, zorder=3)
 

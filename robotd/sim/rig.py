@@ -20,6 +20,7 @@ from drivers.serial_port import open_serial
 from hal.backend import Devices
 from hal.sim.devices.ble_model import BleAirParams, SimBleAir
 from hal.sim.devices.camera_model import CameraMount, SimCamera
+from hal.sim.devices.dock_ir_model import SimDockIr, dock_signal
 from hal.sim.devices.hx711_model import SimHx711Lines
 from hal.sim.devices.motor_board.dock_inputs import DockInputs
 from hal.sim.devices.motor_board.fake_mcu import FakeMcu
@@ -55,6 +56,7 @@ class SimRig:
         self._models: list[Any] = []
         self.air: SimBleAir | None = None
         self.hx711_lines: SimHx711Lines | None = None
+        self.dock_ir: SimDockIr | None = None
         rng_key = f"{seed}:{index}"
         if "camera" in needs:
             mount = CameraMount(width_px=settings.get("camera.width"),
@@ -74,6 +76,18 @@ class SimRig:
                 clock=asyncio.get_running_loop().time)
             self.hx711_lines = lines
             self.devices.load_cell = hx711.from_settings(settings, lambda: lines)
+        if "dock_ir" in needs:
+            # The real driver on the receivers' simulated GPIO lines (only the fitted ones).
+            from drivers.dock_ir import DockIrConfig
+            from drivers.dock_ir import from_settings as dock_ir_from_settings
+
+            fitted = DockIrConfig.from_settings(settings).lines
+            source = SimDockIr(body, receivers=tuple(fitted),
+                               rng=random.Random(f"{rng_key}:dock_ir"))
+            self.dock_ir = source
+            self.devices.dock_ir = dock_ir_from_settings(settings, lambda: source)
+            if hasattr(self.mcu, "evac_listeners"):  # the board's docking lines (mcu-dock)
+                self.wire_dock_inputs(self.mcu)
         self._deadman_seen = 0
 
     async def open_simavr(self) -> None:
@@ -132,6 +146,33 @@ class SimRig:
         stops = self.mcu.deadman_stops[self._deadman_seen:]
         self._deadman_seen = len(self.mcu.deadman_stops)
         return [(t, self.mcu.last_drive_s) for t in stops]
+
+    def dock_values(self) -> dict[str, object]:
+        """What the vacuum's motor board reads from the world now (its new telemetry):
+        ``irs`` (front_left, front_right 0-1023), ``dock_mv``, ``bump`` (left, right),
+        ``wall_cm``, ``bin_pct``. The fake MCU is wired to these when it reports them."""
+        body = self.body
+        return {"irs": dock_signal(body), "dock_mv": body.contact_mv(),
+                "bump": body.bumpers(), "wall_cm": body.wall_cm(), "bin_pct": body.bin_pct}
+
+    def wire_dock_inputs(self, board: Any) -> None:
+        """Feed a motor board's docking inputs from the world, and its EVAC to the station.
+
+        ``board`` has the sources of ``hal.sim.devices.motor_board.dock_inputs`` (each a
+        value or a callable read when its line is due) and ``evac_listeners``."""
+        body = self.body
+        board.dock_signal = lambda: dock_signal(body)
+        board.contact_mv = body.contact_mv
+        board.bumpers = body.bumpers
+        board.wall_cm = body.wall_cm
+        board.bin_pct = lambda: body.bin_pct
+        board.evac_listeners.append(self._evac)
+
+    def _evac(self, on: bool) -> None:
+        """EVAC, signalled through the contacts: the station's suction follows it."""
+        self.body.sync()  # the bin up to now under the old state
+        if self.world.dock is not None:
+            self.world.dock.suction = on
 
     # -- bench switches for the scenario script -----------------------------------------------
     def unplug_mcu(self) -> None:

@@ -17,7 +17,8 @@ import numpy as np
 import numpy.typing as npt
 
 from hal.sim.world.floor_plan import World
-from hal.sim.world.geometry import Pose, raycast_one, wrap_angle
+from hal.sim.world.geometry import Pose, raycast_one
+from hal.sim.world.vacuum import VacuumParts
 
 _TWO_PI = 2 * math.pi
 _MATH = (math.cos, math.sin, math.pi)
@@ -41,6 +42,12 @@ class BodyParams:
     idle_w: float = 3.0
     motor_w: float = 12.0  # per wheel at full duty
     charge_w: float = 30.0
+    # A vacuum (``cleans``): brushes and suction run while its wheels turn off the dock.
+    cleans: bool = False
+    clean_w: float = 15.0
+    bin_fill_pct_per_m: float = 0.5  # dust picked up per metre cleaned (200 m fill the bin)
+    evac_pct_per_s: float = 6.0  # the station's suction empties a full bin in ~17 s
+    bin_door_open_deg: int = 60  # the bin door is the box servo: open at or past this angle
 
 
 @dataclass(frozen=True, slots=True)
@@ -50,7 +57,7 @@ class Collision:
     y_m: float
 
 
-class DiffDriveBody:
+class DiffDriveBody(VacuumParts):
     """One robot's body on the floor plan.
 
     With a ``clock`` (the event loop's ``time``), the body integrates itself up to the clock's
@@ -58,6 +65,8 @@ class DiffDriveBody:
     so no timer has to wake the loop a hundred times a second. Without one, ``step`` is called
     by hand (tests).
     """
+
+    params: BodyParams
 
     def __init__(self, world: World, pose: Pose, params: BodyParams | None = None, *,
                  rng: random.Random | None = None, charge_pct: float = 100.0,
@@ -95,6 +104,7 @@ class DiffDriveBody:
         self._slip_i = 0
         self._slip_source = _slip_source(self.rng)
         self._slip_rng = self.rng
+        self._bin_pct = 0.0
 
     @property
     def pose(self) -> Pose:
@@ -158,6 +168,7 @@ class DiffDriveBody:
         return self._pose_obj
 
     def servo(self, angle_deg: int) -> None:
+        self.sync()  # the bin door (a vacuum's servo) moves now, not at the last sync
         self.servo_deg = angle_deg
 
     # --- physics ----------------------------------------------------------------------------
@@ -166,11 +177,11 @@ class DiffDriveBody:
         return self._docked(*self._xyh)
 
     def _docked(self, x_m: float, y_m: float, heading_rad: float) -> bool:
+        """Charging: both front contacts on the dock's pads, and the pads not faulty."""
         dock = self.world.dock
         if dock is None:
             return False
-        return (math.hypot(x_m - dock.x_m, y_m - dock.y_m) < 0.03
-                and abs(wrap_angle(heading_rad - dock.heading_rad)) < math.radians(10))
+        return dock.charges(Pose(x_m, y_m, heading_rad), self.params.radius_m)
 
     def _target_mps(self, pwm: int, forward: bool) -> float:
         p = self.params
@@ -220,8 +231,12 @@ class DiffDriveBody:
         free_m = self._free_m
         in_contact = self._in_contact
         distance_m = self.distance_m
-        on_dock = self._on_dock if xyh is self._dock_xyh else (
-            has_dock and self._docked(x, y, heading))
+        # With a dock the contacts can fail or the dock move at any time: look afresh.
+        if has_dock:
+            on_dock = self._docked(x, y, heading)
+        else:
+            on_dock = self._on_dock if xyh is self._dock_xyh else False
+        start_s, start_distance_m = time_s, distance_m
         drain_pct = self._drain_for(pwm, on_dock, dt_s)
         stepped = False
         while True:
@@ -277,6 +292,11 @@ class DiffDriveBody:
                         in_contact = True
                         free_m = -1.0
                         blocked = True
+                    elif has_dock:
+                        blocked, by_body, free_m = self._dock_stops(x, y, new_x, new_y, free_m)
+                        if by_body and not in_contact:
+                            self.collisions.append(Collision(time_s, new_x, new_y))
+                        in_contact = in_contact or by_body
                 if not blocked:
                     in_contact = False
                     distance_m += step_m
@@ -308,6 +328,8 @@ class DiffDriveBody:
         self._dock_xyh = xyh
         self._on_dock = on_dock
         self._slip_i = slip_i
+        if self.params.cleans or has_dock:
+            self._dust(time_s - start_s, distance_m - start_distance_m, on_dock)
 
     @staticmethod
     def _constants(p: BodyParams, dt_s: float, rng: random.Random) -> tuple[Any, ...]:
@@ -321,6 +343,8 @@ class DiffDriveBody:
         p = self.params
         duty = (pwm[0] + pwm[1]) / 255
         watts = p.idle_w + p.motor_w * duty
+        if p.cleans and duty and not on_dock:
+            watts += p.clean_w
         if on_dock:
             watts -= p.charge_w
         return watts * dt_s / 3600 / p.battery_wh * 100

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from hal.occupancy_map import MapFileError, read_map_yaml
+from hal.sim.world.dock import CONTACT_MV, DEFAULT_BEAMS, FAULT_MV, SLOT_S, Beam, Dock
 from hal.sim.world.geometry import (
     FloatArray,
     distance_to_segments,
@@ -81,13 +82,6 @@ class SimBeacon:
     tx_power_dbm: int = -59
     room: str = ""
     interval_s: float = 0.1
-
-
-@dataclass(frozen=True, slots=True)
-class Dock:
-    x_m: float
-    y_m: float
-    heading_rad: float
 
 
 @dataclass
@@ -200,10 +194,7 @@ class World:
                 br.text("mac"), br.text("uuid"), int(br.num("major")), int(br.num("minor")),
                 br.num("x_m"), br.num("y_m"), int(br.num("tx_power_dbm", -59)),
                 br.text("room", ""), br.num("interval_s", 0.1)))
-        dock = None
-        if "dock" in table:
-            dr = _Reader(r.get("dock"), f"{where}.dock")
-            dock = Dock(dr.num("x_m"), dr.num("y_m"), math.radians(dr.num("heading_deg", 0)))
+        dock = _dock(_Reader(r.get("dock"), f"{where}.dock")) if "dock" in table else None
         people = [Person(pr.text("name", f"person{i}"), pr.num("x_m"), pr.num("y_m"),
                          bool(pr.get("present", True)))
                   for i, pr in ((i, _Reader(t, f"{where}.people[{i}]"))
@@ -230,6 +221,65 @@ def _read_map(name: str, base_dir: Path | None, where: str
         msg = f"{where}.map: {exc}"
         raise WorldError(msg) from exc
     return str(path), map_walls(occupancy), known_bounds(occupancy)
+
+
+_DOCK_KEYS = ("x_m", "y_m", "heading_deg", "slot_s", "width_m", "depth_m", "contact_mv",
+              "fault_mv", "beams")
+_BEAM_KEYS = ("name", "code", "centre_deg", "half_angle_deg", "range_m", "apex_forward_m",
+              "apex_left_m", "slot")
+
+
+def _dock(r: _Reader) -> Dock:
+    """``[world.dock]``: its face's middle and the way it looks, and optional beam changes.
+
+    Each ``[[world.dock.beams]]`` entry names a beam: a default beam's fields it gives are
+    changed, a new name is a new beam (every field but the apex then required)."""
+    r.known(*_DOCK_KEYS)
+    beams = {b.name: b for b in DEFAULT_BEAMS}
+    for i, t in enumerate(r.tables("beams")):
+        br = _Reader(t, f"{r.where}.beams[{i}]")
+        br.known(*_BEAM_KEYS)
+        name = br.text("name")
+        base = beams.get(name)
+
+        def field(key: str, default: float | None = None, br: _Reader = br,
+                  base: Beam | None = base) -> float:
+            return br.num(key, float(getattr(base, key)) if base is not None else default)
+
+        beam = Beam(name, int(field("code")), field("centre_deg"), field("half_angle_deg"),
+                    field("range_m"), field("apex_forward_m", 0.0),
+                    field("apex_left_m", 0.0), int(field("slot")))
+        problem = _beam_problem(beam, [b for n, b in beams.items() if n != name])
+        if problem:
+            msg = f"{br.where}.{problem}"
+            raise WorldError(msg)
+        beams[name] = beam
+    slot_s = r.num("slot_s", SLOT_S)
+    if not SLOT_S <= slot_s <= 0.2:
+        msg = (f"{r.where}.slot_s: {slot_s} s cannot carry an OI frame (32 ms) and its gap; "
+               "expected 0.036-0.2")
+        raise WorldError(msg)
+    return Dock(r.num("x_m"), r.num("y_m"), math.radians(r.num("heading_deg", 0)),
+                beams=tuple(beams.values()), slot_s=slot_s,
+                width_m=r.num("width_m", 0.34), depth_m=r.num("depth_m", 0.14),
+                contact_mv=int(r.num("contact_mv", CONTACT_MV)),
+                fault_mv=int(r.num("fault_mv", FAULT_MV)))
+
+
+def _beam_problem(beam: Beam, others: list[Beam]) -> str | None:
+    """What is wrong with a beam (as ``key: message``), or None."""
+    if not 0 <= beam.code <= 255:
+        return f"code: expected 0-255, got {beam.code}"
+    same = next((b.name for b in others if b.code == beam.code), None)
+    if same is not None:
+        return f"code: {beam.code} is already the {same} beam's"
+    if not 0 < beam.half_angle_deg <= 180:
+        return f"half_angle_deg: expected 0-180, got {beam.half_angle_deg}"
+    if beam.range_m <= 0:
+        return f"range_m: expected a positive range, got {beam.range_m}"
+    if not 0 <= beam.slot <= 7:
+        return f"slot: expected 0-7, got {beam.slot}"
+    return None
 
 
 def _room(r: _Reader, name: str | None = None) -> Room:

@@ -76,7 +76,8 @@ class TestDiffDriveBody:
         moving.apply_pwm(255, 255, True, False)
         _run(moving, 60)
         assert moving.charge_pct < 100
-        docked = DiffDriveBody(world, Pose(1.0, 1.0, 0), charge_pct=50)
+        assert world.dock is not None
+        docked = DiffDriveBody(world, world.dock.docked_pose(0.18), charge_pct=50)
         _run(docked, 60)
         assert docked.charge_pct > 50
         assert docked.battery()[2] is True

@@ -1,1 +1,1 @@
-"""Navigation on a known map: maps, localisation, planning and people in the scan."""
+"""Navigating a known map: grids, distance field, planning, following, localisation."""

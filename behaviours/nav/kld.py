@@ -4,7 +4,9 @@ Bins are 0.5 m x 0.5 m x 10 degrees, as AMCL's ``pf_kdtree`` cells. The count is
 ``(k - 1) / (2 eps) * (1 - 2/(9(k-1)) + sqrt(2/(9(k-1))) z)^3`` clamped to the limits; ``z`` is
 the upper standard normal quantile of ``kld_z`` (AMCL's ``pf.c`` puts 0.99 itself in for z,
 which asks for about four times fewer particles than the formula means; we take the quantile,
-2.33, and let ``max_particles`` bound the cost).
+2.33, and let ``max_particles`` bound the cost). One bin needs ``min_particles``: the formula
+gives 0 there, and ``pf.c``'s answer, ``max_particles``, would make a filter that has
+converged into one bin the most expensive one.
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ def kld_limit(bins: npt.ArrayLike, kld_err: float, kld_z: float, min_particles: 
     with np.errstate(divide="ignore", invalid="ignore"):
         b = 2.0 / (9.0 * (k - 1.0))
         n = (k - 1.0) / (2.0 * kld_err) * (1.0 - b + np.sqrt(b) * z) ** 3
-    n = np.where(k <= 1, max_particles, np.ceil(n))
+    n = np.where(k <= 1, min_particles, np.ceil(n))
     return np.clip(n, min_particles, max_particles).astype(np.int64)
 
 

@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from behaviours.nav.distance_field import DistanceField
 from hal.readings import LidarScan
 
 FloatArray = npt.NDArray[np.float64]
@@ -31,8 +32,9 @@ class DistanceGrid:
 
     Row ``i``, column ``j`` is the cell whose lower-left corner is at
     ``(origin_x_m + j * resolution_m, origin_y_m + i * resolution_m)`` (a ROS map's origin and
-    rows, bottom row first). ``free``: cells known to be free (where a robot may stand), for
-    global initialisation; None: every cell at more than one cell from an obstacle.
+    rows, bottom row first). ``free``: cells known to be free (a map's free cells, not its
+    unknown ones), for global initialisation; None: every cell. Either way only cells more
+    than one cell from an obstacle count.
     """
 
     distance_m: FloatArray
@@ -47,9 +49,9 @@ class DistanceGrid:
         return rows, cols
 
     def free_cells(self) -> BoolArray:
-        if self.free is not None:
-            return self.free
         mask: BoolArray = self.distance_m > self.resolution_m
+        if self.free is not None:
+            mask = mask & self.free
         return mask
 
     def cell_of(self, x_m: FloatArray, y_m: FloatArray
@@ -66,6 +68,13 @@ class DistanceGrid:
         row, col, inside = self.cell_of(np.asarray(x_m), np.asarray(y_m))
         result: FloatArray = np.where(inside, self.distance_m[row, col], outside_m)
         return result
+
+    @classmethod
+    def from_field(cls, field: DistanceField, free: BoolArray | None = None) -> DistanceGrid:
+        """The planner's distance field (``behaviours.nav.distance_field``), shared."""
+        g = field.grid
+        return cls(field.distance_m.astype(np.float64), g.resolution_m, g.origin_x_m,
+                   g.origin_y_m, free)
 
     @classmethod
     def from_occupancy(cls, occupied: BoolArray, resolution_m: float, origin_x_m: float,

@@ -102,15 +102,16 @@ class BeamModel:
 def select_beams(scan: LidarScan, max_beams: int, max_range_m: float) -> FloatArray:
     """Up to ``max_beams`` evenly spaced valid beams as an (n, 2) array of robot-frame x, y.
 
-    Like AMCL, the spacing is over the whole scan (every k-th beam) and a beam with no return
-    or beyond ``max_range_m`` is skipped rather than replaced.
+    Like AMCL, the spacing is over the whole scan and a beam with no return or beyond
+    ``max_range_m`` is skipped rather than replaced.
     """
     count = scan.ranges_m.shape[0]
     if count == 0 or max_beams <= 0:
         return np.zeros((0, 2))
-    step = max(1, count // max_beams)
-    ranges = scan.ranges_m[::step]
-    angles = scan.angles_rad[::step]
+    # AMCL's spacing: (count - 1) / (max_beams - 1), first and last beam included.
+    pick = np.unique(np.linspace(0, count - 1, min(count, max_beams)).round().astype(np.intp))
+    ranges = scan.ranges_m[pick]
+    angles = scan.angles_rad[pick]
     keep = np.isfinite(ranges) & (ranges < max_range_m)
     ranges, angles = ranges[keep], angles[keep]
     return np.column_stack((ranges * np.cos(angles), ranges * np.sin(angles)))

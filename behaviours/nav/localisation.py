@@ -84,6 +84,7 @@ class Localiser:
         self._bad_since_s: float | None = None
         self._stale_since_s: float | None = None
         self.status = UNCERTAIN
+        self.divergences = 0
 
     # --- starting -------------------------------------------------------------------------
 
@@ -214,6 +215,8 @@ class Localiser:
         est = self.estimate
         fields = {"old": self.status, "new": status, "match_fraction": self.match_fraction,
                   "spread_m": est.spread_m if est else None}
+        if status == DIVERGED:
+            self.divergences += 1
         if status in (DIVERGED, LIDAR_LOST):
             log.error("localisation.status", **fields)
         else:

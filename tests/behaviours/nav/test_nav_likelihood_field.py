@@ -93,7 +93,8 @@ class TestLikelihoodField:
         c, s = math.cos(-pose[2]), math.sin(-pose[2])
         d = ends - pose[:2]
         beams = np.column_stack((c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1]))
-        candidates = np.array([pose, pose + [0.1, 0, 0], pose + [0, 0, math.radians(5)]])
+        shift = np.array([[0, 0, 0], [0.1, 0, 0], [0, 0, math.radians(5)]])
+        candidates = pose + shift
         factors, _ = field.weights(candidates, beams)
         assert factors[0] == factors.max()
         assert factors[1] < 0.5 and factors[2] < 0.5

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from nav_room import drive, grid, odometry_of, scan_at
 
+from behaviours.nav.likelihood_field import DistanceGrid
 from behaviours.nav.localisation import (
     DIVERGED,
     LIDAR_LOST,
@@ -36,12 +37,13 @@ def _errors(loc: Localiser, truth: list[tuple[float, float, float]],
 
 
 @pytest.fixture(scope="module")
-def room_grid():  # type: ignore[no-untyped-def]
+def room_grid() -> DistanceGrid:
     return grid()
 
 
 class TestTracking:
-    def test_from_a_rough_start_it_tracks_within_5_cm_and_3_degrees(self, room_grid) -> None:  # type: ignore[no-untyped-def]
+    def test_from_a_rough_start_it_tracks_within_5_cm_and_3_degrees(
+            self, room_grid: DistanceGrid) -> None:
         """Start 14 cm / 3 deg off, 2-3 % odometry error: after 10 updates, p95 < 5 cm / 3 deg."""
         rng = np.random.default_rng(11)
         loc = Localiser(room_grid, LocalisationConfig())
@@ -55,7 +57,7 @@ class TestTracking:
         assert pos < 0.05 and head < 3.0, (pos, head)
         assert loc.status == LOCALISED
 
-    def test_between_scans_the_pose_follows_odometry(self, room_grid) -> None:  # type: ignore[no-untyped-def]
+    def test_between_scans_the_pose_follows_odometry(self, room_grid: DistanceGrid) -> None:
         """The fused pose is the last correction composed with the odometry of the moment."""
         rng = np.random.default_rng(12)
         loc = Localiser(room_grid, LocalisationConfig())
@@ -68,7 +70,7 @@ class TestTracking:
 
 class TestGlobalStart:
     @pytest.mark.parametrize("seed", [0, 1, 2, 3])
-    def test_global_start_finds_the_one_answer(self, room_grid, seed: int) -> None:  # type: ignore[no-untyped-def]
+    def test_global_start_finds_the_one_answer(self, room_grid: DistanceGrid, seed: int) -> None:
         """Particles over the whole free space, a turn on the spot: within 5 cm and 3 deg."""
         starts = [(3.0, 3.0, 1.0), (1.0, 4.5, -1.5), (5.5, 3.5, 3.0), (0.5, 2.0, 0.3)]
         s = starts[seed]
@@ -82,7 +84,8 @@ class TestGlobalStart:
 
 class TestDivergence:
     @pytest.mark.parametrize("seed", [13, 14, 15])
-    def test_a_kidnap_of_1_m_is_reported_within_10_s(self, room_grid, seed: int) -> None:  # type: ignore[no-untyped-def]
+    def test_a_kidnap_of_1_m_is_reported_within_10_s(self, room_grid: DistanceGrid,
+                                                     seed: int) -> None:
         """Teleport the robot 1 m mid-route (odometry does not see it): diverged within 10 s."""
         rng = np.random.default_rng(seed)
         loc = Localiser(room_grid, LocalisationConfig(seed=seed))
@@ -105,7 +108,7 @@ class TestDivergence:
 
 
 class TestLidarLoss:
-    def test_odometry_only_for_a_bounded_time_then_an_error(self, room_grid) -> None:  # type: ignore[no-untyped-def]
+    def test_odometry_only_for_a_bounded_time_then_an_error(self, room_grid: DistanceGrid) -> None:
         """Stale LiDAR: odometry_only, then lidar_lost after lidar_lost_max_s; a scan heals."""
         rng = np.random.default_rng(14)
         loc = Localiser(room_grid, LocalisationConfig(lidar_lost_max_s=30.0))
@@ -122,7 +125,7 @@ class TestLidarLoss:
 
 
 class TestDeterminism:
-    def _run(self, room_grid, seed: int) -> np.ndarray:  # type: ignore[no-untyped-def]
+    def _run(self, room_grid: DistanceGrid, seed: int) -> np.ndarray:
         rng = np.random.default_rng(99)  # the same scans and odometry every run
         loc = Localiser(room_grid, LocalisationConfig(seed=seed))
         loc.start_at(2.1, 0.4, 0.05)
@@ -131,7 +134,7 @@ class TestDeterminism:
         _errors(loc, truth, odom, rng)
         return np.vstack((loc.particles.poses[:5], loc.pose_array(odom[-1])))
 
-    def test_the_same_seed_gives_the_same_poses(self, room_grid) -> None:  # type: ignore[no-untyped-def]
+    def test_the_same_seed_gives_the_same_poses(self, room_grid: DistanceGrid) -> None:
         """Same seed and inputs: identical particles and pose; another seed: different."""
         a, b = self._run(room_grid, 5), self._run(room_grid, 5)
         assert np.array_equal(a, b)

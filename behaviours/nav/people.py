@@ -4,7 +4,8 @@ A point is unexplained when it lies farther than ``unexplained_m`` from every oc
 cell (the distance field at its map position, through the localised pose). Unexplained points
 next to each other in the sweep (closer than ``cluster_gap_m``, seed: 0.3 m) form a cluster;
 a cluster is a leg (0.05-0.25 m wide) or a body (0.3-0.6 m: a torso, or two legs close
-together), and two legs within ``leg_pair_m`` are one person.
+together; between 0.25 and 0.3 m it is two legs seen as one), and two legs within
+``leg_pair_m`` are one person.
 
 The seed's fixed 10 points cannot be met far out: at 0.8 degrees a point (the LD19, 4500
 points/s at 10 Hz) a 0.3 m body at 3 m spans 7 points, a 0.1 m leg 2. So the count a cluster
@@ -114,15 +115,21 @@ def split_by_gap(pts: FloatArray, gap_m: float) -> list[FloatArray]:
 
 def classify(group: FloatArray, step_rad: float, cfg: PeopleConfig) -> Cluster | None:
     """A leg or a body, or None (wrong width, too few points for its width and range)."""
-    width = math.dist(group[0], group[-1])
-    if cfg.leg_min_width_m <= width <= cfg.leg_max_width_m:
-        kind = "leg"
-    elif cfg.body_min_width_m <= width <= cfg.body_max_width_m:
-        kind = "body"
-    else:
-        return None
     cx, cy = float(group[:, 0].mean()), float(group[:, 1].mean())
-    if group.shape[0] < min_points(width, math.hypot(cx, cy), step_rad, cfg):
+    range_m = math.hypot(cx, cy)
+    bearings = np.arctan2(group[:, 1], group[:, 0])
+    span_rad = float(np.abs(np.remainder(np.diff(bearings) + np.pi, 2 * np.pi) - np.pi).sum())
+    # Width across the line of sight: the chord would add depth (one leg behind the other).
+    width = range_m * span_rad
+    if width < cfg.leg_min_width_m or width > cfg.body_max_width_m:
+        return None
+    if width <= cfg.leg_max_width_m:
+        kind = "leg"
+    elif width < cfg.body_min_width_m:
+        kind = "legs"  # two legs seen as one cluster, between a leg and a body
+    else:
+        kind = "body"
+    if group.shape[0] < min_points(width, range_m, step_rad, cfg):
         return None
     return Cluster(cx, cy, width, int(group.shape[0]), kind)
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Iterator, Mapping, Sequence
 from typing import overload
 
+from behaviours.nav.localisation_config import NAV_LOCALISATION_ORDERS, NAV_LOCALISATION_SECTIONS
 from drivers.arduino.config import SERIAL
 from drivers.dock_ir.config import IR_OPTIONS, IR_ORDERS
 from drivers.lidar.config import LIDAR, LIDAR_ORDERS
@@ -183,6 +184,7 @@ _CORE: tuple[Section, ...] = (
         opt("timeout_s", "float", 1.0, "Longest wait for data-ready.", min=0.05, max=10),
     )),
     LIDAR,
+    *NAV_LOCALISATION_SECTIONS,
     Section("docking", "Returning to the dock (seed 001).", (
         opt("battery_threshold_pct", "float", 20.0, "Go to the dock below this charge.",
           min=0, max=100, tunable=True),
@@ -204,6 +206,7 @@ _CORE_ORDERS: tuple[Order, ...] = (
     Order(("line_follow.roi_top", "line_follow.roi_bottom")),
     Order(("safety.stop_distance_cm", "safety.resume_distance_cm"), strict=False),
     *LIDAR_ORDERS,
+    *NAV_LOCALISATION_ORDERS,
     *IR_ORDERS,
 )
 

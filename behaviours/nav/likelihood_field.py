@@ -128,8 +128,14 @@ class LikelihoodField:
             raise ValueError(msg)
         self._product = model.combine == "product"
         capped = np.minimum(grid.distance_m, model.max_dist_m)
-        self._score = self.beam_score(capped)
         self._outside = float(self.beam_score(np.array(model.max_dist_m)).item())
+        # The score table with a one-cell border of the off-map score: an end point clipped
+        # into the border scores as off the map, so the gather needs no inside mask.
+        padded = np.pad(self.beam_score(capped), 1, constant_values=self._outside)
+        self._table = padded.astype(np.float32).ravel()
+        self._table_cols = padded.shape[1]
+        self._max_col = float(padded.shape[1] - 1)
+        self._max_row = float(padded.shape[0] - 1)
 
     def pz(self, z_m: FloatArray) -> FloatArray:
         """The beam model: likelihood of an end point ``z_m`` from the nearest obstacle."""
@@ -165,13 +171,35 @@ class LikelihoodField:
         beams = beams_xy.shape[0]
         if beams == 0:
             return np.ones(count), np.ones(count)
-        x, y = self.end_points(particles, beams_xy)
-        row, col, inside = self.grid.cell_of(x, y)
-        scores = np.where(inside, self._score[row, col], self._outside).sum(axis=1)
+        scores = self._gather(particles, beams_xy).sum(axis=1, dtype=np.float64)
         if self._product:
             return np.exp(scores - scores.max()), np.exp(scores / beams)
         cube: FloatArray = 1.0 + scores
         return cube, cube
+
+    def _gather(self, particles: FloatArray, beams_xy: FloatArray) -> npt.NDArray[np.float32]:
+        """Every beam's score for every particle, (particles, beams), in cell units, float32
+        (the update's cost is memory traffic: 2000 x 60 end points a scan)."""
+        g = self.grid
+        inv = 1.0 / g.resolution_m
+        c = (np.cos(particles[:, 2]) * inv).astype(np.float32)
+        s = (np.sin(particles[:, 2]) * inv).astype(np.float32)
+        # + 1: the border; floor of a non-negative number is its truncation.
+        px = ((particles[:, 0] - g.origin_x_m) * inv + 1.0).astype(np.float32)[:, None]
+        py = ((particles[:, 1] - g.origin_y_m) * inv + 1.0).astype(np.float32)[:, None]
+        bx = beams_xy[:, 0].astype(np.float32)
+        by = beams_xy[:, 1].astype(np.float32)
+        col = px + np.outer(c, bx)
+        col -= np.outer(s, by)
+        row = py + np.outer(s, bx)
+        row += np.outer(c, by)
+        np.clip(col, 0.0, self._max_col, out=col)
+        np.clip(row, 0.0, self._max_row, out=row)
+        index = row.astype(np.int32)
+        index *= self._table_cols
+        index += col.astype(np.int32)
+        result: npt.NDArray[np.float32] = self._table.take(index)
+        return result
 
     def match_fraction(self, pose: FloatArray, beams_xy: FloatArray,
                        match_distance_m: float) -> float:

@@ -12,6 +12,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from behaviours.nav.map_file import map_problem
 from hal.options import Order, Section
 from robotd.config.errors import ConfigError, ConfigProblem
 from robotd.config.screen import check_option, clip
@@ -183,14 +184,22 @@ def load_config_text(
 
 def _system_problems(values: Values, path: str, where: dict[tuple[str, str], int]
                      ) -> list[ConfigProblem]:
-    """What the operating system would refuse later (the socket path's length)."""
+    """What the operating system would refuse later (the socket path's length), and a map
+    file that does not parse (the daemon must not start with it)."""
+    problems = []
+    map_file = values.get("map", {}).get("file")
+    if isinstance(map_file, str):
+        why = map_problem(map_file, Path(path).parent)
+        if why is not None:
+            problems.append(ConfigProblem(path, where.get(("map", "file")), "map.file", why))
     socket_path = values.get("control", {}).get("socket")
     if not isinstance(socket_path, str):
-        return []
+        return problems
     why = socket_path_problem(socket_path)
     if why is None:
-        return []
-    return [ConfigProblem(path, where.get(("control", "socket")), "control.socket", why)]
+        return problems
+    return [*problems,
+            ConfigProblem(path, where.get(("control", "socket")), "control.socket", why)]
 
 
 def _parse_tolerant(lines: list[str], path: str, problems: list[ConfigProblem]) -> dict[str, Any]:

@@ -167,3 +167,20 @@ class TestErrors:
         path = _write(tmp_path, [[0]], image="gone.pgm")
         with pytest.raises(MapFileError, match=r"map.yaml: image 'gone.pgm': cannot read"):
             read_map_yaml(path)
+
+
+class TestCheckConfig:
+    def test_a_map_that_does_not_parse_is_a_config_problem(self, tmp_path: Path) -> None:
+        """check-config (and the daemon's start) refuse a bad map: map.file: PATH: what."""
+        from robotd.config.errors import ConfigError
+        from robotd.config.loader import load_config_text
+
+        path = _write(tmp_path, [[0]], pgm=b"P5 2 2 255\n\x00")
+        config = tmp_path / "robotd.toml"
+        with pytest.raises(ConfigError) as info:
+            load_config_text('[map]\nfile = "map.yaml"\n', str(config))
+        assert f"{config}:2: map.file: {tmp_path}/map.pgm: image data is truncated" in str(
+            info.value)
+        assert path.exists()
+        _write(tmp_path, [[0]])
+        assert load_config_text('[map]\nfile = "map.yaml"\n', str(config))["map"]["file"]

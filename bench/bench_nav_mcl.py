@@ -146,14 +146,10 @@ def mcl_part(updates: int = 200) -> dict[str, Any]:
             "people": run_people(updates, grid, walls)}
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--updates", type=int, default=200)
-    parser.add_argument("--json", action="store_true")
-    args = parser.parse_args()
-    result = mcl_part(args.updates)
-    if args.json:
-        print(json.dumps(result, indent=2))
+def report(result: dict[str, Any], *, as_json: bool) -> None:
+    """Print ``mcl_part``'s figures (``bench_nav.py --part mcl`` prints them the same)."""
+    if as_json:
+        print(json.dumps({"mcl": result}, indent=2))
         return
     print(f"map {result['map_cells'][0]} x {result['map_cells'][1]} cells of {RESOLUTION_M} m")
     for name in ("mcl_500", "mcl_2000", "people"):
@@ -166,6 +162,14 @@ def main() -> None:
             c = f["cpu"]
             print(f"  {'  cpu':9s} p50 {c['p50_ms']:7.2f} ms  p95 {c['p95_ms']:7.2f} ms  "
                   f"max {c['max_ms']:7.2f} ms")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--updates", type=int, default=200)
+    parser.add_argument("--json", action="store_true")
+    args = parser.parse_args()
+    report(mcl_part(args.updates), as_json=args.json)
 
 
 if __name__ == "__main__":

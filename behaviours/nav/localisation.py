@@ -79,6 +79,7 @@ class Localiser:
         self._odom_at_update: OdomPose | None = None
         self.updates = 0
         self.scans = 0
+        self.rejected = 0
         self.match_fraction = 0.0
         self.last_scan_s: float | None = None
         self._bad_since_s: float | None = None
@@ -132,7 +133,17 @@ class Localiser:
     # --- scans ----------------------------------------------------------------------------
 
     def on_scan(self, odom: OdomPose, scan: LidarScan, now_s: float) -> bool:
-        """Take one scan with the odometry pose of its time; True if the filter updated."""
+        """Take one scan with the odometry pose of its time; True if the filter updated.
+
+        A malformed scan (angles and ranges of different shapes) or a non-finite odometry
+        pose is counted in ``rejected`` and skipped.
+        """
+        if (scan.angles_rad.shape != scan.ranges_m.shape or scan.ranges_m.ndim != 1
+                or not all(math.isfinite(v) for v in odom)):
+            self.rejected += 1
+            log.warning("localisation.rejected", count=self.rejected,
+                        angles=scan.angles_rad.shape, ranges=scan.ranges_m.shape, odom=odom)
+            return False
         self.scans += 1
         self.last_scan_s = now_s
         self._stale_since_s = None

@@ -16,6 +16,7 @@ from typing import Any
 
 import structlog
 
+from behaviours.motion.odometry import Odometry
 from behaviours.nav.localisation import LocalisedPose, Localiser, OdomPose
 from behaviours.nav.people import PeopleTracker, Person
 from hal.devices import Lidar
@@ -23,6 +24,16 @@ from hal.latest import LatestValue
 from hal.readings import LidarScan
 
 log = structlog.get_logger(__name__)
+
+
+def odometry_source(odometry: Odometry) -> Callable[[], OdomPose]:
+    """The service's odometry callable over ``behaviours.motion``'s wheel odometry."""
+
+    def pose() -> OdomPose:
+        p = odometry.pose()
+        return (p.x_m, p.y_m, p.theta_rad)
+
+    return pose
 
 
 def start_filter(localiser: Localiser, stored: OdomPose | None = None) -> str:
@@ -61,7 +72,6 @@ class LocalisationService:
         self.people = people
         self.poses: LatestValue[LocalisedPose] = LatestValue()
         self.people_out: LatestValue[list[Person]] = LatestValue()
-        self.scan_errors = 0
 
     async def run(self, ready: Callable[[], None]) -> None:
         loop = asyncio.get_running_loop()
@@ -86,12 +96,7 @@ class LocalisationService:
     def _on_scan(self, scan: LidarScan) -> None:
         now_s = asyncio.get_running_loop().time()
         odom = self.odometry()
-        try:
-            self.localiser.on_scan(odom, scan, now_s)
-        except (ValueError, FloatingPointError) as exc:  # a malformed scan: count, go on
-            self.scan_errors += 1
-            log.warning("localisation.bad_scan", error=str(exc), count=self.scan_errors)
-            return
+        self.localiser.on_scan(odom, scan, now_s)  # counts and skips a malformed scan
         if self.people is not None:
             pose = self.localiser.pose_array(odom)
             self.people_out.publish(self.people.update(scan, pose, now_s))
@@ -102,7 +107,8 @@ class LocalisationService:
         loc = self.localiser
         out: dict[str, Any] = {"status": loc.status, "scans": loc.scans,
                                "updates": loc.updates, "particles": len(loc.particles),
-                               "scan_errors": self.scan_errors}
+                               "rejected_scans": loc.rejected,
+                               "divergences": loc.divergences}
         if pose is not None:
             out["pose"] = pose.as_dict()
         if self.people is not None:

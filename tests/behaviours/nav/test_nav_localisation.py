@@ -17,6 +17,7 @@ from behaviours.nav.localisation import (
     Localiser,
 )
 from behaviours.nav.localisation_config import LocalisationConfig
+from hal.readings import LidarScan
 
 SCAN_PERIOD_S = 0.1
 ROUTE = [(2.0, 0.5, 0.0), (3.5, 0.6, 0.0), (3.5, 0.6, 1.57), (3.5, 3.0, 1.57),
@@ -139,3 +140,17 @@ class TestDeterminism:
         a, b = self._run(room_grid, 5), self._run(room_grid, 5)
         assert np.array_equal(a, b)
         assert not np.array_equal(a, self._run(room_grid, 6))
+
+
+class TestBadInput:
+    def test_a_malformed_scan_is_counted_not_raised(self, room_grid: DistanceGrid) -> None:
+        """Angles and ranges of different lengths, or a NaN odometry pose: skipped, counted."""
+        rng = np.random.default_rng(15)
+        loc = Localiser(room_grid, LocalisationConfig())
+        loc.start_at(2.0, 0.5, 0.0, 0.05, 0.05)
+        good = scan_at((2.0, 0.5, 0.0), rng)
+        bad = LidarScan(good.angles_rad[:10], good.ranges_m, good.intensities, 0.0)
+        assert loc.on_scan((0.0, 0.0, 0.0), bad, 0.0) is False
+        assert loc.on_scan((math.nan, 0.0, 0.0), good, 0.1) is False
+        assert loc.rejected == 2 and loc.scans == 0
+        assert loc.on_scan((0.0, 0.0, 0.0), good, 0.2) is True

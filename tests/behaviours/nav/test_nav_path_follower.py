@@ -7,6 +7,8 @@ import math
 import random
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker, WaypointDrive
@@ -94,3 +96,20 @@ class TestPathFollower:
         results, body, _ = vclock.run(_drive_to([(3.0, 1.0)]))
         assert isinstance(results[0], NoPath) and results[0].reason == "goal_in_collision"
         assert body.distance_m == pytest.approx(0.0, abs=1e-6)
+
+
+class TestNavigationProperty:
+    # Feature: relaybot-autonomous-delivery, Property 9: For any navigation goal (warehouse,
+    # customer position, home), the final position should be within 10cm of the target
+    # coordinates.
+    @given(st.tuples(st.floats(0.4, 5.6), st.floats(0.4, 3.6)))
+    @settings(max_examples=100, deadline=None)
+    def test_property_9_every_reachable_goal_is_reached_within_10_cm(
+            self, goal: tuple[float, float]) -> None:
+        """The simulated body (true pose) ends within 10 cm of any goal that has a path."""
+        results, body, _ = vclock.run(_drive_to([goal]))
+        if isinstance(results[0], NoPath):
+            return  # in the wall's clearance: not a valid goal
+        assert isinstance(results[0], Arrival), results[0]
+        assert math.dist((body.pose.x_m, body.pose.y_m), goal) <= 0.10
+        assert body.collisions == []

@@ -29,10 +29,10 @@ import numpy as np
 
 from behaviours.nav.distance_field import DistanceField
 from behaviours.nav.grid import Grid
-from behaviours.nav.likelihood_field import DistanceGrid
-from behaviours.nav.localisation import Localiser
-from behaviours.nav.localisation_config import LocalisationConfig, PeopleConfig
-from behaviours.nav.people import PeopleTracker
+from behaviours.nav.localisation.config import LocalisationConfig, PeopleConfig
+from behaviours.nav.localisation.filter import Localiser
+from behaviours.nav.localisation.likelihood_field import DistanceGrid
+from behaviours.nav.localisation.people import PeopleTracker
 from hal.readings import LidarScan
 from hal.sim.world.geometry import raycast, segments_array
 

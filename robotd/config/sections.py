@@ -12,7 +12,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from typing import overload
 
 from behaviours.nav.config import NAV_SECTIONS
-from behaviours.nav.localisation_config import NAV_LOCALISATION_ORDERS, NAV_LOCALISATION_SECTIONS
+from behaviours.nav.localisation.config import NAV_LOCALISATION_ORDERS, NAV_LOCALISATION_SECTIONS
 from drivers.arduino.config import SERIAL
 from drivers.dock_ir.config import IR_OPTIONS, IR_ORDERS
 from drivers.lidar.config import LIDAR, LIDAR_ORDERS

@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from behaviours.nav.likelihood_field import DistanceGrid
+from behaviours.nav.localisation.likelihood_field import DistanceGrid
 from hal.readings import LidarScan
 from hal.sim.world.geometry import raycast, segments_array
 

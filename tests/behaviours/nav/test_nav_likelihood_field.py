@@ -9,7 +9,12 @@ import pytest
 
 from behaviours.nav.distance_field import DistanceField
 from behaviours.nav.grid import Grid
-from behaviours.nav.likelihood_field import BeamModel, DistanceGrid, LikelihoodField, select_beams
+from behaviours.nav.localisation.likelihood_field import (
+    BeamModel,
+    DistanceGrid,
+    LikelihoodField,
+    select_beams,
+)
 from hal.readings import LidarScan
 
 RES = 0.1

@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 from nav_room import drive, grid, odometry_of, scan_at
 
-from behaviours.nav.likelihood_field import DistanceGrid
-from behaviours.nav.localisation import (
+from behaviours.nav.localisation.config import LocalisationConfig
+from behaviours.nav.localisation.filter import (
     DIVERGED,
     LIDAR_LOST,
     LOCALISED,
     ODOMETRY_ONLY,
     Localiser,
 )
-from behaviours.nav.localisation_config import LocalisationConfig
+from behaviours.nav.localisation.likelihood_field import DistanceGrid
 from hal.readings import LidarScan
 
 SCAN_PERIOD_S = 0.1

@@ -10,15 +10,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from nav_room import WALLS, grid
 
-from behaviours.nav.localisation import (
+from behaviours.nav.localisation.config import LocalisationConfig
+from behaviours.nav.localisation.filter import (
     LIDAR_LOST,
     LOCALISED,
     ODOMETRY_ONLY,
     LocalisedPose,
     Localiser,
 )
-from behaviours.nav.localisation_config import LocalisationConfig
-from behaviours.nav.localisation_service import LocalisationService, start_filter
+from behaviours.nav.localisation.service import LocalisationService, start_filter
 from drivers.lidar import Ld19Lidar, LidarConfig
 from hal.sim import vclock
 from hal.sim.devices.ld19 import SimLd19, walls

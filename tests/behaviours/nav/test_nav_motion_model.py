@@ -8,7 +8,12 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from behaviours.nav.motion_model import compose, inverse, relative, sample_odometry_motion
+from behaviours.nav.localisation.motion_model import (
+    compose,
+    inverse,
+    relative,
+    sample_odometry_motion,
+)
 
 coord = st.floats(-20, 20, allow_nan=False)
 heading = st.floats(-math.pi, math.pi, allow_nan=False, exclude_max=True)

@@ -9,8 +9,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from behaviours.nav.kld import adaptive_count, kld_limit
-from behaviours.nav.particles import ParticleSet, low_variance_indices
+from behaviours.nav.localisation.kld import adaptive_count, kld_limit
+from behaviours.nav.localisation.particles import ParticleSet, low_variance_indices
 
 weights_st = st.lists(st.floats(0.0, 1.0, allow_nan=False), min_size=1, max_size=60).filter(
     lambda w: sum(w) > 1e-6)

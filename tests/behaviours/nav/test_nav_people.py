@@ -10,9 +10,9 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from nav_room import Segment, grid, scan_at
 
-from behaviours.nav.likelihood_field import DistanceGrid
-from behaviours.nav.localisation_config import PeopleConfig
-from behaviours.nav.people import PeopleTracker, detect, min_points
+from behaviours.nav.localisation.config import PeopleConfig
+from behaviours.nav.localisation.likelihood_field import DistanceGrid
+from behaviours.nav.localisation.people import PeopleTracker, detect, min_points
 
 STEP_RAD = math.radians(0.8)  # the LD19: 4500 points/s at 10 turns/s
 
@@ -84,6 +84,15 @@ class TestDetect:
         ranges[100] = ranges[300] = 0.8  # two stray returns, far apart
         stray = type(scan)(scan.angles_rad, ranges, scan.intensities, scan.t_s)
         assert detect(stray, np.array(pose), room, PeopleConfig()) == []
+
+
+    def test_a_person_right_behind_across_the_sweeps_wrap_is_one_cluster(
+            self, room: DistanceGrid) -> None:
+        """Legs at bearing +-180 degrees (the scan starts and ends on them): one person."""
+        pose = (3.0, 3.0, 0.0)
+        scan = scan_at(pose, np.random.default_rng(57070), extra=legs(1.13, 2.92, -0.65))
+        found = detect(scan, np.array(pose), room, PeopleConfig())
+        assert len(found) == 1 and found[0].width_m < 0.4
 
 
 class TestTracker:

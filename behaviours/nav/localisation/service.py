@@ -17,8 +17,8 @@ from typing import Any
 import structlog
 
 from behaviours.motion.odometry import Odometry
-from behaviours.nav.localisation import LocalisedPose, Localiser, OdomPose
-from behaviours.nav.people import PeopleTracker, Person
+from behaviours.nav.localisation.filter import LocalisedPose, Localiser, OdomPose
+from behaviours.nav.localisation.people import PeopleTracker, Person
 from hal.devices import Lidar
 from hal.latest import LatestValue
 from hal.readings import LidarScan

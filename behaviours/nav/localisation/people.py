@@ -28,8 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from behaviours.nav.likelihood_field import DistanceGrid
-from behaviours.nav.localisation_config import PeopleConfig
+from behaviours.nav.localisation.config import PeopleConfig
+from behaviours.nav.localisation.likelihood_field import DistanceGrid
 from hal.readings import LidarScan
 
 FloatArray = npt.NDArray[np.float64]
@@ -117,8 +117,11 @@ def classify(group: FloatArray, step_rad: float, cfg: PeopleConfig) -> Cluster |
     """A leg or a body, or None (wrong width, too few points for its width and range)."""
     cx, cy = float(group[:, 0].mean()), float(group[:, 1].mean())
     range_m = math.hypot(cx, cy)
-    bearings = np.arctan2(group[:, 1], group[:, 0])
-    span_rad = float(np.abs(np.remainder(np.diff(bearings) + np.pi, 2 * np.pi) - np.pi).sum())
+    # Angular extent: the circle less the widest empty arc (robust to the sweep's wrap at
+    # +-pi falling inside the cluster).
+    bearings = np.sort(np.arctan2(group[:, 1], group[:, 0]))
+    gaps = np.diff(bearings, append=bearings[0] + 2 * np.pi)
+    span_rad = float(2 * np.pi - gaps.max())
     # Width across the line of sight: the chord would add depth (one leg behind the other).
     width = range_m * span_rad
     if width < cfg.leg_min_width_m or width > cfg.body_max_width_m:

@@ -20,10 +20,15 @@ import numpy as np
 import numpy.typing as npt
 import structlog
 
-from behaviours.nav.likelihood_field import BeamModel, DistanceGrid, LikelihoodField, select_beams
-from behaviours.nav.localisation_config import LocalisationConfig
-from behaviours.nav.motion_model import compose, inverse, sample_odometry_motion, wrap
-from behaviours.nav.particles import Estimate, ParticleSet
+from behaviours.nav.localisation.config import LocalisationConfig
+from behaviours.nav.localisation.likelihood_field import (
+    BeamModel,
+    DistanceGrid,
+    LikelihoodField,
+    select_beams,
+)
+from behaviours.nav.localisation.motion_model import compose, inverse, sample_odometry_motion, wrap
+from behaviours.nav.localisation.particles import Estimate, ParticleSet
 from hal.readings import LidarScan
 
 log = structlog.get_logger(__name__)

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from behaviours.nav.kld import BIN_THETA_RAD, BIN_XY_M, adaptive_count
-from behaviours.nav.motion_model import wrap
+from behaviours.nav.localisation.kld import BIN_THETA_RAD, BIN_XY_M, adaptive_count
+from behaviours.nav.localisation.motion_model import wrap
 
 FloatArray = npt.NDArray[np.float64]
 PoseSampler = Callable[[int], FloatArray]

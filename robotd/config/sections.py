@@ -12,6 +12,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from typing import overload
 
 from behaviours.nav.config import NAV_SECTIONS
+from behaviours.nav.localisation.config import NAV_LOCALISATION_ORDERS, NAV_LOCALISATION_SECTIONS
 from drivers.arduino.config import SERIAL
 from drivers.dock_ir.config import IR_OPTIONS, IR_ORDERS
 from drivers.lidar.config import LIDAR, LIDAR_ORDERS
@@ -189,6 +190,7 @@ _CORE: tuple[Section, ...] = (
     )),
     LIDAR,
     *NAV_SECTIONS,
+    *NAV_LOCALISATION_SECTIONS,
     Section("docking", "Returning to the dock (seed 001).", (
         opt("battery_threshold_pct", "float", 20.0, "Go to the dock below this charge.",
           min=0, max=100, tunable=True),
@@ -210,6 +212,7 @@ _CORE_ORDERS: tuple[Order, ...] = (
     Order(("line_follow.roi_top", "line_follow.roi_bottom")),
     Order(("safety.stop_distance_cm", "safety.resume_distance_cm"), strict=False),
     *LIDAR_ORDERS,
+    *NAV_LOCALISATION_ORDERS,
     *IR_ORDERS,
 )
 

@@ -5,20 +5,14 @@ from __future__ import annotations
 import asyncio
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
+from behaviours.persistence import EStopLatch, KeyValueStore, MissionRecord, Persisted
 from hal.backend import Devices
 from hal.ports import WallClock
 
 if TYPE_CHECKING:
     from hal.settings import SettingsView
 
-
-@runtime_checkable
-class KeyValueStore(Protocol):
-    """Mission state that must survive a restart (JSON-able values by key)."""
-
-    def get(self, key: str, default: Any = None) -> Any: ...
-    def put(self, key: str, value: Any) -> None: ...
-    def delete(self, key: str) -> None: ...
+__all__ = ["EventSink", "KeyValueStore", "MachineHandle", "RobotContext"]
 
 
 @runtime_checkable
@@ -53,6 +47,8 @@ class RobotContext:
         self.wall_clock = wall_clock
         self._emit = emit
         self._machine: MachineHandle | None = None
+        self.estop_latch = EStopLatch(store, wall_clock)
+        self._persisted: dict[str, Persisted] = {}
 
     def attach(self, machine: MachineHandle) -> None:
         """Called once by the state machine that this context drives."""
@@ -68,6 +64,19 @@ class RobotContext:
         if self._machine is None:
             return False
         return await self._machine.trigger(name, **kwargs)
+
+    def persisted(self, record: MissionRecord) -> Persisted:
+        """The live values of ``record``, restored from the store the first time it is asked
+        for (the daemon asks for every record of ``profile.mission_records()`` in ``boot``)."""
+        held = self._persisted.get(record.key)
+        if held is None:
+            held = self._persisted[record.key] = Persisted(self.store, record)
+            if held.restored:
+                self.emit("persist.restored", key=record.key, values=held.values())
+        elif held.record != record:
+            msg = f"{record.key}: declared twice, differently"
+            raise ValueError(msg)
+        return held
 
     def emit(self, kind: str, **fields: Any) -> None:
         """Record an event: it goes to the event log, ``robotctl events`` and subscribers."""

@@ -233,8 +233,29 @@ class RobotMachine:
         self._generation += 1
         self._on_transition(self._before, self.state, event.event.name)
 
+    def restore(self) -> None:
+        """Restore what the profile declared must survive a restart (called in ``boot``)."""
+        for record in self.profile.mission_records():
+            self.ctx.persisted(record)
+
+    async def _latch_estop(self, event: Any) -> None:
+        # Latched, durably, before the trigger's caller hears that the robot is in estop.
+        kwargs = getattr(event, "kwargs", {}) or {}
+        name = event.event.name if getattr(event, "event", None) is not None else "estop"
+        source = str(kwargs.get("source") or name)
+        reason = str(kwargs.get("reason") or f"{self._before} {name}")
+        await self.ctx.estop_latch.set(source, reason)
+
+    async def _unlatch_estop(self, event: Any) -> None:
+        transition = getattr(event, "transition", None)
+        if transition is not None and transition.dest == "estop":
+            return  # estop again: still latched
+        await self.ctx.estop_latch.clear(by=event.event.name)
+
     def _enter_hook(self, path: str) -> Callable[[Any], Coroutine[Any, Any, None]]:
-        async def entered(_event: Any) -> None:
+        async def entered(event: Any) -> None:
+            if path == "estop":
+                await self._latch_estop(event)
             self.profile.on_enter(path, self.ctx)
             task_fn = self._state_tasks.get(path)
             if task_fn is not None:
@@ -243,10 +264,12 @@ class RobotMachine:
         return entered
 
     def _exit_hook(self, path: str) -> Callable[[Any], Coroutine[Any, Any, None]]:
-        async def exited(_event: Any) -> None:
+        async def exited(event: Any) -> None:
             task = self._tasks.pop(path, None)
             if task is not None:
                 task.cancel()
+            if path == "estop":
+                await self._unlatch_estop(event)
             self.profile.on_exit(path, self.ctx)
         return exited
 

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 from behaviours.context import RobotContext
+from behaviours.persistence import MissionRecord
 from hal.options import Order, Section
 
 if TYPE_CHECKING:
@@ -34,6 +35,7 @@ class Profile(Protocol):
     def state_tasks(self) -> dict[str, StateTask]: ...
     def on_enter(self, state: str, ctx: RobotContext) -> None: ...
     def on_exit(self, state: str, ctx: RobotContext) -> None: ...
+    def mission_records(self) -> tuple[MissionRecord, ...]: ...
 
 
 class BaseProfile:
@@ -60,6 +62,10 @@ class BaseProfile:
 
     def on_exit(self, state: str, ctx: RobotContext) -> None:
         """Called (short, no waiting) whenever ``state`` is left."""
+
+    def mission_records(self) -> tuple[MissionRecord, ...]:
+        """What must survive a restart; restored (``ctx.persisted``) before ``boot`` is left."""
+        return ()
 
 
 @dataclass(frozen=True, slots=True)

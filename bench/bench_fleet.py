@@ -5,6 +5,12 @@ the same load on GET /health in the same run (the HTTP stack and this machine's 
 without the database).
 
     .venv/bin/python bench/bench_fleet.py [--robots 100,500] [--seconds 10] [--backend both]
+        [--storm]
+
+Every call carries a bearer token, as on a real site: each robot its own, the set-up calls
+the admin's (seeded through the site file; stored hashed). ``--storm`` also times a reconnect
+storm: every robot offline, then all report at once; it prints how long until the last one
+is answered (restored), and checks that all are online.
 
 The site has 40 customer rooms with a beacon each (every reply lists all 41 beacons). Half of
 the robots serve a request (they get customer-room targets), half idle. Each robot
@@ -36,9 +42,19 @@ ROOMS = 40
 WARMUP_S = 3.0
 
 
-def site_toml(robots: int) -> str:
-    """A site with ROOMS customer rooms (one beacon each), one base, N robots, N customers."""
-    lines = ['[settings]\nPreemptBusyRobot = false\n', '[[rooms]]\nname = "Laundry"\n',
+ADMIN_TOKEN = "bench-admin-token-0123456789abcdef"
+
+
+def robot_token(i: int) -> str:
+    return f"bench-robot-{i}-token-0123456789abcdef"
+
+
+def site_toml(robots: int, settings: str = "") -> str:
+    """A site with ROOMS customer rooms (one beacon each), one base, N robots, N customers,
+    a token for each robot and one admin token."""
+    lines = [f'[settings]\nPreemptBusyRobot = false\n{settings}',
+             '[[rooms]]\nname = "Laundry"\n',
+             f'[[tokens]]\nrole = "admin"\nsubject = "bench"\ntoken = "{ADMIN_TOKEN}"\n',
              '[[beacons]]\nmac = "C3:00:00:00:FF:FF"\nname = "base"\nroom = "Laundry"\n'
              'base = true\n']
     for r in range(ROOMS):
@@ -49,6 +65,8 @@ def site_toml(robots: int) -> str:
         lines.append(f'[[customers]]\nid = {i + 1}\nname = "c{i}"\n'
                      f'beacon = "{room_mac(i % ROOMS)}"\n')
         lines.append(f'[[robots]]\nname = "robot-{i}"\n')
+        lines.append(f'[[tokens]]\nrole = "robot"\nsubject = "robot-{i}"\n'
+                     f'token = "{robot_token(i)}"\n')
     return "\n".join(lines)
 
 
@@ -64,11 +82,15 @@ class Conn:
         self.reader: asyncio.StreamReader | None = None
         self.writer: asyncio.StreamWriter | None = None
 
-    async def call(self, method: str, path: str, body: bytes = b"") -> tuple[int, bytes]:
+    async def connect(self) -> None:
+        self.reader, self.writer = await asyncio.open_connection("127.0.0.1", self.port)
+
+    async def call(self, method: str, path: str, body: bytes = b"",
+                   token: str | None = ADMIN_TOKEN) -> tuple[int, bytes]:
         if self.writer is None:
-            self.reader, self.writer = await asyncio.open_connection("127.0.0.1", self.port)
+            await self.connect()
         assert self.reader is not None
-        self.writer.write(http_request(method, path, body))
+        self.writer.write(http_request(method, path, body, token))
         status_line = await self.reader.readline()
         length = 0
         while True:
@@ -86,9 +108,10 @@ class Conn:
             self.writer.close()
 
 
-def http_request(method: str, path: str, body: bytes = b"") -> bytes:
+def http_request(method: str, path: str, body: bytes = b"", token: str | None = None) -> bytes:
+    auth = f"Authorization: Bearer {token}\r\n" if token else ""
     return (f"{method} {path} HTTP/1.1\r\nHost: fleet\r\nContent-Type: application/json\r\n"
-            f"Content-Length: {len(body)}\r\n\r\n").encode() + body
+            f"{auth}Content-Length: {len(body)}\r\n\r\n").encode() + body
 
 
 def exchange_body(name: str, i: int) -> bytes:
@@ -183,7 +206,7 @@ async def load(port: int, robots: int, seconds: float, pid: int, *,
         name = f"robot-{i}"
         request = (http_request("GET", "/health") if health else
                    http_request("POST", f"/api/Robot/{name}/data-exchange",
-                                exchange_body(name, i)))
+                                exchange_body(name, i), robot_token(i)))
         finished: asyncio.Future[None] = loop.create_future()
         done.append(finished)
         await loop.create_connection(
@@ -246,7 +269,7 @@ async def run_one(db_url: str, robots: int, seconds: float, port: int,
         # monitor looks (every 30 s) goes offline, and its next report takes the write path.
         for i in range(robots):
             await admin.call("POST", f"/api/Robot/robot-{i}/data-exchange",
-                             exchange_body(f"robot-{i}", i))
+                             exchange_body(f"robot-{i}", i), robot_token(i))
         admin.close()
         latencies, cpu, own = await load(port, robots, seconds, proc.pid, health=False)
         base, health_cpu_s, _ = await load(port, robots, seconds, proc.pid, health=True)
@@ -263,6 +286,71 @@ async def run_one(db_url: str, robots: int, seconds: float, port: int,
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait()
+
+
+async def run_storm(db_url: str, robots: int, port: int,
+                    extra: tuple[str, ...] = ()) -> dict[str, float]:
+    """A reconnect storm: every robot reports, goes offline (OfflineAfterS 2 s, checked every
+    second), then all report at once on connections opened beforehand. Returns the seconds
+    from the first send to the last answer, and how many robots are online after."""
+    workdir = Path(tempfile.mkdtemp(prefix="bench-fleet-storm-"))
+    site = workdir / "site.toml"
+    site.write_text(site_toml(robots, "OfflineAfterS = 2\nOfflineCheckPeriodS = 1\n"))
+    proc = subprocess.Popen(  # noqa: ASYNC220 - started once, before the measurement
+        [str(ROOT / ".venv/bin/robotd-fleet"), "serve", "--db", db_url, "--site", str(site),
+         "--port", str(port), "--log-level", "warning", *extra],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        await wait_ready(port, proc)
+        admin = Conn(port)
+        for c in range(1, robots // 2 + 1):
+            await admin.call("POST", "/api/requests", json.dumps({"CustomerId": c}).encode())
+        for i in range(robots):
+            await admin.call("POST", f"/api/Robot/robot-{i}/data-exchange",
+                             exchange_body(f"robot-{i}", i), robot_token(i))
+        # Another process's state, seen only through its API: poll it.
+        while sum(r["IsOffline"] for r in await _robots(admin)) < robots:  # noqa: ASYNC110
+            await asyncio.sleep(0.5)
+        # Keep them online once back (the storm, not the monitor, is measured).
+        await admin.call("PUT", "/api/settings", json.dumps({"OfflineAfterS": 3600}).encode())
+        conns = [Conn(port) for _ in range(robots)]  # opened now: idle ones time out
+        for conn in conns:
+            await conn.connect()
+        started = time.perf_counter()
+        answers = await asyncio.gather(*(
+            conn.call("POST", f"/api/Robot/robot-{i}/data-exchange",
+                      exchange_body(f"robot-{i}", i), robot_token(i))
+            for i, conn in enumerate(conns)))
+        elapsed_s = time.perf_counter() - started
+        bad = [status for status, _ in answers if status != 200]
+        if bad:
+            msg = f"{len(bad)} storm answers were not 200, e.g. {bad[0]}"
+            raise RuntimeError(msg)
+        online = sum(not r["IsOffline"] for r in await _robots(admin))
+        for conn in conns:
+            conn.close()
+        admin.close()
+        return {"restore_s": elapsed_s, "online": online}
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+async def _robots(admin: Conn) -> list[dict[str, object]]:
+    status, body = await admin.call("GET", "/api/robots")
+    assert status == 200, body
+    robots: list[dict[str, object]] = json.loads(body)
+    return robots
+
+
+def report_storm(backend: str, robots: int, r: dict[str, float]) -> None:
+    print(f"{backend:10s} robots={robots:4d}  reconnect storm restored in "
+          f"{r['restore_s'] * 1000:.0f} ms; online after: {int(r['online'])}/{robots}",
+          flush=True)
 
 
 def report(backend: str, robots: int, r: dict[str, float]) -> None:
@@ -282,6 +370,8 @@ async def main() -> int:
     parser.add_argument("--backend", choices=("sqlite", "sqlite-inline", "postgres", "both"),
                         default="both",
                         help="both: SQLite, SQLite inline (--sqlite-inline) and PostgreSQL")
+    parser.add_argument("--storm", action="store_true",
+                        help="also time a reconnect storm of every robot (target: 500 <= 1 s)")
     args = parser.parse_args()
     counts = [int(n) for n in args.robots.split(",")]
     print(f"bench_fleet: {os.cpu_count()} CPUs, load average "
@@ -292,6 +382,9 @@ async def main() -> int:
             db = Path(tempfile.mkdtemp(prefix="bench-fleet-db-")) / "fleet.db"
             report("sqlite", robots, await run_one(f"sqlite:///{db}", robots, args.seconds,
                                                    port))
+            if args.storm:
+                db = Path(tempfile.mkdtemp(prefix="bench-fleet-db-")) / "fleet.db"
+                report_storm("sqlite", robots, await run_storm(f"sqlite:///{db}", robots, port))
         if args.backend in ("sqlite-inline", "both"):
             db = Path(tempfile.mkdtemp(prefix="bench-fleet-db-")) / "fleet.db"
             report("sqlite-inl", robots, await run_one(
@@ -306,6 +399,9 @@ async def main() -> int:
             for n, robots in enumerate(counts):
                 url = await cluster.create_database(f"bench_{n}")
                 report("postgres", robots, await run_one(url, robots, args.seconds, port))
+                if args.storm:
+                    url = await cluster.create_database(f"bench_storm_{n}")
+                    report_storm("postgres", robots, await run_storm(url, robots, port))
         finally:
             cluster.stop()
     return 0

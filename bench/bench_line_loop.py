@@ -29,7 +29,7 @@ from bench_ble_hx711 import sensor_load  # bench/ is on sys.path when run as a s
 from bench_line_tracker import pct, render_frames
 
 from behaviours.line.follow import LineFollower
-from hal.deadline import DeadlineSleeper
+from hal.looptime.deadline import DeadlineSleeper
 from hal.readings import Frame, LinkStats, MotorCommand
 from hal.sim.devices.camera_model import CameraMount
 from robotd.config.loader import defaults

@@ -15,16 +15,15 @@ from typing import Any
 
 import structlog
 from fastapi import FastAPI
-from fastapi import Request as HttpRequest
-from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
 from starlette.types import Receive, Scope, Send
 
-from fleet.api import admin, requests, robot
+from fleet.api import admin, requests, robot, tokens
+from fleet.api.auth import Authenticate
 from fleet.api.body_limit import BodyLimit
+from fleet.api.error_bodies import add_error_handlers
 from fleet.api.exchange_fast import ExchangeFastPath
+from fleet.api.methods import AllowedMethods
 from fleet.clock import Clock
-from fleet.errors import FleetError
 from fleet.server import FleetServer
 from fleet.settings import FleetSettings
 from fleet.site import Site
@@ -39,7 +38,9 @@ class FleetApp(FastAPI):
 
     def __init__(self, server: FleetServer, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        self._front = BodyLimit(ExchangeFastPath(super().__call__, server))
+        self._front = BodyLimit(AllowedMethods(
+            Authenticate(ExchangeFastPath(super().__call__, server), server.auth),
+            self.openapi))
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         await self._front(scope, receive, send)
@@ -53,6 +54,7 @@ def create_app(
     *,
     monitors: bool = True,
     inline_sqlite: bool = False,
+    auth_failures_per_min: int = 30,
 ) -> FastAPI:
     """Args:
         db_url: ``sqlite:///PATH`` or ``postgresql://USER@HOST/DB`` (async drivers are chosen).
@@ -62,9 +64,12 @@ def create_app(
         monitors: whether the lifespan starts the timeout and offline monitors.
         inline_sqlite: SQLite calls on the loop's thread, no aiosqlite worker threads (for
             the simulator's in-process server; see ``fleet.sqlite_inline``).
+        auth_failures_per_min: failed authentications a client address may make a minute
+            before it gets 429 (0: no limit; ``fleet.ratelimit``).
     """
     server = FleetServer(db_url, site=site, clock=clock, settings=settings,
-                         inline_sqlite=inline_sqlite)
+                         inline_sqlite=inline_sqlite,
+                         auth_failures_per_min=auth_failures_per_min)
 
     @asynccontextmanager
     async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
@@ -87,19 +92,8 @@ def create_app(
     app.include_router(requests.router)
     app.include_router(robot.router)
     app.include_router(admin.router)
-
-    @app.exception_handler(FleetError)
-    async def fleet_error(_http: HttpRequest, exc: FleetError) -> JSONResponse:
-        return JSONResponse({"detail": exc.message}, status_code=exc.status_code)
-
-    @app.exception_handler(RequestValidationError)
-    async def bad_input(_http: HttpRequest, exc: RequestValidationError) -> JSONResponse:
-        problems = []
-        for err in exc.errors():
-            where = ".".join(str(p) for p in err.get("loc", ()))
-            problems.append(f"{where}: {err.get('msg', 'invalid')}")
-        return JSONResponse({"detail": "; ".join(problems) or "invalid request"},
-                            status_code=422)
+    app.include_router(tokens.router)
+    add_error_handlers(app)
 
     @app.get("/health", tags=["meta"])
     async def health() -> dict[str, str]:

@@ -1,4 +1,5 @@
-"""``robotd-fleet serve [--db URL] [--site FILE] [--host H] [--port P]``."""
+"""``robotd-fleet serve [--db URL] [--site FILE] [--host H] [--port P]`` and
+``robotd-fleet token create|list|revoke`` (``fleet.cli_token``)."""
 
 from __future__ import annotations
 
@@ -11,10 +12,11 @@ import uvicorn
 from sqlalchemy.engine import make_url
 from sqlalchemy.exc import ArgumentError
 
+from fleet import cli_token
 from fleet.app import create_app
 from fleet.http_protocol import CoalescingHttpToolsProtocol
+from fleet.logsetup import configure_logging
 from fleet.site import SiteError, load_site
-from robotd.logs import configure_logging
 
 DEFAULT_DB = "sqlite:////var/lib/robotd-fleet/fleet.db"
 
@@ -37,6 +39,10 @@ def _parser() -> argparse.ArgumentParser:
     serve.add_argument("--access-log", action="store_true",
                        help="log every HTTP request (off by default: at 500 robots a second it "
                             "would cost more than answering them)")
+    serve.add_argument("--auth-failures-per-min", type=int, default=30, metavar="N",
+                       help="failed authentications a client address may make a minute before "
+                            "it gets 429 (0: no limit; counted per server process)")
+    cli_token.add_parser(sub, os.environ.get("ROBOTD_FLEET_DB", DEFAULT_DB))
     return parser
 
 
@@ -72,6 +78,13 @@ def sqlite_dir_problem(db_url: str) -> str | None:
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
+    if args.command == "token":
+        configure_logging("warning")  # stdout is the token (or the list), nothing else
+        problem = sqlite_dir_problem(args.db)
+        if problem is not None:
+            print(f"robotd-fleet: {problem}", file=sys.stderr)
+            return 2
+        return cli_token.run(args)
     configure_logging(args.log_level)
     problem = sqlite_dir_problem(args.db)
     if problem is not None:
@@ -79,7 +92,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         site = load_site(args.site) if args.site else None
-        app = create_app(args.db, site=site, inline_sqlite=args.sqlite_inline)
+        app = create_app(args.db, site=site, inline_sqlite=args.sqlite_inline,
+                         auth_failures_per_min=args.auth_failures_per_min)
     except (SiteError, ValueError) as exc:
         print(f"robotd-fleet: {exc}", file=sys.stderr)
         return 2

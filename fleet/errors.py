@@ -27,3 +27,15 @@ class Invalid(FleetError):
 
 class NoRobotAvailable(FleetError):
     status_code = 503
+
+
+class Unauthorized(FleetError):
+    """No valid bearer token (the app adds ``WWW-Authenticate: Bearer``)."""
+
+    status_code = 401
+
+
+class Forbidden(FleetError):
+    """A valid token of the wrong role or owner."""
+
+    status_code = 403

@@ -17,6 +17,7 @@ from typing import Any
 import structlog
 from sqlalchemy import text
 
+from fleet.auth import Authenticator
 from fleet.cache import SiteCache
 from fleet.clock import Clock, system_clock
 from fleet.db import Database
@@ -41,6 +42,8 @@ class FleetServer:
         settings: values written to the database at start (``FleetSettings`` or a dict of
             PascalCase keys), over whatever it held.
         inline_sqlite: run SQLite calls on the loop's thread (a server inside the simulator).
+        auth_failures_per_min: failed authentications a client address may make a minute
+            before it gets 429 (0: no limit).
     """
 
     def __init__(
@@ -51,6 +54,7 @@ class FleetServer:
         settings: FleetSettings | dict[str, Any] | None = None,
         *,
         inline_sqlite: bool = False,
+        auth_failures_per_min: int = 30,
     ) -> None:
         self.db = Database(db_url, inline_sqlite=inline_sqlite)
         self.clock: Clock = clock or system_clock
@@ -59,7 +63,8 @@ class FleetServer:
             settings = settings.public()
         self._settings = settings
         self.cache = SiteCache(self.db)
-        self.views = RobotViews(self.db)
+        self.views = RobotViews(self.db, self.clock)
+        self.auth = Authenticator(self.db, max_failures_per_min=auth_failures_per_min)
         self._tasks: list[asyncio.Task[None]] = []
         self.started = False
 
@@ -80,6 +85,7 @@ class FleetServer:
                         "COALESCE((SELECT MAX(id) FROM customers), 0) + 1, false)"))
                 await process_queue(session, now)
         self.cache.invalidate()
+        self.auth.invalidate()
         self.started = True
         if monitors:
             self.start_monitors()

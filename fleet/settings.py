@@ -45,9 +45,9 @@ class FleetSettings(BaseModel):
 
 
 class SettingsUpdate(BaseModel):
-    """A partial update: only the keys given change."""
+    """A partial update: only the keys given change (strict: ``"yes"`` is not a boolean)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", strict=True)
 
     AutoAccept: bool | None = None
     PreemptBusyRobot: bool | None = None

@@ -23,6 +23,11 @@ room = "Room 101"              # optional (the beacon's room by default)
 
 [[robots]]
 name = "robot-1"
+
+[[tokens]]                  # for the simulator and tests; a real site issues its tokens with
+role = "robot"              # `robotd-fleet token create` (random, shown once)
+subject = "robot-1"         # robot name, customer id ("1") or admin name
+token = "..."               # at least 24 characters; stored hashed
 ```
 """
 
@@ -37,9 +42,11 @@ from typing import Any
 from pydantic import ValidationError
 from sqlalchemy.ext.asyncio import AsyncSession
 
+from fleet import tokens
 from fleet.errors import FleetError
 from fleet.services import admin
 from fleet.settings import store_settings
+from fleet.tokens import Role
 
 _KEYS: dict[str, dict[str, type]] = {
     "rooms": {"name": str, "floor_color": str},
@@ -47,10 +54,11 @@ _KEYS: dict[str, dict[str, type]] = {
                 "active": bool},
     "customers": {"id": int, "name": str, "beacon": str, "room": str},
     "robots": {"name": str},
+    "tokens": {"role": str, "subject": str, "token": str},
 }
 _REQUIRED: dict[str, set[str]] = {
     "rooms": {"name"}, "beacons": {"mac", "name", "room"}, "customers": {"name"},
-    "robots": {"name"},
+    "robots": {"name"}, "tokens": {"role", "subject", "token"},
 }
 
 
@@ -65,6 +73,7 @@ class Site:
     beacons: list[dict[str, Any]] = field(default_factory=list)
     customers: list[dict[str, Any]] = field(default_factory=list)
     robots: list[dict[str, Any]] = field(default_factory=list)
+    tokens: list[dict[str, Any]] = field(default_factory=list)
     source: str = "<site>"
 
 
@@ -141,6 +150,16 @@ async def apply_site(session: AsyncSession, now: datetime, site: Site) -> None:
                                      beacon=c.get("beacon"), customer_id=c.get("id"))
         for r in site.robots:
             await admin.add_robot(session, now, r["name"], exist_ok=True)
+        for i, t in enumerate(site.tokens):
+            if t["role"] not in set(Role):
+                msg = (f"{site.source}: tokens[{i}].role: must be one of "
+                       f"{', '.join(Role)}, got {t['role']!r}")
+                raise SiteError(msg)
+            try:
+                await tokens.create(session, now, Role(t["role"]), t["subject"], t["token"])
+            except FleetError as exc:
+                msg = f"{site.source}: tokens[{i}]: {exc.message}"
+                raise SiteError(msg) from exc
     except ValidationError as exc:
         msg = f"{site.source}: settings: {exc.errors()[0]['msg']}"
         raise SiteError(msg) from exc

@@ -209,11 +209,21 @@ def render(command: str, result: Any) -> str:
     return f"{result}\n"
 
 
+def _estop_text(s: dict[str, Any]) -> str:
+    """``YES (latched: robotctl, "reason", at ...)`` while latched; why it is on, and since."""
+    latch = s.get("estop_latch")
+    if not s.get("estop"):
+        return "no"
+    if not isinstance(latch, dict):
+        return "YES"
+    return f"YES (latched: {latch.get('source')}, {latch.get('reason')!r}, at {latch.get('at')})"
+
+
 def _render_status(s: dict[str, Any]) -> str:
     lag = s.get("loop_lag_ms", {})
     head: list[list[Any]] = [
         ["robot", s.get("robot")], ["profile", s.get("profile")], ["state", s.get("state")],
-        ["estop", "YES" if s.get("estop") else "no"], ["uptime", f"{s.get('uptime_s', 0):.1f} s"],
+        ["estop", _estop_text(s)], ["uptime", f"{s.get('uptime_s', 0):.1f} s"],
         ["link", s.get("link") or "-"],
         ["loop lag", f"p50 {lag.get('p50_ms', 0):.2f} ms, p99 {lag.get('p99_ms', 0):.2f} ms, "
                      f"max {lag.get('max_ms', 0):.2f} ms"],

@@ -76,6 +76,7 @@ class Daemon:
         self._listeners: list[EventListener] = []
         self._stop = asyncio.Event()
         self._started_s: float | None = None
+        self._crashed = False
         self.start_problems: list[str] = []
         self.store = StateStore(self.state_dir / STATE_FILE)
         self.context = RobotContext(devices, settings, self.store, wall_clock, self.emit)
@@ -151,8 +152,8 @@ class Daemon:
         try:
             try:
                 await self.supervisor.start()
-                # The profile's services start in ``idle``, once the devices are up.
-                await self.machine.trigger("booted")
+                self.machine.restore()
+                await self._leave_boot()
                 self.supervisor.add(self.profile.services(self.context))
                 await self.supervisor.start()
             except (StartFailed, ValueError) as exc:
@@ -169,8 +170,27 @@ class Daemon:
             await self._stop.wait()
             return 0
         finally:
-            await self._shutdown()
+            if self._crashed:
+                await self._vanish()
+            else:
+                await self._shutdown()
             self._remove_signals(loop)
+
+    def crash(self) -> None:
+        """Die as under SIGKILL, for the simulator's ``robot.kill``: from now on nothing
+        reaches the state store (what is not written yet is lost) and, once the caller cancels
+        ``run``, no orderly stop runs: the motors are not stopped (the board's deadman does
+        it) and nothing is flushed. Only what an in-process daemon must release is released:
+        its tasks, its socket and its devices' ports."""
+        self._crashed = True
+        self.store.abandon()
+        self.machine.halt_behaviours()
+        log.error("daemon.crashed", state=self.state)
+
+    async def _vanish(self) -> None:
+        self.machine.halt_behaviours()
+        await self.supervisor.stop(self.settings.get("supervisor.stop_timeout_s"))
+        self.notifier.close()
 
     async def _shutdown(self) -> None:
         self.notifier.notify("STOPPING=1")
@@ -194,12 +214,24 @@ class Daemon:
         except Exception as exc:  # the link may be down: the MCU's deadman stops them then
             log.warning("motors.stop_failed", error=repr(exc))
 
-    async def estop(self, reason: str) -> bool:
-        """Stop the motors at once, then enter ``estop``."""
-        log.error("estop", reason=reason, state=self.state)
-        self.emit("estop", reason=reason, state=self.state)
+    async def _leave_boot(self) -> None:
+        """To ``idle``, or back to ``estop`` when the latch survived a crash or a stop: the
+        profile's services then start (once the devices are up) with the motors stopped."""
+        latch = self.context.estop_latch.record
+        if latch is None:
+            await self.machine.trigger("booted")
+            return
+        log.error("estop.latched_at_start", **latch)
+        self.emit("estop", restored=True, state=self.state, **latch)
+        await self.machine.trigger("estop", source=str(latch.get("source")),
+                                   reason=str(latch.get("reason")))
+
+    async def estop(self, reason: str, source: str = "robotctl") -> bool:
+        """Stop the motors at once, then enter ``estop`` (latched durably before it returns)."""
+        log.error("estop", reason=reason, source=source, state=self.state)
+        self.emit("estop", reason=reason, source=source, state=self.state)
         await self.stop_motors()
-        return await self.machine.trigger("estop", reason=reason)
+        return await self.machine.trigger("estop", reason=reason, source=source)
 
     def reload(self) -> tuple[bool, list[str]]:
         """Read the config file (and overrides) again; keep the running config if it is bad."""
@@ -226,7 +258,8 @@ class Daemon:
         self.notifier.notify(f"STATUS=state {dst}")
 
     def _critical_failure(self, service: str, error: str) -> None:
-        task = asyncio.ensure_future(self.estop(f"service {service} keeps failing: {error}"))
+        task = asyncio.ensure_future(self.estop(f"service {service} keeps failing: {error}",
+                                                source="fault"))
         task.add_done_callback(lambda t: t.exception() if not t.cancelled() else None)
 
     def _link_changed(self, connected: bool) -> None:

@@ -10,7 +10,7 @@ from typing import Any
 
 import structlog
 
-from hal.timer_chain import timer_chain
+from hal.looptime.timer_chain import timer_chain
 from robotd.sdnotify import Notifier
 
 log = structlog.get_logger(__name__)
@@ -23,7 +23,7 @@ WINDOW_SAMPLES = 240
 class LoopMonitor:
     """Wakes every period and records how late it woke up (the loop's lag).
 
-    Each wake-up is a timer callback (``hal.timer_chain``), not a task waking from a sleep:
+    Each wake-up is a timer callback (``hal.looptime.timer_chain``), not a task waking from a sleep:
     one loop turn instead of two, four times a second, also in the simulator.
     """
 

@@ -49,6 +49,7 @@ class StateStore:
         self._dirty: dict[str, Any] = {}
         self._wake = asyncio.Event()
         self._inflight: asyncio.Future[None] | None = None
+        self._flushing: asyncio.Lock | None = None
         self._closed = False
         self._restore()
 
@@ -101,16 +102,26 @@ class StateStore:
         return batch
 
     async def flush(self) -> None:
-        """Make every value put so far durable."""
-        if self._inflight is not None and not self._inflight.done():
-            await asyncio.shield(self._inflight)
-        batch = self._take_batch()
-        if batch:
-            # sqlite3 has no asyncio API and fsync on an SD card can take tens of ms: a thread.
-            loop = asyncio.get_running_loop()
-            self._inflight = loop.run_in_executor(None, self._write, batch)
-            # Shielded: a cancelled writer task still lets the batch reach the disk.
-            await asyncio.shield(self._inflight)
+        """Make every value put so far durable (committed, fsynced) before returning.
+
+        Callers that must not acknowledge something before it is on disk (the e-stop latch)
+        await this; flushes queue one behind another, so two never write at once.
+        """
+        if self._closed:
+            self._take_batch()  # never written: the store was closed or abandoned
+            return
+        if self._flushing is None:
+            self._flushing = asyncio.Lock()
+        async with self._flushing:
+            if self._inflight is not None and not self._inflight.done():
+                await asyncio.shield(self._inflight)
+            batch = self._take_batch()
+            if batch and not self._closed:
+                # sqlite3 has no asyncio API and fsync on an SD card can take tens of ms.
+                loop = asyncio.get_running_loop()
+                self._inflight = loop.run_in_executor(None, self._write, batch)
+                # Shielded: a cancelled writer task still lets the batch reach the disk.
+                await asyncio.shield(self._inflight)
 
     async def run(self, ready: Callable[[], None]) -> None:
         ready()
@@ -136,3 +147,16 @@ class StateStore:
             self._db.execute("PRAGMA wal_checkpoint(TRUNCATE)")
         self._db.close()
         self._closed = True
+
+    def abandon(self) -> None:
+        """Drop what is not written yet and stop writing, as a SIGKILL or a power cut would.
+
+        For the simulator's ``robot.kill``: a write already handed to SQLite finishes (or
+        not) on its own, as in a killed process; nothing else reaches the disk.
+        """
+        self._dirty.clear()
+        self._closed = True
+        if self._inflight is not None and not self._inflight.done():
+            self._inflight.add_done_callback(lambda _f: self._db.close())
+        else:
+            self._db.close()

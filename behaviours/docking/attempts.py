@@ -6,7 +6,7 @@ back to wall following and the count starts again. The seed would loop there for
 ``recovery``. Every attempt ends in one ``dock.result`` event: success, an error code (Nav2
 opennav_docking's), the failures counted so far, the time the attempt took.
 
-The counts survive a restart (``docking.attempts`` in the robot's store).
+The counts survive a restart (``ATTEMPTS_RECORD``, through ``behaviours.persistence``).
 """
 
 from __future__ import annotations
@@ -15,13 +15,16 @@ from dataclasses import dataclass
 from typing import Any
 
 from behaviours.context import KeyValueStore
+from behaviours.persistence import MissionRecord, Persisted
 
 FAILED_TO_STAGE = 903
 FAILED_TO_DETECT_DOCK = 904
 FAILED_TO_CONTROL = 905
 FAILED_TO_CHARGE = 906
 
-STORE_KEY = "docking.attempts"
+ATTEMPTS_RECORD = MissionRecord("docking.attempts", 1,
+                                {"failures": 0, "fallbacks": 0, "attempts": 0})
+"""Where a docking stands in section 4's count (kept across a restart)."""
 
 ERROR_CODES = {
     "signal_lost": FAILED_TO_DETECT_DOCK,
@@ -80,17 +83,14 @@ class DockAttempts:
     def __init__(self, emit: Any, store: KeyValueStore, *, max_retries: int = 3,
                  max_fallbacks: int = 2) -> None:
         self._emit = emit
-        self._store = store
         self.max_retries = max_retries
         self.max_fallbacks = max_fallbacks
-        self.counts = AttemptCounts()
+        self._kept = Persisted(store, ATTEMPTS_RECORD)
+        kept = self._kept
+        self.counts = AttemptCounts(int(kept["failures"]), int(kept["fallbacks"]),
+                                    int(kept["attempts"]))
         self.attempt_start_s = 0.0
         self.last_reason = ""
-        saved = store.get(STORE_KEY, None)
-        if isinstance(saved, dict):
-            self.counts = AttemptCounts(int(saved.get("failures", 0)),
-                                        int(saved.get("fallbacks", 0)),
-                                        int(saved.get("attempts", 0)))
 
     def start(self, now_s: float) -> None:
         """Docking begins: no failures yet."""
@@ -143,6 +143,5 @@ class DockAttempts:
         self._save()
 
     def _save(self) -> None:
-        self._store.put(STORE_KEY, {"failures": self.counts.failures,
-                                    "fallbacks": self.counts.fallbacks,
-                                    "attempts": self.counts.attempts})
+        self._kept.set(failures=self.counts.failures, fallbacks=self.counts.fallbacks,
+                       attempts=self.counts.attempts)

@@ -18,8 +18,9 @@ import structlog
 
 from behaviours.docking import approach, contact, search, station
 from behaviours.docking.align import run_align
-from behaviours.docking.senses import DockingRun, DockingUnavailable, DockSenses
+from behaviours.docking.senses import DOCKED_RECORD, DockingRun, DockingUnavailable, DockSenses
 from behaviours.motion.odometry import Odometry
+from behaviours.persistence import Persisted
 from behaviours.profile import StateTask
 
 if TYPE_CHECKING:
@@ -46,13 +47,20 @@ class Docking:
         self._odometry = odometry
         self.next_job = next_job
         self.run = DockingRun()
+        self._kept: Persisted | None = None
 
     def senses(self, ctx: RobotContext) -> DockSenses:
         odometry = self._odometry()
         if odometry is None:
             msg = "docking needs wheel odometry (the profile's encoders)"
             raise DockingUnavailable(msg)
-        return DockSenses.from_ctx(ctx, odometry, self.run)
+        return DockSenses.from_ctx(ctx, odometry, self.run, self.kept(ctx))
+
+    def kept(self, ctx: RobotContext) -> Persisted:
+        """Whether the robot is docked, restored from the store on first use."""
+        if self._kept is None:
+            self._kept = Persisted(ctx.store, DOCKED_RECORD)
+        return self._kept
 
     def state_tasks(self) -> dict[str, StateTask]:
         def phase(fn: Callable[[RobotContext, DockSenses], object]) -> StateTask:
@@ -105,7 +113,7 @@ class Docking:
     async def resume_if_docked(self, ctx: RobotContext) -> bool:
         """After a restart: a robot that was docked and still reads a good contact voltage
         carries on charging (``resume_charging``); True if it did."""
-        if not ctx.store.get("docking.docked", False):
+        if not self.kept(ctx)["docked"]:
             return False
         try:
             senses = self.senses(ctx)
@@ -113,6 +121,7 @@ class Docking:
             return False
         await asyncio.sleep(0.5)  # a DOCK line (5 Hz)
         if not senses.config.contact_ok(senses.contact_mv()):
-            ctx.store.put("docking.docked", False)
+            log.info("dock.not_docked_after_restart", contact_mv=senses.contact_mv())
+            await senses.set_docked(False)
             return False
         return await ctx.trigger("resume_charging", contact_mv=senses.contact_mv())

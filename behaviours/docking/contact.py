@@ -101,7 +101,7 @@ async def voltage_detect(ctx: RobotContext, senses: DockSenses) -> None:
 
 async def motor_stop(ctx: RobotContext, senses: DockSenses) -> None:
     await senses.mover.stop()
-    ctx.store.put("docking.docked", True)
+    await senses.set_docked(True)
     await ctx.trigger("stopped", contact_mv=senses.contact_mv())
 
 

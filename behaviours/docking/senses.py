@@ -16,6 +16,7 @@ from behaviours.docking.beams import BeamView
 from behaviours.docking.config import DockingConfig
 from behaviours.motion.moves import Mover
 from behaviours.motion.odometry import Odometry
+from behaviours.persistence import MissionRecord, Persisted
 from hal.devices import (
     Battery,
     BinSensor,
@@ -37,6 +38,10 @@ EMPTY = DockIrReading()
 
 class DockingUnavailable(RuntimeError):
     """The robot lacks a device docking needs; says which."""
+
+
+DOCKED_RECORD = MissionRecord("docking.dock", 1, {"docked": False})
+"""Whether the robot sits on its dock (kept across a restart: it carries on charging)."""
 
 
 @dataclass
@@ -83,10 +88,16 @@ class DockSenses:
     station: DockStation | None = None
     servo: ServoBox | None = None
     run: DockingRun = field(default_factory=DockingRun)
+    kept: Persisted | None = None
+
+    async def set_docked(self, docked: bool) -> None:
+        """Whether the robot is on its dock, made durable before the robot acts on it."""
+        if self.kept is not None:
+            await self.kept.update(docked=docked)
 
     @classmethod
     def from_ctx(cls, ctx: RobotContext, odometry: Odometry,
-                 run: DockingRun | None = None) -> DockSenses:
+                 run: DockingRun | None = None, kept: Persisted | None = None) -> DockSenses:
         d = ctx.devices
         if d.dock_ir is None:
             msg = "docking needs the dock IR receivers (devices.dock_ir)"
@@ -97,7 +108,7 @@ class DockSenses:
         return cls(d.dock_ir, Mover(d.motors, odometry, ctx.settings),
                    DockingConfig.from_settings(ctx.settings), d.dock_signal, d.dock_contacts,
                    d.bumpers, d.wall, d.bin, d.battery, d.station, d.servo,
-                   run if run is not None else DockingRun())
+                   run if run is not None else DockingRun(), kept)
 
     # -- the dock IR ------------------------------------------------------------------------
     def view(self) -> BeamView:

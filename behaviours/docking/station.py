@@ -8,7 +8,7 @@ the bin reads empty, suction off, door closed) and charging carries on; a full c
 on the way are ``contacts_lost`` (dock again). ``standby`` waits for the robot's next job (the
 profile's ``next_job``) and ``undock`` backs out and turns round.
 
-Whether the robot is docked survives a restart (``docking.docked`` in the store).
+Whether the robot is docked survives a restart (``senses.DOCKED_RECORD``).
 """
 
 from __future__ import annotations
@@ -43,12 +43,12 @@ async def _contacts_gone_for(senses: DockSenses, since: float | None) -> float |
 async def charging(ctx: RobotContext, senses: DockSenses) -> None:
     cfg, run = senses.config, senses.run
     loop = asyncio.get_running_loop()
-    ctx.store.put("docking.docked", True)
+    await senses.set_docked(True)
     gone: float | None = None
     while True:
         gone = await _contacts_gone_for(senses, gone)
         if gone is not None and loop.time() - gone > CONTACTS_GONE_S:
-            ctx.store.put("docking.docked", False)
+            await senses.set_docked(False)
             await ctx.trigger("contacts_lost", contact_mv=senses.contact_mv())
             return
         if not run.emptied and senses.bin_pct() >= cfg.bin_full_pct:
@@ -113,7 +113,7 @@ async def door_close(ctx: RobotContext, senses: DockSenses) -> None:
 
 async def undock(ctx: RobotContext, senses: DockSenses) -> None:
     cfg = senses.config
-    ctx.store.put("docking.docked", False)
+    await senses.set_docked(False)
     await senses.mover.straight(cfg.undock_distance_m, -cfg.approach_mps)
     await senses.mover.turn_by(math.pi)
     await ctx.trigger("undocked")

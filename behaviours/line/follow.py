@@ -22,8 +22,8 @@ import structlog
 
 from behaviours.line.colours import parse_colour
 from behaviours.line.tracker import LineReading, LineTracker, TrackerParams
-from hal.deadline import DeadlineSleeper
 from hal.devices import Camera, DeviceUnavailable, LinkDown, Motors
+from hal.looptime.deadline import DeadlineSleeper
 from hal.readings import Frame, MotorCommand
 from hal.settings import SettingsView
 

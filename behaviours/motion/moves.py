@@ -16,9 +16,9 @@ from collections.abc import Callable
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import DriveTuning, wheel_command
 from hal.devices import LinkDown, Motors
+from hal.looptime.timer_sleep import timer_sleep
 from hal.readings import MotorCommand
 from hal.settings import SettingsView
-from hal.timer_sleep import timer_sleep
 
 PERIOD_S = 0.05
 TURN_TOLERANCE_RAD = math.radians(0.5)

@@ -10,15 +10,16 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import structlog
 
-from behaviours.motion.odometry import Odometry
+from behaviours.motion.odometry import Odometry, OdometryPose
 from hal.devices import Encoders, LinkDown, ListenableEncoders, Motors
+from hal.looptime.timer_sleep import timer_sleep
 from hal.readings import MotorCommand
 from hal.settings import SettingsView
-from hal.timer_sleep import timer_sleep
 
 log = structlog.get_logger(__name__)
 
@@ -98,13 +99,23 @@ class OdometryTracker:
             self.odometry.update(reading)
 
 
-class WaypointDrive:
-    """Drives the robot through waypoints given in the odometry frame."""
+PoseSource = Callable[[], OdometryPose]
+"""Where the robot is, in the frame its waypoints are given in (x_m, y_m, theta_rad)."""
 
-    def __init__(self, motors: Motors, odometry: Odometry, settings: SettingsView) -> None:
+
+class WaypointDrive:
+    """Drives the robot through waypoints given in the frame of its pose source.
+
+    The pose source is wheel odometry unless one is given (the localised pose in the map
+    frame, for the navigation stack's path follower).
+    """
+
+    def __init__(self, motors: Motors, odometry: Odometry, settings: SettingsView, *,
+                 pose_source: PoseSource | None = None) -> None:
         self.motors = motors
         self.odometry = odometry
         self.settings = settings
+        self.pose: PoseSource = pose_source if pose_source is not None else odometry.pose
         self.waits_for_link = 0
         self._link_up = asyncio.Event()
         self._up = motors.connected  # what _link_up says, read without a call each step
@@ -142,11 +153,11 @@ class WaypointDrive:
         """Drive to a point; returns the remaining distance by odometry."""
         tuning = DriveTuning.from_settings(self.settings)
         await self._turn_towards(x_m, y_m, tuning)
-        start = self.odometry.pose()
+        start = self.pose()
         seg_x, seg_y = x_m - start.x_m, y_m - start.y_m
         seg_len = math.hypot(seg_x, seg_y)
         while True:
-            pose = self.odometry.pose()
+            pose = self.pose()
             dx, dy = x_m - pose.x_m, y_m - pose.y_m
             remaining = math.hypot(dx, dy)
             along = (dx * seg_x + dy * seg_y) / seg_len if seg_len > 0 else 0.0
@@ -163,7 +174,7 @@ class WaypointDrive:
             await timer_sleep(_PERIOD_S)
         await self._send(MotorCommand.stopped())
         await asyncio.sleep(0.3)  # let the wheels come to rest before the next leg
-        pose = self.odometry.pose()
+        pose = self.pose()
         remaining = math.hypot(x_m - pose.x_m, y_m - pose.y_m)
         log.info("drive.waypoint_reached", x_m=round(x_m, 3), y_m=round(y_m, 3),
                  remaining_m=round(remaining, 4))
@@ -171,7 +182,7 @@ class WaypointDrive:
 
     async def _turn_towards(self, x_m: float, y_m: float, tuning: DriveTuning) -> None:
         while True:
-            pose = self.odometry.pose()
+            pose = self.pose()
             error = _wrap(math.atan2(y_m - pose.y_m, x_m - pose.x_m) - pose.theta_rad)
             if abs(error) < _HEADING_TOLERANCE_RAD:
                 break

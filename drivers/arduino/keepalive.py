@@ -3,7 +3,7 @@
 A heartbeat (``HB``) goes out when no wheel command did for ``heartbeat_s``, so the board's
 500 ms deadman does not stop wheels the robot means to keep turning; the watchdog gives the
 connection up when no intact line came from the board for ``silence_s``. Each look at the
-clock is a timer callback (``hal.timer_chain``), not a task waking from a sleep: wheel
+clock is a timer callback (``hal.looptime.timer_chain``), not a task waking from a sleep: wheel
 commands push the heartbeat back several times a second.
 """
 
@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 from drivers.arduino.outbox import Command, Kind
 from drivers.arduino.receiver import LinkBroken
-from hal.timer_chain import timer_chain
+from hal.looptime.timer_chain import timer_chain
 
 if TYPE_CHECKING:
     from drivers.arduino.session import Session

@@ -20,14 +20,12 @@ from typing import Any
 import structlog
 
 from drivers.arduino.config import LinkConfig
-from drivers.arduino.dock_telemetry import DockFacets
-from drivers.arduino.feed import Feed
 from drivers.arduino.framing import Framing, Telemetry, check_payload
 from drivers.arduino.outbox import Command, Delivery, Outbox, Outcome
 from drivers.arduino.receiver import LinkBroken
 from drivers.arduino.session import Session
 from drivers.arduino.stats import LinkCounters
-from drivers.arduino.telemetry import Boot, TelemetryError, interpret
+from drivers.arduino.telemetry import Boot, DockFacets, Feed, TelemetryError, interpret
 from hal.devices import DeviceUnavailable, LinkDown
 from hal.ports import SerialOpener
 from hal.readings import (

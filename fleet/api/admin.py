@@ -4,12 +4,13 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Path, Query
+from fastapi import APIRouter, Depends, Path, Query
 from fastapi import Request as HttpRequest
 from pydantic import ValidationError
 from sqlalchemy import select
 
-from fleet.api.deps import ERRORS, robot_out, server_of
+from fleet.api.auth import admin as admin_only
+from fleet.api.deps import AUTH_ERRORS, ERRORS, errors, robot_out, server_of
 from fleet.api.schemas import (
     BeaconIn,
     BeaconOut,
@@ -22,13 +23,14 @@ from fleet.api.schemas import (
     RoomIn,
     RoomOut,
 )
-from fleet.errors import Invalid, NotFound
+from fleet.errors import Conflict, NotFound
 from fleet.models import Beacon, Customer, Notification, Robot, Room
 from fleet.services import admin
 from fleet.services.common import robot_by_name
 from fleet.settings import SettingsUpdate, store_settings
 
-router = APIRouter(prefix="/api", tags=["admin"])
+router = APIRouter(prefix="/api", tags=["admin"], responses=AUTH_ERRORS,
+                   dependencies=[Depends(admin_only)])
 
 Name = Annotated[str, Path(min_length=1, max_length=100, pattern=r"^[^\x00-\x1f\x7f]+$")]
 
@@ -41,7 +43,7 @@ async def list_robots(http: HttpRequest) -> list[RobotOut]:
         return [robot_out(r) for r in robots]
 
 
-@router.post("/robots", status_code=201, response_model=RobotOut, responses=ERRORS)
+@router.post("/robots", status_code=201, response_model=RobotOut, responses=errors(409, 413))
 async def add_robot(body: RobotIn, http: HttpRequest) -> RobotOut:
     server = server_of(http)
     async with server.db.write() as session:
@@ -49,7 +51,7 @@ async def add_robot(body: RobotIn, http: HttpRequest) -> RobotOut:
         return robot_out(robot)
 
 
-@router.get("/robots/{name}", response_model=RobotOut, responses=ERRORS)
+@router.get("/robots/{name}", response_model=RobotOut, responses=errors(404))
 async def get_robot(name: Name, http: HttpRequest) -> RobotOut:
     await server_of(http).flush_pings()
     async with server_of(http).db.read() as session:
@@ -149,14 +151,15 @@ async def get_settings(http: HttpRequest) -> dict[str, Any]:
     return (await server_of(http).settings()).public()
 
 
-@router.put("/settings", responses=ERRORS)
+@router.put("/settings", responses=errors(409, 413))
 async def put_settings(body: SettingsUpdate, http: HttpRequest) -> dict[str, Any]:
-    """Change settings (AutoAccept, timeouts, weights...); only the keys given change."""
+    """Change settings (AutoAccept, timeouts, weights...); only the keys given change. 409
+    when the result would not hold together (MinWeightKg not below MaxWeightKg)."""
     async with server_of(http).db.write() as session:
         try:
             merged = await store_settings(session, body.given())
         except ValidationError as exc:
-            raise Invalid("; ".join(str(e["msg"]) for e in exc.errors())) from exc
+            raise Conflict("; ".join(str(e["msg"]) for e in exc.errors())) from exc
     server_of(http).cache.invalidate()
     return merged.public()
 

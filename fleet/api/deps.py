@@ -11,10 +11,29 @@ from fleet.server import FleetServer
 from fleet.services.weight import can_confirm_loaded, can_confirm_unloaded
 from fleet.settings import FleetSettings
 
-ERRORS: dict[int | str, dict[str, object]] = {
-    code: {"description": text, "model": ErrorOut}
-    for code, text in ((404, "Not found"), (409, "Not allowed now"), (422, "Bad input"))
+_TEXT = {
+    401: "No valid bearer token (missing, malformed, unknown or revoked)",
+    403: "The token's role or owner may not do this",
+    404: "Not found", 409: "Not allowed now", 413: "Request body too large",
+    422: "Bad input (the body, a path or query parameter)",
+    429: "Too many failed authentications from this address",
 }
+_HEADERS: dict[int, dict[str, object]] = {
+    401: {"WWW-Authenticate": {"description": "Bearer", "schema": {"type": "string"}}},
+    429: {"Retry-After": {"description": "Seconds to wait", "schema": {"type": "integer"}}},
+}
+
+
+def errors(*codes: int) -> dict[int | str, dict[str, object]]:
+    """OpenAPI ``responses`` for these 4xx codes, all with the one error body (``ErrorOut``)."""
+    return {code: {"description": _TEXT[code], "model": ErrorOut,
+                   **({"headers": _HEADERS[code]} if code in _HEADERS else {})}
+            for code in codes}
+
+
+# Every authenticated operation may answer these (routers add them to each route).
+AUTH_ERRORS = errors(401, 403, 422, 429)
+ERRORS = errors(404, 409, 413)
 
 
 def server_of(http: HttpRequest) -> FleetServer:

@@ -6,8 +6,9 @@ is an ASGI middleware that answers a well-formed data exchange directly, with wh
 does: the same pydantic model (read by pydantic's JSON parser), the same service call
 (``robot.answer``) and the same reply bytes. Anything else goes on to the FastAPI app
 unchanged, with the body replayed: other paths, a robot name the route's path rules refuse, a
-body that is not ``application/json``, does not parse or does not validate. So bad input keeps
-the route's 4xx answers, and the route stays in the OpenAPI document.
+caller that is not that robot (``fleet.api.auth.Authenticate``, in front, has checked the
+token), a body that is not ``application/json``, does not parse or does not validate. So bad
+input keeps the route's 4xx answers, and the route stays in the OpenAPI document.
 """
 
 from __future__ import annotations
@@ -18,11 +19,13 @@ from collections.abc import Awaitable, Callable
 from pydantic import ValidationError
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from fleet.api.auth import SCOPE_KEY
 from fleet.api.robot import answer, encoded_error
 from fleet.api.schemas import DataExchangeIn
 from fleet.errors import FleetError
 from fleet.server import FleetServer
 from fleet.timehold import hold_loop_time
+from fleet.tokens import Principal
 
 PREFIX = "/api/Robot/"
 SUFFIX = "/data-exchange"
@@ -45,7 +48,8 @@ class ExchangeFastPath:
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         name = _robot_name(scope)
-        if name is None:
+        principal = scope.get(SCOPE_KEY) if name is not None else None
+        if name is None or not isinstance(principal, Principal) or not principal.is_robot(name):
             await self.app(scope, receive, send)
             return
         messages, body = await _read_body(receive)

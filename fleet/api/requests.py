@@ -1,4 +1,7 @@
-"""Customer and admin calls on laundry requests (contract "Fleet request API")."""
+"""Customer and admin calls on laundry requests (contract "Fleet request API").
+
+A customer token reaches only its own requests; an admin token reaches all of them.
+"""
 
 from __future__ import annotations
 
@@ -7,24 +10,31 @@ from typing import Annotated
 from fastapi import APIRouter, Path, Query
 from fastapi import Request as HttpRequest
 from sqlalchemy import select
+from sqlalchemy.ext.asyncio import AsyncSession
 
-from fleet.api.deps import ERRORS, request_out, server_of
+from fleet.api.auth import CustomerOrAdmin, check_customer
+from fleet.api.deps import AUTH_ERRORS, ERRORS, errors, request_out, server_of
 from fleet.api.schemas import RequestCreate, RequestOut
-from fleet.errors import NotFound
+from fleet.errors import Forbidden, NotFound
 from fleet.models import Request
 from fleet.services.lifecycle import apply_action, create_request
 from fleet.settings import load_settings
 from fleet.status import Action, Status
+from fleet.tokens import Principal, Role
 
-router = APIRouter(prefix="/api/requests", tags=["requests"])
+router = APIRouter(prefix="/api/requests", tags=["requests"], responses=AUTH_ERRORS)
 
 RequestId = Annotated[int, Path(ge=1, le=2**31 - 1)]
+# What a customer may do to its own request; the rest is the laundry staff's (admin).
+CUSTOMER_ACTIONS = frozenset({Action.CANCEL, Action.CONFIRM_LOADED, Action.CONFIRM_UNLOADED,
+                              Action.PAY})
 
 
 @router.post("", status_code=201, response_model=RequestOut,
              responses={**ERRORS, 503: {"description": "No robot can serve"}})
-async def create(body: RequestCreate, http: HttpRequest) -> RequestOut:
+async def create(body: RequestCreate, http: HttpRequest, caller: CustomerOrAdmin) -> RequestOut:
     """A customer asks for a pickup (409 if they already have an active request)."""
+    check_customer(caller, body.CustomerId, f"customer {body.CustomerId}")
     server = server_of(http)
     async with server.db.write() as session:
         cfg = await load_settings(session)
@@ -35,11 +45,16 @@ async def create(body: RequestCreate, http: HttpRequest) -> RequestOut:
 @router.get("", response_model=list[RequestOut])
 async def list_requests(
     http: HttpRequest,
+    caller: CustomerOrAdmin,
     status: Annotated[Status | None, Query()] = None,
     customer_id: Annotated[int | None, Query(ge=1, le=2**31 - 1)] = None,
     limit: Annotated[int, Query(ge=1, le=1000)] = 100,
 ) -> list[RequestOut]:
-    """Requests, newest first."""
+    """Requests, newest first (a customer sees only its own)."""
+    if caller.role == Role.CUSTOMER:
+        if customer_id is not None:
+            check_customer(caller, customer_id, f"customer {customer_id}")
+        customer_id = caller.customer_id
     query = select(Request).order_by(Request.id.desc()).limit(limit)
     if status is not None:
         query = query.where(Request.status == status)
@@ -51,23 +66,43 @@ async def list_requests(
         return [await request_out(session, cfg, r) for r in rows]
 
 
-@router.get("/{request_id}", response_model=RequestOut, responses=ERRORS)
-async def get(request_id: RequestId, http: HttpRequest) -> RequestOut:
+@router.get("/{request_id}", response_model=RequestOut, responses=errors(404))
+async def get(request_id: RequestId, http: HttpRequest, caller: CustomerOrAdmin) -> RequestOut:
     async with server_of(http).db.read() as session:
         request = await session.get(Request, request_id)
         if request is None:
             msg = f"request {request_id} does not exist"
             raise NotFound(msg)
+        check_customer(caller, request.customer_id, f"request {request_id}")
         return await request_out(session, await load_settings(session), request)
 
 
 @router.post("/{request_id}/{action}", response_model=RequestOut,
-             responses={**ERRORS, 503: {"description": "No robot to deliver"}})
-async def act(request_id: RequestId, action: Action, http: HttpRequest) -> RequestOut:
+             responses={**errors(404, 409), 503: {"description": "No robot to deliver"}})
+async def act(request_id: RequestId, action: Action, http: HttpRequest,
+              caller: CustomerOrAdmin) -> RequestOut:
     """accept, decline, cancel, confirm-loaded, confirm-unloaded, washing-started,
-    washing-done, pay; 409 with a message when the status does not allow it."""
+    washing-done, pay; 409 with a message when the status does not allow it. A customer may
+    cancel, confirm-loaded, confirm-unloaded and pay its own requests."""
     server = server_of(http)
     async with server.db.write() as session:
+        await _check_may_act(session, caller, request_id, action)
         cfg = await load_settings(session)
         request = await apply_action(session, server.clock(), cfg, request_id, action)
         return await request_out(session, cfg, request)
+
+
+async def _check_may_act(session: AsyncSession, caller: Principal, request_id: int,
+                         action: Action) -> None:
+    """403 before anything is changed, for a customer acting on what is not theirs to do."""
+    if caller.role == Role.ADMIN:
+        return
+    if action not in CUSTOMER_ACTIONS:
+        msg = f"{action} is for the laundry staff (an admin token)"
+        raise Forbidden(msg)
+    customer_id = (await session.execute(
+        select(Request.customer_id).where(Request.id == request_id))).scalar()
+    if customer_id is None:
+        msg = f"request {request_id} does not exist"
+        raise NotFound(msg)
+    check_customer(caller, customer_id, f"request {request_id}")

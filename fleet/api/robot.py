@@ -6,22 +6,34 @@ import functools
 import json
 from typing import Annotated
 
-from fastapi import APIRouter, Path, Response
+from fastapi import APIRouter, Depends, Path, Response
 from fastapi import Request as HttpRequest
 
-from fleet.api.deps import ERRORS, server_of
+from fleet.api.auth import Caller
+from fleet.api.deps import AUTH_ERRORS, errors, server_of
 from fleet.api.schemas import DataExchangeIn, DataExchangeOut
-from fleet.errors import FleetError, Invalid
+from fleet.errors import FleetError, Forbidden, Invalid
 from fleet.server import FleetServer
 from fleet.services.arrival import Sighting
 from fleet.services.exchange import Reply, Report, exchange
+from fleet.tokens import Principal
 
-router = APIRouter(prefix="/api/Robot", tags=["robot"])
+router = APIRouter(prefix="/api/Robot", tags=["robot"], responses=AUTH_ERRORS)
 
 RobotName = Annotated[str, Path(min_length=1, max_length=100, pattern=r"^[^\x00-\x1f\x7f]+$")]
 
 
-@router.post("/{RobotName}/data-exchange", response_model=DataExchangeOut, responses=ERRORS)
+async def own_robot(RobotName: RobotName, caller: Caller) -> Principal:  # noqa: N803
+    """403 unless the token is the robot named in the path."""
+    if not caller.is_robot(RobotName):
+        msg = (f"only robot {RobotName!r} may post its data exchange "
+               f"(this is a {caller.role} token)")
+        raise Forbidden(msg)
+    return caller
+
+
+@router.post("/{RobotName}/data-exchange", response_model=DataExchangeOut,
+             responses=errors(404, 413), dependencies=[Depends(own_robot)])
 async def data_exchange(
     RobotName: RobotName, body: DataExchangeIn, http: HttpRequest  # noqa: N803
 ) -> Response:
@@ -55,8 +67,17 @@ def encoded_error(exc: FleetError) -> bytes:
 def reply_json(reply: Reply) -> bytes:
     """The reply as JSON, from pre-encoded parts (it is sent every second by every robot)."""
     nav = reply.navigation
-    return (b'{"ActiveBeacons":[' + nav.encoded_beacons() + b"]," + _encoded_orders(
+    return (b'{"ActiveBeacons":[' + nav.encoded_beacons() + b"]," + _encoded_request(
+        reply.request_id, reply.request_status) + _encoded_orders(
         nav.is_line_following, nav.follow_color, reply.emergency_stop, reply.maintenance_mode))
+
+
+def _encoded_request(request_id: int | None, status: str | None) -> bytes:
+    """``RequestId`` and ``RequestStatus`` (an extension: the robot remembers which request
+    it serves across a restart), each followed by a comma."""
+    if request_id is None:
+        return b'"RequestId":null,"RequestStatus":null,'
+    return b'"RequestId":%d,"RequestStatus":%s,' % (request_id, json.dumps(status).encode())
 
 
 @functools.lru_cache(maxsize=256)

@@ -6,14 +6,25 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Annotated
 
-from pydantic import BaseModel, ConfigDict, Field, StringConstraints
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, StringConstraints
 
-Id = Annotated[int, Field(strict=True, ge=1, le=2**31 - 1)]
+
+def _whole_number(value: object) -> object:
+    """JSON has one number type: ``3.0`` is the integer 3 (as the OpenAPI schema's "integer"
+    means); ``3.5``, ``true`` and ``"3"`` stay refused by the strict int check."""
+    if isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value
+
+
+# Last in an Annotated (it then runs first), so the constraints before it stay in the schema.
+Whole = BeforeValidator(_whole_number)
+Id = Annotated[int, Field(strict=True, ge=1, le=2**31 - 1), Whole]
 Text = Annotated[str, StringConstraints(min_length=1, max_length=100,
                                         pattern=r"^[^\x00-\x1f\x7f]+$")]
 Mac = Annotated[str, StringConstraints(pattern=r"^[0-9A-Fa-f]{2}(:[0-9A-Fa-f]{2}){5}$")]
 Real = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-1e6, le=1e6)]
-Rssi = Annotated[int, Field(strict=True, ge=-200, le=50)]
+Rssi = Annotated[int, Field(strict=True, ge=-200, le=50), Whole]
 Flag = Annotated[bool, Field(strict=True)]
 
 
@@ -51,8 +62,8 @@ class DetectedBeacon(BaseModel):
 
     MacAddress: Annotated[str, StringConstraints(min_length=1, max_length=64)]
     Uuid: Annotated[str, StringConstraints(max_length=64)] | None = None
-    Major: Annotated[int, Field(strict=True, ge=0, le=65535)] | None = None
-    Minor: Annotated[int, Field(strict=True, ge=0, le=65535)] | None = None
+    Major: Annotated[int, Field(strict=True, ge=0, le=65535), Whole] | None = None
+    Minor: Annotated[int, Field(strict=True, ge=0, le=65535), Whole] | None = None
     Rssi: Rssi
     Distance: Real | None = None
 
@@ -78,6 +89,8 @@ class ActiveBeacon(BaseModel):
 
 class DataExchangeOut(BaseModel):
     ActiveBeacons: list[ActiveBeacon]
+    RequestId: int | None = None
+    RequestStatus: str | None = None
     IsLineFollowing: bool
     FollowColor: str | None
     EmergencyStop: bool
@@ -162,5 +175,15 @@ class NotificationOut(BaseModel):
     RobotName: str | None
 
 
+class FieldError(BaseModel):
+    loc: list[str | int]
+    msg: str
+    type: str
+
+
 class ErrorOut(BaseModel):
+    """Every 4xx answer: ``detail`` says what was wrong, for a person; a 422 also lists each
+    bad field in ``errors``."""
+
     detail: str
+    errors: list[FieldError] | None = None

@@ -25,7 +25,7 @@ from fleet.services import weight
 from fleet.services.arrival import Sighting, handle_arrival
 from fleet.services.common import current_request, robot_by_name
 from fleet.services.navigation import Navigation, navigation
-from fleet.services.offline import restore
+from fleet.services.reconnect import Reconnects
 from fleet.status import Status
 
 
@@ -45,6 +45,9 @@ class Reply:
     navigation: Navigation
     emergency_stop: bool
     maintenance_mode: bool
+    request_id: int | None = None
+    """The request the robot serves (so it can remember it across a restart), or None."""
+    request_status: str | None = None
 
 
 @dataclass(frozen=True)
@@ -82,8 +85,9 @@ class RobotViews:
     by other server processes); and the pings of quiet reports, written in one batch by
     ``flush_pings`` (about once a second)."""
 
-    def __init__(self, db: Database, ttl_s: float = 1.0) -> None:
+    def __init__(self, db: Database, clock: Clock, ttl_s: float = 1.0) -> None:
         self._db = db
+        self.reconnects: Reconnects[Report] = Reconnects(db, clock, _apply_report)
         self._snapshot = Cached(self._load, ttl_s)
         self._generation = db.generation
         self._pings: dict[int, dict[str, Any]] = {}
@@ -153,7 +157,18 @@ async def exchange(
         views.note_ping(light.robot_id, clock(), report)
         request = light if light.request_id is not None else None
         nav = navigation(site, cfg, request, stopped=light.stopped)
-        return Reply(nav, light.emergency_stop, light.maintenance_mode)
+        return Reply(nav, light.emergency_stop, light.maintenance_mode,
+                     light.request_id, light.status or None)
+    if light.is_offline:
+        # Back online: restored in a batch with the others coming back now (a reconnect
+        # storm), then this report is handled as any other.
+        await views.reconnects.restore(report.robot_name, report)
+        light = await views.get(report.robot_name)
+        if not _may_change(light, report):
+            request = light if light.request_id is not None else None
+            nav = navigation(site, cfg, request, stopped=light.stopped)
+            return Reply(nav, light.emergency_stop, light.maintenance_mode,
+                         light.request_id, light.status or None)
     async with db.write() as session:
         now = clock()
         robot = await robot_by_name(session, report.robot_name)
@@ -161,8 +176,6 @@ async def exchange(
             msg = f"robot {report.robot_name!r} is not registered"
             raise NotFound(msg)
         _apply_report(robot, now, report)
-        if robot.is_offline:
-            await restore(session, now, robot)
         if report.is_in_target:
             await handle_arrival(session, now, robot, report.sightings, site)
         current = await current_request(session, robot)
@@ -170,7 +183,9 @@ async def exchange(
             weight.evaluate(session, now, cfg, current, report.weight_kg)
         nav = navigation(site, cfg, current,
                          stopped=robot.emergency_stop or robot.maintenance_mode)
-        return Reply(nav, robot.emergency_stop, robot.maintenance_mode)
+        return Reply(nav, robot.emergency_stop, robot.maintenance_mode,
+                     current.id if current is not None else None,
+                     str(current.status) if current is not None else None)
 
 
 def _apply_report(robot: Robot, now: datetime, report: Report) -> None:

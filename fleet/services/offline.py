@@ -69,11 +69,22 @@ async def _handle_request(session: AsyncSession, now: datetime, robot: Robot) ->
 
 async def restore(session: AsyncSession, now: datetime, robot: Robot) -> None:
     """The robot pinged again: back online, resume its work, serve the queue."""
-    robot.is_offline = False
-    request = await current_request(session, robot)
-    if request is not None and request.admin_alert is not None:
-        request.admin_alert = None
-    notify(session, now, recipient="admin", kind="robot.reconnected", robot_name=robot.name,
-           request=request, message=f"Robot {robot.name} is back online.")
-    log.info("fleet.robot.reconnected", robot=robot.name)
+    await restore_many(session, now, [robot])
+
+
+async def restore_many(session: AsyncSession, now: datetime, robots: list[Robot]) -> None:
+    """Robots that pinged again, back online together: each resumes its work (its request's
+    offline alert is cleared, the admin told), then the queue is served once for all."""
+    ids = [r.current_request_id for r in robots if r.current_request_id is not None]
+    requests = {r.id: r for r in (await session.execute(
+        select(Request).where(Request.id.in_(ids)))).scalars()} if ids else {}
+    for robot in robots:
+        robot.is_offline = False
+        request = (requests.get(robot.current_request_id)
+                   if robot.current_request_id is not None else None)
+        if request is not None and request.admin_alert is not None:
+            request.admin_alert = None
+        notify(session, now, recipient="admin", kind="robot.reconnected", robot_name=robot.name,
+               request=request, message=f"Robot {robot.name} is back online.")
+        log.info("fleet.robot.reconnected", robot=robot.name)
     await process_queue(session, now)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import difflib
+import json
 import os
 import re
 import stat
@@ -12,6 +13,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from behaviours.nav.map_file import map_problem
 from hal.options import Order, Section
 from robotd.config.errors import ConfigError, ConfigProblem
 from robotd.config.screen import check_option, clip
@@ -25,8 +27,10 @@ _SYNTAX_LINE = re.compile(r"\(at line (\d+), column (\d+)\)")
 # spaces after "[") is matched in linear time, not the cubic time of overlapping \s* runs.
 _HEADER = re.compile(r"^[ \t]*\[\[?([^\[\]#]*)\]\]?[ \t]*(#.*)?$")
 _HEADER_NAME = re.compile(r"[A-Za-z0-9_.\-\"' ]+")
-_KEY = re.compile(r"^\s*([A-Za-z0-9_\-.\"']+)\s*=")
+_KEY_PART = r"""(?:"[^"\n]*"|'[^'\n]*'|[A-Za-z0-9_\-]+)"""
+_KEY = re.compile(rf"^\s*({_KEY_PART}(?:[ \t]*\.[ \t]*{_KEY_PART})*)[ \t]*=")
 _MAX_SYNTAX_ERRORS = 50
+_PLAIN_NAME = re.compile(r"[A-Za-z0-9_\-]+")
 _MAX_DEPTH = 100
 MAX_CONFIG_BYTES = 1 << 20
 """A config file is a few kilobytes; past 1 MiB it is not one (or it is /dev/zero)."""
@@ -151,7 +155,7 @@ def load_config_text(
         section = sections.get(section_name)
         if section is None:
             line = where.get((section_name, ""))
-            problems.append(ConfigProblem(path, line, section_name, "unknown section"
+            problems.append(ConfigProblem(path, line, _shown(section_name), "unknown section"
                                           + _suggest(section_name, list(sections))))
             continue
         if not isinstance(table, dict):
@@ -164,7 +168,8 @@ def load_config_text(
             line = where.get((section_name, key))
             option = section.by_key.get(key)
             if option is None:
-                problems.append(ConfigProblem(path, line, dotted, "unknown key"
+                problems.append(ConfigProblem(path, line, f"{section_name}.{_shown(key)}",
+                                              "unknown key"
                                               + _suggest(key, list(section.by_key))))
                 continue
             checked, error = check_option(option, value)
@@ -183,14 +188,22 @@ def load_config_text(
 
 def _system_problems(values: Values, path: str, where: dict[tuple[str, str], int]
                      ) -> list[ConfigProblem]:
-    """What the operating system would refuse later (the socket path's length)."""
+    """What the operating system would refuse later (the socket path's length), and a map
+    file that does not parse (the daemon must not start with it)."""
+    problems = []
+    map_file = values.get("map", {}).get("file")
+    if isinstance(map_file, str):
+        why = map_problem(map_file, Path(path).parent)
+        if why is not None:
+            problems.append(ConfigProblem(path, where.get(("map", "file")), "map.file", why))
     socket_path = values.get("control", {}).get("socket")
     if not isinstance(socket_path, str):
-        return []
+        return problems
     why = socket_path_problem(socket_path)
     if why is None:
-        return []
-    return [ConfigProblem(path, where.get(("control", "socket")), "control.socket", why)]
+        return problems
+    return [*problems,
+            ConfigProblem(path, where.get(("control", "socket")), "control.socket", why)]
 
 
 def _parse_tolerant(lines: list[str], path: str, problems: list[ConfigProblem]) -> dict[str, Any]:
@@ -315,6 +328,15 @@ def _header_name(line: str) -> str | None:
     if header is None or not _HEADER_NAME.fullmatch(header.group(1)):
         return None
     return header.group(1).strip().strip("\"'")
+
+
+def _shown(name: str) -> str:
+    """A name the file gave, as a problem line can carry it: bare when it is a plain word,
+    else quoted with its colons escaped (``""``, ``"a\\u003ab"``), so that the line still
+    reads ``PATH:LINE: section.key: message``."""
+    if _PLAIN_NAME.fullmatch(name):
+        return name
+    return json.dumps(name).replace(":", "\\u003a")
 
 
 def _suggest(word: str, known: list[str]) -> str:

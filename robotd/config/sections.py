@@ -12,6 +12,8 @@ from collections.abc import Iterator, Mapping, Sequence
 from typing import overload
 
 from behaviours.docking.config import DOCKING_OPTIONS, DOCKING_ORDERS
+from behaviours.nav.config import NAV_SECTIONS
+from behaviours.nav.localisation.config import NAV_LOCALISATION_ORDERS, NAV_LOCALISATION_SECTIONS
 from drivers.arduino.config import SERIAL
 from drivers.dock_ir.config import IR_OPTIONS, IR_ORDERS
 from drivers.lidar.config import LIDAR, LIDAR_ORDERS
@@ -126,6 +128,10 @@ _CORE: tuple[Section, ...] = (
     Section("fleet", "The fleet server's data exchange (seed 000 section 8).", (
         opt("url", "str", "", "Base URL of the fleet server; empty: no fleet server."),
         opt("period_s", "float", 1.0, "Data exchange period.", min=0.1, max=60, tunable=True),
+        opt("token_file", "str", "",
+            "File holding the robot's bearer token (robotd-fleet token create --robot); "
+            "empty: none. Relative or empty with $CREDENTIALS_DIRECTORY set (systemd "
+            "LoadCredential=): the credential of that name, fleet-token when empty."),
     )),
     Section("safety", "Stopping for what is in front of the robot.", (
         opt("stop_distance_cm", "float", 30.0,
@@ -184,6 +190,8 @@ _CORE: tuple[Section, ...] = (
         opt("timeout_s", "float", 1.0, "Longest wait for data-ready.", min=0.05, max=10),
     )),
     LIDAR,
+    *NAV_SECTIONS,
+    *NAV_LOCALISATION_SECTIONS,
     Section("docking", "Returning to the dock (seed 001).", (*DOCKING_OPTIONS, *IR_OPTIONS)),
     Section("sim", "The simulated world (hal.backend = sim).", (
         opt("seed", "int", 1, "Random seed for sensor noise.", min=0),
@@ -201,6 +209,7 @@ _CORE_ORDERS: tuple[Order, ...] = (
     Order(("line_follow.roi_top", "line_follow.roi_bottom")),
     Order(("safety.stop_distance_cm", "safety.resume_distance_cm"), strict=False),
     *LIDAR_ORDERS,
+    *NAV_LOCALISATION_ORDERS,
     *IR_ORDERS,
     *DOCKING_ORDERS,
 )

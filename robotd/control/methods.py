@@ -48,7 +48,8 @@ class _Methods:
             "robot": d.settings.get("robot.name"),
             "profile": d.profile.name,
             "state": d.state,
-            "estop": d.state == "estop",
+            "estop": d.state == "estop" or d.context.estop_latch.latched,
+            "estop_latch": d.context.estop_latch.record,
             "ready": d.ready.is_set(),
             "uptime_s": round(d.uptime_s, 3),
             "services": d.supervisor.status(),
@@ -143,13 +144,16 @@ class _Methods:
 
     async def estop(self, params: dict[str, Any], _client: Client) -> dict[str, Any]:
         reason = params.get("reason", "robotctl estop")
-        await self.d.estop(str(reason))
-        return {"state": self.d.state, "estop": self.d.state == "estop"}
+        await self.d.estop(str(reason)[:200], source="robotctl")
+        latch = self.d.context.estop_latch
+        return {"state": self.d.state, "estop": self.d.state == "estop",
+                "latched": latch.latched, "estop_latch": latch.record}
 
     async def resume(self, _params: dict[str, Any], _client: Client) -> dict[str, Any]:
-        if not await self.d.machine.trigger("resume"):
+        if not await self.d.machine.trigger("resume", source="robotctl"):
             raise RpcError(APP_ERROR, f"cannot resume: not in estop (state {self.d.state})")
-        return {"state": self.d.state, "estop": False}
+        latch = self.d.context.estop_latch
+        return {"state": self.d.state, "estop": latch.latched, "estop_latch": latch.record}
 
     async def trigger(self, params: dict[str, Any], _client: Client) -> dict[str, Any]:
         name = params.get("name")

@@ -172,8 +172,8 @@ def draw_trajectory(
             ax.annotate(str(note), (event["x_m"], event["y_m"]), fontsize=7,
                         xytext=(6, -10 - 9 * stacked), textcoords="offset points", color=col)
 
-    ax.set_xlim(-0.1, world.width_m + 0.1)
-    ax.set_ylim(-0.1, world.height_m + 0.1)
+    ax.set_xlim(world.x_min_m - 0.1, world.x_min_m + world.width_m + 0.1)
+    ax.set_ylim(world.y_min_m - 0.1, world.y_min_m + world.height_m + 0.1)
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")

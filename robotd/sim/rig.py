@@ -14,10 +14,8 @@ from typing import Any
 import structlog
 
 from drivers import ble_scanner, hx711
-from drivers.arduino.dock_telemetry import DockFacets
 from drivers.arduino.link import ArduinoLink
-from drivers.dock_ir import DockIrConfig
-from drivers.dock_ir import from_settings as dock_ir_from_settings
+from drivers.arduino.telemetry import DockFacets
 from drivers.serial_port import open_serial
 from hal.backend import Devices
 from hal.sim.devices.ble_model import BleAirParams, SimBleAir
@@ -80,6 +78,9 @@ class SimRig:
             self.devices.load_cell = hx711.from_settings(settings, lambda: lines)
         if "dock_ir" in needs:
             # The real driver on the receivers' simulated GPIO lines (only the fitted ones).
+            from drivers.dock_ir import DockIrConfig
+            from drivers.dock_ir import from_settings as dock_ir_from_settings
+
             fitted = DockIrConfig.from_settings(settings).lines
             source = SimDockIr(body, receivers=tuple(fitted),
                                rng=random.Random(f"{rng_key}:dock_ir"))

@@ -22,10 +22,10 @@ from typing import Any
 
 import structlog
 
+from hal.looptime.timer_chain import timer_chain
 from hal.sim import vclock
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.geometry import Pose
-from hal.timer_chain import timer_chain
 from robotd.config import ConfigError
 from robotd.config.settings import Settings
 from robotd.logs import configure_logging
@@ -34,6 +34,7 @@ from robotd.sim.actors import ActorContext, SimActors, actors_factory
 from robotd.sim.checks import RobotRecord, failures, finished, summary_figures
 from robotd.sim.config import robot_settings
 from robotd.sim.console import SimConsole
+from robotd.sim.crash import DaemonKeeper
 from robotd.sim.report import draw_trajectory, write_events
 from robotd.sim.rig import SimRig, open_sim_rig
 from robotd.sim.scenario import RobotSpec, Scenario, ScenarioError, load_scenario
@@ -186,6 +187,17 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
         print(f"robotd sim: {exc}")
         await close_hardware()
         return 2
+    def rebuild(name: str) -> Daemon:
+        """A new daemon for ``robot.restart``: same settings, devices, state dir, socket."""
+        r = robots[name]
+        daemon = Daemon(r.settings, r.rig.devices,
+                        PROFILES.build(r.settings.get("robot.profile")),
+                        state_dir=workdir / name, socket_path=r.socket_path,
+                        wall_clock=wall_clock, notify=False, handle_signals=False)
+        daemon.add_event_listener(functools.partial(on_event, name))
+        return daemon
+
+    daemon_tasks: dict[str, asyncio.Task[Any]] = {}
     if scenario.world.robots_see_each_other:
         for r in robots.values():
             r.body.others = [o.body for o in robots.values() if o is not r]
@@ -199,9 +211,12 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
         robot = str(event.pop("robot", "") or next(iter(robots)))
         on_event(robot, event)
 
+    keeper = DaemonKeeper(robots, daemon_tasks, rebuild, on_script_event)
+
     try:
         player = ScriptPlayer(scenario, {n: r.rig for n, r in robots.items()}, on_script_event,
-                              console, state_of=lambda n: robots[n].record.state)
+                              console, state_of=lambda n: robots[n].record.state,
+                              daemons=keeper)
     except ScenarioError as exc:
         print(f"robotd sim: {scenario.source}: {exc}")
         await close_hardware()
@@ -212,8 +227,8 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
         loop.add_signal_handler(signal.SIGTERM, interrupted.set)
 
     tasks = [asyncio.create_task(r.rig.run(), name=f"rig.{n}") for n, r in robots.items()]
-    daemon_tasks = {n: asyncio.create_task(r.daemon.run(), name=f"daemon.{n}")
-                    for n, r in robots.items()}
+    daemon_tasks.update({n: asyncio.create_task(r.daemon.run(), name=f"daemon.{n}")
+                         for n, r in robots.items()})
     tasks.append(asyncio.create_task(player.run(), name="script"))
     people = [asyncio.create_task(coro, name=name) for a in actors for name, coro in a.people()]
     tasks += [asyncio.create_task(coro, name=name)
@@ -254,7 +269,10 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
     await timer_chain(tick, _WATCH_PERIOD_S)
     elapsed = loop.time() - start
 
-    for r in robots.values():
+    await keeper.close()
+    for n, r in robots.items():
+        if keeper.is_down(n):
+            daemon_tasks[n].cancel()  # killed and never restarted: nothing to stop
         r.daemon.request_stop()
     with contextlib.suppress(TimeoutError):
         await asyncio.wait_for(asyncio.gather(*daemon_tasks.values(), return_exceptions=True),

@@ -87,6 +87,13 @@ def read_beside(scenario: Scenario, name: str) -> str:
         raise ScenarioError(msg) from exc
 
 
+def _base_dir(source: str) -> Path:
+    """Where files a scenario names are (built-ins: beside them, in the package)."""
+    if source.startswith("<builtin "):
+        return Path(str(resources.files("robotd.sim") / "scenarios"))
+    return Path(source).parent
+
+
 def builtin_names() -> list[str]:
     folder = resources.files("robotd.sim") / "scenarios"
     return sorted(p.name[:-5] for p in folder.iterdir()
@@ -152,7 +159,7 @@ def _build(raw: dict[str, Any], source: str) -> Scenario:
         check_keys(_table(raw, "fleet"), _FLEET, "fleet")
     name = str(meta.get("name", Path(source).stem))
     profile = str(meta.get("profile", "square"))
-    world = World.from_table(_table(raw, "world"))
+    world = World.from_table(_table(raw, "world"), base_dir=_base_dir(source))
     config = _table(raw, "config", required=False)
     robots_raw = raw.get("robots")
     if robots_raw is None:

@@ -13,6 +13,7 @@ from robotd.sim.scenario import Scenario, ScenarioError, ScriptStep
 
 if TYPE_CHECKING:
     from robotd.sim.console import SimConsole
+    from robotd.sim.crash import DaemonKeeper
     from robotd.sim.rig import SimRig
 
 log = structlog.get_logger(__name__)
@@ -22,8 +23,10 @@ class ScriptPlayer:
 
     def __init__(self, scenario: Scenario, rigs: dict[str, SimRig],
                  record: Callable[[dict[str, Any]], None], console: SimConsole,
-                 state_of: Callable[[str], str] = lambda _robot: "") -> None:
+                 state_of: Callable[[str], str] = lambda _robot: "",
+                 daemons: DaemonKeeper | None = None) -> None:
         self.scenario = scenario
+        self.daemons = daemons
         self.state_of = state_of
         self.rigs = rigs
         self.record = record
@@ -75,8 +78,11 @@ class ScriptPlayer:
                                                                      "delay_s")}})
         self.console.event(asyncio.get_running_loop().time(),
                            f"script: {step.action} {_args_text(args)}".rstrip())
-        ACTIONS[step.action](Step(self.scenario, robot, rig, args,
-                                  lambda delay_s, fn, name: self._later(delay_s, fn, name, robot)))
+        done = ACTIONS[step.action](Step(
+            self.scenario, robot, rig, args,
+            lambda delay_s, fn, name: self._later(delay_s, fn, name, robot), self.daemons))
+        if done is not None:
+            await done
 
     def _later(self, delay_s: float, fn: Callable[[], None], name: str, robot: str) -> None:
         async def later() -> None:

@@ -6,8 +6,8 @@ import asyncio
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from hal.looptime.timer_chain import timer_chain
 from hal.sim.world.body import DiffDriveBody
-from hal.timer_chain import timer_chain
 
 
 @dataclass(frozen=True, slots=True)
@@ -33,7 +33,7 @@ class PathRecorder:
     tracks: dict[str, list[TrackPoint]] = field(default_factory=dict)
 
     async def run(self) -> None:
-        # Each sample is a timer callback that sets the next one (hal.timer_chain).
+        # Each sample is a timer callback that sets the next one (hal.looptime.timer_chain).
         loop = asyncio.get_running_loop()
         next_sample = loop.time()
 

@@ -1,7 +1,11 @@
-"""A test harness around the fleet app: a settable clock, a small site, HTTP helpers."""
+"""A test harness around the fleet app: a settable clock, a small site with its tokens, HTTP
+helpers that call as a real site's clients do (robots with their own tokens, the rest as
+admin unless a test says otherwise)."""
 
 from __future__ import annotations
 
+import re
+from collections.abc import Generator
 from datetime import UTC, datetime, timedelta
 from typing import Any
 
@@ -96,6 +100,40 @@ name = "robot-2"
 """
 
 
+def token_for(role: str, subject: str) -> str:
+    """The test site's token of this caller (seeded through the site file, stored hashed)."""
+    return f"test-{role}-{subject}-token-0123456789abcdef"
+
+
+TOKENS = [("admin", "staff"), ("robot", "robot-1"), ("robot", "robot-2"),
+          *(("customer", str(c)) for c in range(1, 6))]
+SITE_TOML += "".join(f"""
+[[tokens]]
+role = "{role}"
+subject = "{subject}"
+token = "{token_for(role, subject)}"
+""" for role, subject in TOKENS)
+
+_ROBOT_PATH = re.compile(r"^/api/Robot/([^/]+)/")
+
+
+def bearer(token: str) -> dict[str, str]:
+    return {"Authorization": f"Bearer {token}"}
+
+
+class SiteAuth(httpx.Auth):
+    """Robots' data exchanges with the robot's own token; everything else as admin. A request
+    that already has an Authorization header keeps it."""
+
+    def auth_flow(self, request: httpx.Request) -> Generator[httpx.Request, httpx.Response, None]:
+        if "authorization" not in request.headers:
+            match = _ROBOT_PATH.match(request.url.path)
+            token = (token_for("robot", match.group(1)) if match
+                     else token_for("admin", "staff"))
+            request.headers["Authorization"] = f"Bearer {token}"
+        yield request
+
+
 class FakeClock:
     """A wall clock the test moves by hand."""
 
@@ -118,13 +156,13 @@ class Fleet:
     """The app, its server, a client and helpers named after what customers/robots do."""
 
     def __init__(self, db_url: str, settings: dict[str, Any] | None = None,
-                 site_toml: str = SITE_TOML) -> None:
+                 site_toml: str = SITE_TOML, auth_failures_per_min: int = 0) -> None:
         self.clock = FakeClock()
         self.app = create_app(db_url, site=parse_site(site_toml, "test-site"), clock=self.clock,
-                              settings=settings)
+                              settings=settings, auth_failures_per_min=auth_failures_per_min)
         self.server: FleetServer = self.app.state.fleet
         self.http = httpx.AsyncClient(transport=httpx.ASGITransport(app=self.app),
-                                      base_url="http://fleet")
+                                      base_url="http://fleet", auth=SiteAuth())
 
     async def __aenter__(self) -> Fleet:
         await self.server.start(monitors=False)

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import re
+
 import pytest
+from fleet_harness import bearer, token_for
 
 from fleet.api.schemas import DataExchangeOut
 from fleet.site import SiteError, parse_site
@@ -39,7 +42,7 @@ BAD_EXCHANGES = [
     ("a text RSSI", "robot-1", b'{"DetectedBeacons": [{"MacAddress": "x", "Rssi": "-50"}]}', 422),
     ("beacons not a list", "robot-1", b'{"DetectedBeacons": {"MacAddress": "x"}}', 422),
     ("another robot's name", "robot-1", b'{"RobotName": "robot-2"}', 422),
-    ("an unknown robot", "robot-9", b"{}", 404),
+    ("an unknown robot (robot-1's token)", "robot-9", b"{}", 403),
     ("a control character in the name", "robot%01", b"{}", 422),
 ]
 
@@ -86,8 +89,10 @@ class TestBadRequests:
     async def test_bad_data_exchanges_are_refused(self, fleet, what, robot, body, code):
         await fleet.request(1)
         before = await snapshot(fleet)
-        response = await fleet.http.post(f"/api/Robot/{robot}/data-exchange", content=body,
-                                         headers={"content-type": "application/json"})
+        response = await fleet.http.post(
+            f"/api/Robot/{robot}/data-exchange", content=body,
+            headers={"content-type": "application/json",
+                     **bearer(token_for("robot", "robot-1"))})
         assert response.status_code == code, what
         assert response.json()["detail"]
         assert await snapshot(fleet) == before
@@ -118,7 +123,8 @@ class TestBadRequests:
     async def test_bad_settings_are_refused(self, fleet, body):
         before = await snapshot(fleet)
         response = await fleet.http.put("/api/settings", json=body)
-        assert response.status_code == 422
+        # Each key valid, the whole not (MinWeightKg above the stored MaxWeightKg): 409.
+        assert response.status_code == (409 if body == {"MinWeightKg": 20.0} else 422)
         assert response.json()["detail"]
         assert await snapshot(fleet) == before
 
@@ -172,6 +178,24 @@ class TestSiteFile:
         fleet = Fleet(f"sqlite:///{tmp_path / 'x.db'}",
                       site_toml="[[beacons]]\nmac='C3:00:00:00:00:01'\nname='b'\nroom='Nowhere'\n")
         with pytest.raises(SiteError, match="room 'Nowhere' does not exist"):
+            await fleet.server.start(monitors=False)
+        await fleet.server.db.dispose()
+        await fleet.http.aclose()
+
+    @pytest.mark.parametrize(("entry", "message"), [
+        ('role = "robot"\nsubject = "robot-1"\ntoken = "short"',
+         "tokens[0]: a token must have 24 to 512 characters"),
+        ('role = "root"\nsubject = "x"\ntoken = "long-enough-token-0123456789"',
+         "tokens[0].role: must be one of robot, customer, admin"),
+        ('role = "robot"\nsubject = "robot-9"\ntoken = "long-enough-token-0123456789"',
+         "tokens[0]: robot 'robot-9' is not registered"),
+    ])
+    async def test_a_bad_token_entry_fails_at_start_naming_it(self, tmp_path, entry, message):
+        from fleet_harness import Fleet
+
+        fleet = Fleet(f"sqlite:///{tmp_path / 'x.db'}",
+                      site_toml=f"[[robots]]\nname = 'robot-1'\n[[tokens]]\n{entry}\n")
+        with pytest.raises(SiteError, match=re.escape(message)):
             await fleet.server.start(monitors=False)
         await fleet.server.db.dispose()
         await fleet.http.aclose()

@@ -7,9 +7,11 @@ import json
 from typing import Any
 
 import pytest
-from fleet_harness import ROOM_MACS, beacon
+from fleet_harness import ROOM_MACS, beacon, bearer, token_for
 
+from fleet.api.auth import SCOPE_KEY
 from fleet.api.exchange_fast import ExchangeFastPath
+from fleet.tokens import Principal, Role
 
 ROBOT = "robot-1"
 PATH = f"/api/Robot/{ROBOT}/data-exchange"
@@ -26,8 +28,9 @@ def report(**fields: Any) -> bytes:
     return json.dumps(body).encode()
 
 
-async def post(fleet, body: bytes, content_type: str, path: str = PATH):
-    response = await fleet.http.post(path, content=body, headers={"content-type": content_type})
+async def post(fleet, body: bytes, content_type: str, path: str = PATH, **headers: str):
+    response = await fleet.http.post(path, content=body,
+                                     headers={"content-type": content_type, **headers})
     return response.status_code, response.headers.get("content-type"), response.content
 
 
@@ -62,7 +65,8 @@ async def call(app, body_chunks: list[bytes], *, path: str = PATH, method: str =
         sent.append(message)
 
     scope = {"type": "http", "method": method, "path": path, "root_path": "",
-             "headers": [(b"content-type", content_type)], "query_string": b""}
+             "headers": [(b"content-type", content_type)], "query_string": b"",
+             SCOPE_KEY: Principal(1, Role.ROBOT, ROBOT)}
     await app(scope, receive, send)
     return sent[0]["status"], b"".join(m.get("body", b"") for m in sent[1:])
 
@@ -96,13 +100,26 @@ class TestSameAnswersAsTheRoute:
         routed = await post(fleet, body, ROUTE_ONLY)
         assert fast == routed, what
 
-    async def test_an_unknown_robot_is_404_with_the_routes_message(self, fleet):
-        path = "/api/Robot/robot-9/data-exchange"
-        fast = await post(fleet, b"{}", "application/json", path)
-        routed = await post(fleet, b"{}", ROUTE_ONLY, path)
+    async def test_another_robots_exchange_is_403_with_the_routes_message(self, fleet):
+        """robot-1's token on robot-2's path: the fast path leaves it to the route (403)."""
+        path = "/api/Robot/robot-2/data-exchange"
+        token = bearer(token_for("robot", ROBOT))
+        fast = await post(fleet, b"{}", "application/json", path, **token)
+        routed = await post(fleet, b"{}", ROUTE_ONLY, path, **token)
+        assert fast == routed
+        assert fast[0] == 403
+        assert "robot-2" in json.loads(fast[2])["detail"]
+
+    async def test_a_robot_removed_from_the_site_is_404(self, fleet):
+        """A valid token of a robot the server no longer has: 404 on both paths."""
+        async with fleet.server.db.write() as session:
+            from sqlalchemy import text
+            await session.execute(text("UPDATE robots SET name = 'gone' WHERE name = :n"),
+                                  {"n": ROBOT})
+        fast = await post(fleet, b"{}", "application/json")
+        routed = await post(fleet, b"{}", ROUTE_ONLY)
         assert fast == routed
         assert fast[0] == 404
-        assert "robot-9" in json.loads(fast[2])["detail"]
 
     async def test_a_wrongly_typed_field_is_named_in_the_422(self, fleet):
         """Bodies the model refuses go on to the route, whose message names the field."""

@@ -1,5 +1,6 @@
-"""Schemathesis fuzzes every operation of the served OpenAPI document against a real
-`robotd-fleet serve` process: no input makes the server answer 500."""
+"""Schemathesis against the fleet server: every check, in-process (ASGI), with each role's
+token: the API answers as its OpenAPI document says; and a real `robotd-fleet serve`
+process (SQLite and PostgreSQL) never answers 500."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import socket
 import subprocess
 import sys
 import time
+from collections import Counter
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -19,12 +21,34 @@ import schemathesis
 from hypothesis import HealthCheck, given, settings
 from hypothesis.errors import Unsatisfiable
 from pgtest import PgCluster
-from schemathesis import GenerationMode
+from schemathesis import GenerationMode, engine
 from schemathesis.checks import not_a_server_error
+from schemathesis.config import SchemathesisConfig
+from schemathesis.engine import events
 
 import fleet
+from fleet.app import create_app
+from fleet.site import parse_site
 
-SITE = Path(fleet.__file__).parent / "sites" / "example.toml"
+EXAMPLE_SITE = Path(fleet.__file__).parent / "sites" / "example.toml"
+# The example site with test tokens (a real site issues them with `robotd-fleet token create`).
+FUZZ_TOKENS = {("admin", "fuzz"): "fuzz-admin-token-0123456789abcdef",
+               ("robot", "robot-1"): "fuzz-robot-1-token-0123456789abcdef",
+               ("customer", "1"): "fuzz-customer-1-token-0123456789abcdef"}
+FUZZ_SITE_TOML = EXAMPLE_SITE.read_text() + "".join(
+    f'\n[[tokens]]\nrole = "{role}"\nsubject = "{subject}"\ntoken = "{token}"\n'
+    for (role, subject), token in FUZZ_TOKENS.items())
+
+
+def token_of(method: str, path: str, role: str) -> str:
+    """The token a well-behaved caller of this operation holds: the robot's for its data
+    exchange, customer 1's for request operations when ``role`` is customer, else the
+    admin's."""
+    if path.startswith("/api/Robot/"):
+        return FUZZ_TOKENS[("robot", "robot-1")]
+    if role == "customer" and path.startswith("/api/requests"):
+        return FUZZ_TOKENS[("customer", "1")]
+    return FUZZ_TOKENS[("admin", "fuzz")]
 
 
 def _free_port() -> int:
@@ -50,9 +74,12 @@ def served(
     port = _free_port()
     exe = shutil.which("robotd-fleet", path=str(Path(sys.executable).parent)) or "robotd-fleet"
     log = (db.parent / "server.log").open("wb")
+    site = db.parent / "site.toml"
+    site.write_text(FUZZ_SITE_TOML)
     proc = subprocess.Popen(
-        [exe, "serve", "--db", db_url, "--site", str(SITE), "--port", str(port),
-         "--log-level", "warning"], stdout=log, stderr=subprocess.STDOUT)
+        [exe, "serve", "--db", db_url, "--site", str(site), "--port", str(port),
+         "--log-level", "warning", "--auth-failures-per-min", "0"],
+        stdout=log, stderr=subprocess.STDOUT)
     url = f"http://127.0.0.1:{port}"
     try:
         for _ in range(300):
@@ -96,10 +123,82 @@ def test_no_input_makes_the_server_fail(served: str, mode: GenerationMode) -> No
         @settings(max_examples=15, deadline=None, database=None,
                   suppress_health_check=list(HealthCheck))
         def call(case: schemathesis.Case) -> None:
-            case.call_and_validate(base_url=served, checks=[not_a_server_error])
+            token = token_of(case.method, case.path, "staff")
+            case.call_and_validate(base_url=served, checks=[not_a_server_error],
+                                   headers={"Authorization": f"Bearer {token}"})
 
         try:
             call()
         except Unsatisfiable:
             # No invalid input exists for this operation (e.g. GET /health takes nothing).
             assert mode == GenerationMode.NEGATIVE, operation.label
+
+
+# Every check schemathesis has (`schemathesis.checks`); max_response_time takes its limit.
+ALL_CHECKS = ("not_a_server_error", "status_code_conformance", "content_type_conformance",
+              "response_schema_conformance", "response_headers_conformance",
+              "positive_data_acceptance", "negative_data_rejection", "use_after_free",
+              "ensure_resource_availability", "missing_required_header", "ignored_auth",
+              "object_level_authorization", "unsupported_method", "allow_header_conformance")
+MAX_RESPONSE_TIME_S = 5.0
+EXAMPLES = 25
+
+
+def _config(seed: int) -> SchemathesisConfig:
+    checks = "".join(f"{name}.enabled = true\n" for name in ALL_CHECKS)
+    return SchemathesisConfig.from_str(f"""
+seed = {seed}
+workers = 1
+[generation]
+max-examples = {EXAMPLES}
+database = "none"
+[checks]
+{checks}max_response_time = {MAX_RESPONSE_TIME_S}
+""")
+
+
+def _run_every_check(tmp_path: Path, role: str, seed: int) -> tuple[Counter[str], list[str]]:
+    """All phases and all checks against a fresh app; returns the checks run and the
+    failures (check, operation, message)."""
+    app = create_app(f"sqlite:///{tmp_path / 'fleet.db'}",
+                     site=parse_site(FUZZ_SITE_TOML, "fuzz-site"), monitors=False,
+                     auth_failures_per_min=0)
+    schema = schemathesis.openapi.from_asgi("/openapi.json", app, config=_config(seed))
+    if role == "customer":
+        schema = schema.include(path_regex="^/api/requests")
+
+    @schema.auth()
+    class RoleTokens:
+        def get(self, case: schemathesis.Case, _ctx: object) -> str:
+            return token_of(case.method, case.path, role)
+
+        def set(self, case: schemathesis.Case, data: str, _ctx: object) -> None:
+            case.headers = {**(case.headers or {}), "Authorization": f"Bearer {data}"}
+
+    ran: Counter[str] = Counter()
+    failures: list[str] = []
+    for event in engine.from_schema(schema).execute():
+        if isinstance(event, events.ScenarioFinished | events.FuzzScenarioFinished):
+            for nodes in event.recorder.checks.values():
+                for node in nodes:
+                    ran[node.name] += 1
+                    if node.failure_info is not None:
+                        failure = node.failure_info.failure
+                        failures.append(f"{node.name} {event.recorder.label}: "
+                                        f"{failure.title}: {failure.message}\n"
+                                        f"{node.failure_info.code_sample}")
+        elif isinstance(event, events.NonFatalError | events.FatalError):
+            failures.append(f"error: {event}")
+    return ran, failures
+
+
+class TestEveryCheck:
+    @pytest.mark.parametrize("role", ["staff", "customer"])
+    def test_the_api_answers_as_its_document_says(self, tmp_path: Path, role: str) -> None:
+        """Every schemathesis check (status codes, bodies, headers, content types, positive
+        and negative data, auth enforced, unsupported methods, Allow) over every phase,
+        with the staff's and robot's tokens, then a customer's on its operations: no
+        failure."""
+        ran, failures = _run_every_check(tmp_path, role, seed=14)
+        assert failures == []
+        assert set(ran) == {*ALL_CHECKS, "max_response_time"}

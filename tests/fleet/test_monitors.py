@@ -6,7 +6,7 @@ from __future__ import annotations
 import asyncio
 from datetime import UTC, datetime
 
-from fleet_harness import SITE_TOML, beacon
+from fleet_harness import SITE_TOML, SiteAuth, beacon
 
 from fleet.app import create_app
 from fleet.clock import loop_clock
@@ -213,7 +213,8 @@ class TestMonitorsOnVirtualTime:
                              settings={"AcceptedTimeoutS": 120})
             await app.state.fleet.start()
             transport = httpx.ASGITransport(app=app)
-            async with httpx.AsyncClient(transport=transport, base_url="http://f") as http:
+            async with httpx.AsyncClient(transport=transport, base_url="http://f",
+                                         auth=SiteAuth()) as http:
                 created = (await http.post("/api/requests", json={"CustomerId": 1})).json()
                 start = loop.time()
                 while True:

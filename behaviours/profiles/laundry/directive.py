@@ -23,6 +23,9 @@ class Directive:
     active_beacons: tuple[dict[str, Any], ...] = field(default_factory=tuple)
     emergency_stop: bool = False
     maintenance: bool = False
+    request_id: int | None = None
+    """The request the robot serves (``RequestId``, an extension of the contract), if told."""
+    request_status: str | None = None
 
     @classmethod
     def stand_still(cls) -> Directive:
@@ -63,7 +66,18 @@ def parse_exchange_response(body: Any) -> Directive:
         if not isinstance(entry, dict):
             msg = f"response.ActiveBeacons[{i}]: expected an object"
             raise BadResponse(msg)
+    request_id = body.get("RequestId")
+    if request_id is not None and (isinstance(request_id, bool)
+                                   or not isinstance(request_id, int)):
+        msg = f"response.RequestId: expected an integer or null, got {request_id!r}"
+        raise BadResponse(msg)
+    request_status = body.get("RequestStatus")
+    if request_status is not None and not isinstance(request_status, str):
+        msg = f"response.RequestStatus: expected a string or null, got {request_status!r}"
+        raise BadResponse(msg)
     return Directive(
+        request_id=request_id,
+        request_status=request_status,
         line_following=flags["IsLineFollowing"],
         follow_color=colour or None,
         active_beacons=tuple(beacons),

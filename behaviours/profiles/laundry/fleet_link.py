@@ -8,7 +8,8 @@ cannot be reached (or answers nonsense) the robot logs it and keeps trying; afte
 from __future__ import annotations
 
 import asyncio
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from pathlib import Path
 from typing import Any
 
 import httpx
@@ -17,6 +18,43 @@ import structlog
 from behaviours.profiles.laundry.directive import BadResponse, Directive, parse_exchange_response
 
 log = structlog.get_logger(__name__)
+
+CREDENTIAL = "fleet-token"
+# A token is 43 characters; anything much longer in the file is not a token.
+_MAX_TOKEN_BYTES = 4096
+
+
+class TokenFileError(ValueError):
+    """The robot's token file cannot be used; the message names the file."""
+
+
+def token_path(token_file: str, environ: Mapping[str, str]) -> Path | None:
+    """Where ``fleet.token_file`` points: an absolute path as it is; a relative one (or none)
+    under ``$CREDENTIALS_DIRECTORY`` when systemd gave credentials (``fleet-token`` when
+    none was named); a relative one otherwise from the working directory; None for none."""
+    credentials = environ.get("CREDENTIALS_DIRECTORY")
+    if token_file and Path(token_file).is_absolute():
+        return Path(token_file)
+    if credentials:
+        return Path(credentials) / (token_file or CREDENTIAL)
+    return Path(token_file) if token_file else None
+
+
+def read_token(path: Path) -> str:
+    """The bearer token in a file (surrounding whitespace ignored); TokenFileError if the file
+    cannot be read or holds no token."""
+    try:
+        with path.open("rb") as file:
+            raw = file.read(_MAX_TOKEN_BYTES + 1)
+    except OSError as exc:
+        msg = f"fleet.token_file: cannot read {path}: {exc.strerror or exc}"
+        raise TokenFileError(msg) from exc
+    token = raw.decode("ascii", "replace").strip()
+    if len(raw) > _MAX_TOKEN_BYTES or not token or any(c.isspace() for c in token) \
+            or not token.isprintable() or "\ufffd" in token:
+        msg = f"fleet.token_file: {path} does not hold one bearer token"
+        raise TokenFileError(msg)
+    return token
 
 
 class FleetLink:
@@ -29,13 +67,17 @@ class FleetLink:
         build_report: returns the request body for this period.
         period_s, grace_s, timeout_s: exchange period, how long without an answer the robot
             goes on with its last directive, and the per-request timeout.
+        token: the robot's bearer token (``fleet.token_file``), sent as
+            ``Authorization: Bearer``; None sends none.
     """
 
     def __init__(self, client: httpx.AsyncClient, robot_name: str,
                  build_report: Callable[[], dict[str, Any]],
                  on_directive: Callable[[Directive], None], *, period_s: float = 1.0,
-                 grace_s: float = 5.0, timeout_s: float = 2.0) -> None:
+                 grace_s: float = 5.0, timeout_s: float = 2.0,
+                 token: str | None = None) -> None:
         self.client = client
+        self._headers = {"Authorization": f"Bearer {token}"} if token else None
         self.robot_name = robot_name
         self.build_report = build_report
         self.on_directive = on_directive
@@ -72,7 +114,7 @@ class FleetLink:
         self.counts["sent"] += 1
         try:
             response = await self.client.post(self.path, json=self.build_report(),
-                                              timeout=self.timeout_s)
+                                              headers=self._headers, timeout=self.timeout_s)
         except httpx.HTTPError as exc:
             self._failed(f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__)
             return None

@@ -18,6 +18,7 @@ from behaviours.beacons.arrival import Arrival
 from behaviours.beacons.tracker import BeaconTracker
 from behaviours.context import RobotContext
 from behaviours.profiles.laundry.directive import Directive
+from behaviours.profiles.laundry.memory import LaundryMemory
 
 log = structlog.get_logger(__name__)
 
@@ -30,7 +31,7 @@ LINE_RETRY_PAUSE_S = 5.0
 
 class Navigator:
     def __init__(self, ctx: RobotContext, tracker: BeaconTracker, arrival: Arrival,
-                 set_follow_colour: Any) -> None:
+                 set_follow_colour: Any, memory: LaundryMemory | None = None) -> None:
         self.ctx = ctx
         self.tracker = tracker
         self.arrival = arrival
@@ -42,7 +43,9 @@ class Navigator:
         self._leg: str | None = None  # the leg last asked of the machine (to_room, to_base)
         self.line_losses = 0  # in a row, since the last arrival
         self._last_loss_s = 0.0
-        self._server_estop = False
+        self.memory = memory
+        # An e-stop the server put on, latched before a restart, is the server's to lift.
+        self._server_estop = ctx.estop_latch.only_from("fleet")
         self._server_maintenance = False
         self.problems: list[str] = []
         arrival.on_change(self._on_arrival_change)
@@ -62,12 +65,13 @@ class Navigator:
             if state != "estop":
                 self._server_estop = True
                 log.warning("laundry.server_estop")
-                await self.ctx.trigger("estop")
+                await self.ctx.trigger("estop", source="fleet",
+                                       reason="the fleet server's EmergencyStop")
             return
         if state == "estop":
             if self._server_estop:
                 self._server_estop = False
-                await self.ctx.trigger("resume")
+                await self.ctx.trigger("resume", source="fleet")
             return
         if directive.maintenance:
             if state != "maintenance":
@@ -94,6 +98,8 @@ class Navigator:
             to_base = room is not None and room == self.base_room
             want = TO_BASE if to_base else TO_ROOM
             self.target_room = room
+            if self.memory is not None:
+                self.memory.heading(room)
             if state != want:
                 self.arrived_room = None
                 self._arrival_fired = False
@@ -147,6 +153,8 @@ class Navigator:
                    if b.mac in self.arrival.reached and b.config is not None}
         room = next(iter(sorted(reached & rooms)), self.target_room)
         self.arrived_room = room
+        if self.memory is not None:
+            self.memory.arrived(room)
         self.line_losses = 0
         self.ctx.emit("arrival", room=room, beacons=self.arrival.reached)
         log.info("laundry.arrived", room=room)

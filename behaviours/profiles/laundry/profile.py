@@ -9,6 +9,7 @@ local route in the ``laundry`` section.
 from __future__ import annotations
 
 import asyncio
+import os
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -19,11 +20,13 @@ from behaviours.beacons.arrival import Arrival
 from behaviours.beacons.tracker import BeaconTracker
 from behaviours.line.follow import LineFollower, LineLostError
 from behaviours.motion.obstacle_guard import ObstacleGuard
+from behaviours.persistence import MissionRecord
 from behaviours.profile import BaseProfile, StateTask
 from behaviours.profiles.laundry.directive import Directive
-from behaviours.profiles.laundry.fleet_link import FleetLink
+from behaviours.profiles.laundry.fleet_link import FleetLink, read_token, token_path
 from behaviours.profiles.laundry.load_check import LoadCheck
 from behaviours.profiles.laundry.local_route import LocalRoute
+from behaviours.profiles.laundry.memory import LAUNDRY_MISSION, LaundryMemory
 from behaviours.profiles.laundry.navigator import AT_BASE, AT_ROOM, TO_BASE, TO_ROOM, Navigator
 from behaviours.profiles.laundry.report import RobotReport
 from behaviours.service import Service, TaskService
@@ -44,6 +47,10 @@ class LaundryProfile(BaseProfile):
         self.navigator: Navigator | None = None
         self.route: LocalRoute | None = None
         self.fleet: FleetLink | None = None
+        self.memory: LaundryMemory | None = None
+
+    def mission_records(self) -> tuple[MissionRecord, ...]:
+        return (LAUNDRY_MISSION,)
 
     def mission_states(self) -> list[str | dict[str, Any]]:
         return ["to_room", "at_room", "to_base", "at_base"]
@@ -71,7 +78,9 @@ class LaundryProfile(BaseProfile):
         if d.front_range is not None:
             wheels = ObstacleGuard(d.motors, d.front_range, ctx.settings, ctx.emit)
         self.follower = LineFollower(d.camera, wheels, ctx.settings)
-        navigator = Navigator(ctx, tracker, arrival, self.follower.set_follow_colour)
+        memory = LaundryMemory(ctx, str(ctx.settings.get("laundry.base_room")))
+        self.memory = memory
+        navigator = Navigator(ctx, tracker, arrival, self.follower.set_follow_colour, memory)
         self.navigator = navigator
         sensing: list[Callable[[], Any]] = [tracker.run, arrival.run]
         if load is not None:
@@ -86,15 +95,23 @@ class LaundryProfile(BaseProfile):
         url = str(ctx.settings.get("fleet.url"))
         if url:
             report = RobotReport(ctx.settings.get("robot.name"), ctx.wall_clock, tracker,
-                                 arrival, load, d.front_range)
+                                 arrival, load, d.front_range, holding=memory.report)
             client = httpx.AsyncClient(base_url=url, transport=d.network)
 
-            def on_directive(directive: Directive) -> None:
-                asyncio.get_running_loop().create_task(navigator.apply(directive))
+            async def follow(directive: Directive) -> None:
+                # What the answer means the robot holds is on disk before the robot acts on it.
+                await memory.observe(directive)
+                await navigator.apply(directive)
 
+            def on_directive(directive: Directive) -> None:
+                asyncio.get_running_loop().create_task(follow(directive))
+
+            # Read once at start; a missing or unreadable file stops the start with its path.
+            path = token_path(str(ctx.settings.get("fleet.token_file")), os.environ)
             self.fleet = FleetLink(client, ctx.settings.get("robot.name"), report.build,
                                    on_directive, period_s=ctx.settings.get("fleet.period_s"),
-                                   grace_s=ctx.settings.get("laundry.server_grace_s"))
+                                   grace_s=ctx.settings.get("laundry.server_grace_s"),
+                                   token=read_token(path) if path is not None else None)
             services.append(TaskService("laundry.fleet", self.fleet.run,
                                   depends_on=("laundry.sensing",)))
         else:

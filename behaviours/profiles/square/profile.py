@@ -13,6 +13,7 @@ import structlog
 
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker, WaypointDrive
+from behaviours.persistence import MissionRecord
 from behaviours.profile import BaseProfile, StateTask
 from behaviours.service import Service, TaskService
 
@@ -25,6 +26,12 @@ log = structlog.get_logger(__name__)
 def make_odometry(ctx: RobotContext) -> Odometry:
     drive = ctx.settings.section("drive")
     return Odometry(drive["wheel_base_m"], drive["wheel_radius_m"], drive["ticks_per_rev"])
+
+
+SQUARE_MISSION = MissionRecord("square.mission", 1, {"done": False})
+"""The square is driven once per state directory."""
+LEGACY_DONE_KEY = "square.done"
+"""Where robots that ran before the mission-state facility kept the same fact."""
 
 
 async def _forever() -> None:
@@ -41,6 +48,9 @@ class SquareProfile(BaseProfile):
     def mission_states(self) -> list[str | dict[str, Any]]:
         return ["square"]
 
+    def mission_records(self) -> tuple[MissionRecord, ...]:
+        return (SQUARE_MISSION,)
+
     def services(self, ctx: RobotContext) -> list[Service]:
         encoders = ctx.devices.encoders
         if encoders is None:
@@ -50,7 +60,7 @@ class SquareProfile(BaseProfile):
 
         async def autostart() -> None:
             """Starts the mission once, as soon as the robot is idle after boot."""
-            if ctx.store.get("square.done", False):
+            if ctx.persisted(SQUARE_MISSION)["done"] or ctx.store.get(LEGACY_DONE_KEY, False):
                 log.info("square.already_done")
             else:
                 await ctx.trigger("start_mission")
@@ -76,6 +86,6 @@ class SquareProfile(BaseProfile):
             remaining = await drive.go_to(start.x_m + dx, start.y_m + dy)
             ctx.emit("square.corner", corner=i + 1, remaining_m=remaining)
         await drive.stop()
-        ctx.store.put("square.done", True)
+        ctx.persisted(SQUARE_MISSION).set(done=True)
         ctx.emit("square.done", link_waits=drive.waits_for_link)
         await ctx.trigger("mission_done")

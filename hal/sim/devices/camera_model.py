@@ -17,12 +17,12 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from hal.looptime.timer_chain import timer_chain
 from hal.readings import Frame
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import PaintedLine, World
 from hal.sim.world.geometry import Pose, segment_distances
 from hal.tasks import cancel_and_wait
-from hal.timer_chain import timer_chain
 
 F32Array = npt.NDArray[Any]  # float32; cv2 returns loosely typed arrays
 U8Image = npt.NDArray[Any]  # uint8 BGR
@@ -174,8 +174,8 @@ class SimCamera:
 
     # --- internals ----------------------------------------------------------------------------
     async def _run(self) -> None:
-        # Each capture is a timer callback that sets the next one (hal.timer_chain): one loop
-        # turn a frame, where a task sleeping between frames would cost two.
+        # Each capture is a timer callback that sets the next one (hal.looptime.timer_chain):
+        # one loop turn a frame, where a task sleeping between frames would cost two.
         loop = asyncio.get_running_loop()
         period_s = 1.0 / self.mount.fps
         deadline = loop.time() + period_s

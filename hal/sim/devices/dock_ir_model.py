@@ -55,7 +55,7 @@ MOUNTS: tuple[Mount, ...] = (
 """The seed's receivers: omni (search), front x2 (fine alignment), +-120 deg (wide), rear."""
 
 OMNI_FORWARD_M = 0.12  # the omni receiver's mast, behind the bumper
-STRENGTH_FULL_M = 0.5  # a beam's centre read head-on from this close saturates the ADC
+STRENGTH_FULL_M = 0.2  # a beam's centre read head-on from this close saturates the ADC
 STRENGTH_MAX = 1023
 
 
@@ -198,9 +198,9 @@ def receiver_position(pose: Pose, mount: Mount, radius_m: float) -> tuple[float,
 def dock_signal(body: DiffDriveBody) -> tuple[int, int]:
     """(front_left, front_right): the front receivers' signal strength, 0-1023 (``IRS``).
 
-    Summed over every beam that reaches each (the analog stage does not tell slots apart):
-    the beam's lobe (1 on its middle, 0 at its edge) times the receiver's (cosine of the
-    angle off its axis) times an inverse-square fall-off, saturating at 1023."""
+    The strongest beam that reaches each (the board samples the envelope's peak over the
+    dock's cycle): the beam's lobe times the receiver's (each cos^2, 1 on the axis, 0 at
+    the edge) times an inverse-square fall-off, saturating at 1023."""
     dock = body.world.dock
     if dock is None:
         return 0, 0
@@ -210,11 +210,11 @@ def dock_signal(body: DiffDriveBody) -> tuple[int, int]:
     for name in ("front_left", "front_right"):
         mount = next(m for m in MOUNTS if m.name == name)
         x, y = receiver_position(pose, mount, body.params.radius_m)
-        total = 0.0
+        peak = 0.0
         for slot in range(dock.slots):
             for beam in dock.beams_reaching(slot, x, y, body.world.walls, blockers):
-                total += _strength(dock, beam, pose, mount, x, y)
-        out.append(min(STRENGTH_MAX, round(STRENGTH_MAX * total)))
+                peak = max(peak, _strength(dock, beam, pose, mount, x, y))
+        out.append(min(STRENGTH_MAX, round(STRENGTH_MAX * peak)))
     return out[0], out[1]
 
 
@@ -255,4 +255,5 @@ def _strength(dock: Dock, beam: Beam, pose: Pose, mount: Mount, x_m: float,
         off_beam = wrap_angle(out_dir - dock.heading_rad - math.radians(beam.centre_deg))
         lobe = math.cos(off_beam / math.radians(beam.half_angle_deg) * math.pi / 2) ** 2
     falloff = min(1.0, (STRENGTH_FULL_M / max(distance, 1e-3)) ** 2)
-    return lobe * math.cos(off_rx) * falloff
+    rx_lobe = math.cos(off_rx / math.radians(mount.half_fov_deg) * math.pi / 2) ** 2
+    return lobe * rx_lobe * falloff

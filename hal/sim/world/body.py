@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from hal.sim.world import touch
 from hal.sim.world.floor_plan import World
-from hal.sim.world.geometry import Pose, distance_to_segments, raycast_one
+from hal.sim.world.geometry import Pose, raycast_one
+from hal.sim.world.vacuum import VacuumParts
 
 _TWO_PI = 2 * math.pi
 _MATH = (math.cos, math.sin, math.pi)
@@ -57,7 +57,7 @@ class Collision:
     y_m: float
 
 
-class DiffDriveBody:
+class DiffDriveBody(VacuumParts):
     """One robot's body on the floor plan.
 
     With a ``clock`` (the event loop's ``time``), the body integrates itself up to the clock's
@@ -65,6 +65,8 @@ class DiffDriveBody:
     so no timer has to wake the loop a hundred times a second. Without one, ``step`` is called
     by hand (tests).
     """
+
+    params: BodyParams
 
     def __init__(self, world: World, pose: Pose, params: BodyParams | None = None, *,
                  rng: random.Random | None = None, charge_pct: float = 100.0,
@@ -180,37 +182,6 @@ class DiffDriveBody:
         if dock is None:
             return False
         return dock.charges(Pose(x_m, y_m, heading_rad), self.params.radius_m)
-
-    # --- the vacuum's own sensors (hal.sim.world.touch) --------------------------------------
-    def bumpers(self) -> tuple[bool, bool]:
-        """(left, right) bumper switches: pressed against a wall, the dock or a person."""
-        return touch.bumpers(self.world, self.pose, self.params.radius_m)
-
-    def wall_cm(self) -> float:
-        """The right-side wall sensor's distance (its maximum when nothing is in range)."""
-        return touch.wall_cm(self.world, self.pose, self.params.radius_m)
-
-    def contact_mv(self) -> int:
-        """The voltage across the charging contacts: 0 off the dock, the station's on it."""
-        dock = self.world.dock
-        if dock is None:
-            return 0
-        return dock.voltage_mv(self.pose, self.params.radius_m)
-
-    @property
-    def bin_pct(self) -> float:
-        """How full the dust bin is (0-100 %)."""
-        self.sync()
-        return self._bin_pct
-
-    @bin_pct.setter
-    def bin_pct(self, value: float) -> None:
-        self.sync()
-        self._bin_pct = value
-
-    @property
-    def bin_door_open(self) -> bool:
-        return self.servo_deg >= self.params.bin_door_open_deg
 
     def _target_mps(self, pwm: int, forward: bool) -> float:
         p = self.params
@@ -359,35 +330,6 @@ class DiffDriveBody:
         self._slip_i = slip_i
         if self.params.cleans or has_dock:
             self._dust(time_s - start_s, distance_m - start_distance_m, on_dock)
-
-    def _dock_stops(self, x: float, y: float, new_x: float, new_y: float,
-                    free_m: float) -> tuple[bool, bool, float]:
-        """Whether the dock stops a step: (blocked, by its body (a bump), free distance).
-
-        The station's body is an obstacle like a wall; its pads, in the middle of the face,
-        hold a robot's nose without a bump (their springs)."""
-        dock = self.world.dock
-        assert dock is not None
-        radius_m = self.params.radius_m
-        body_new = distance_to_segments(dock.outline(), new_x, new_y)
-        pads_new = distance_to_segments(dock.pads(), new_x, new_y)
-        free_m = min(free_m, body_new - radius_m, pads_new - radius_m)
-        if body_new < radius_m and body_new < distance_to_segments(dock.outline(), x, y):
-            return True, True, -1.0
-        if pads_new < radius_m and pads_new < distance_to_segments(dock.pads(), x, y):
-            return True, False, -1.0
-        return False, False, free_m
-
-    def _dust(self, elapsed_s: float, moved_m: float, on_dock: bool) -> None:
-        """The bin fills while cleaning; it empties only on the pads with the station's
-        suction on and the bin door open."""
-        p = self.params
-        if p.cleans and not on_dock:
-            self._bin_pct = min(100.0, self._bin_pct + moved_m * p.bin_fill_pct_per_m)
-        dock = self.world.dock
-        if (dock is not None and dock.suction and self.bin_door_open
-                and dock.touching(self._pose_now(), p.radius_m)):
-            self._bin_pct = max(0.0, self._bin_pct - elapsed_s * p.evac_pct_per_s)
 
     @staticmethod
     def _constants(p: BodyParams, dt_s: float, rng: random.Random) -> tuple[Any, ...]:

@@ -9,10 +9,12 @@ from __future__ import annotations
 import difflib
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from hal.occupancy_map import MapFileError, read_map_yaml
 from hal.sim.world.dock import CONTACT_MV, DEFAULT_BEAMS, FAULT_MV, SLOT_S, Beam, Dock
 from hal.sim.world.geometry import (
     FloatArray,
@@ -20,6 +22,7 @@ from hal.sim.world.geometry import (
     polyline_segments,
     segments_array,
 )
+from hal.sim.world.occupancy_walls import known_bounds, map_walls
 
 # Colours a painted line can have, as a camera sees them under white light (BGR).
 LINE_COLOURS_BGR: dict[str, tuple[int, int, int]] = {
@@ -103,6 +106,9 @@ class World:
     zones: dict[str, Room] = field(default_factory=dict)
     floor_bgr: tuple[int, int, int] = (200, 205, 210)
     robots_see_each_other: bool = True
+    x_min_m: float = 0.0  # the floor's lower-left corner (a map's origin can be negative)
+    y_min_m: float = 0.0
+    map_source: str = ""  # the map_server YAML the walls came from, if any
     _segments_cache: tuple[tuple[PaintedLine, ...], FloatArray] | None = field(
         default=None, init=False, repr=False, compare=False)
 
@@ -139,16 +145,30 @@ class World:
         raise KeyError(msg)
 
     @classmethod
-    def from_table(cls, table: dict[str, Any], where: str = "world") -> World:
-        """Build from a scenario's ``[world]`` table; WorldError names the bad key."""
+    def from_table(cls, table: dict[str, Any], where: str = "world", *,
+                   base_dir: Path | None = None) -> World:
+        """Build from a scenario's ``[world]`` table; WorldError names the bad key.
+
+        ``map``: a map_server YAML (relative to ``base_dir``) whose occupied cells are walls;
+        the floor then spans the cells the map knows unless ``width_m``/``height_m`` say otherwise.
+        """
         r = _Reader(table, where)
         r.known("width_m", "height_m", "boundary", "walls", "rooms", "lines", "beacons", "dock",
-                "people", "zones", "floor_bgr", "robots_see_each_other")
-        width, height = r.num("width_m"), r.num("height_m")
+                "people", "zones", "floor_bgr", "robots_see_each_other", "map")
+        x_min = y_min = 0.0
+        map_walls_: FloatArray | None = None
+        source = ""
+        if "map" in table:
+            source, map_walls_, (x_min, y_min, x_max, y_max) = _read_map(
+                r.text("map"), base_dir, where)
+            width = r.num("width_m", x_max - x_min)
+            height = r.num("height_m", y_max - y_min)
+        else:
+            width, height = r.num("width_m"), r.num("height_m")
         walls: list[tuple[float, float, float, float]] = []
-        if r.get("boundary", True):
-            walls += [(0, 0, width, 0), (width, 0, width, height),
-                      (width, height, 0, height), (0, height, 0, 0)]
+        if r.get("boundary", map_walls_ is None):
+            x0, y0, x1, y1 = x_min, y_min, x_min + width, y_min + height
+            walls += [(x0, y0, x1, y0), (x1, y0, x1, y1), (x1, y1, x0, y1), (x0, y1, x0, y0)]
         for i, w in enumerate(r.tables("walls")):
             wr = _Reader(w, f"{where}.walls[{i}]")
             wr.known("x1", "y1", "x2", "y2")
@@ -182,9 +202,25 @@ class World:
         zones = {name: _room(_Reader(t, f"{where}.zones.{name}"), name)
                  for name, t in r.get("zones", {}).items()}
         floor = tuple(int(v) for v in r.get("floor_bgr", (200, 205, 210)))
-        return cls(width, height, segments_array(walls), rooms, lines, beacons, dock, people,
+        all_walls = segments_array(walls)
+        if map_walls_ is not None:
+            all_walls = np.concatenate([all_walls, map_walls_])
+        return cls(width, height, all_walls, rooms, lines, beacons, dock, people,
                    zones, (floor[0], floor[1], floor[2]),
-                   bool(r.get("robots_see_each_other", True)))
+                   bool(r.get("robots_see_each_other", True)), x_min, y_min, source)
+
+
+def _read_map(name: str, base_dir: Path | None, where: str
+              ) -> tuple[str, FloatArray, tuple[float, float, float, float]]:
+    path = Path(name).expanduser()
+    if not path.is_absolute() and base_dir is not None:
+        path = base_dir / path
+    try:
+        occupancy = read_map_yaml(path)
+    except MapFileError as exc:
+        msg = f"{where}.map: {exc}"
+        raise WorldError(msg) from exc
+    return str(path), map_walls(occupancy), known_bounds(occupancy)
 
 
 _DOCK_KEYS = ("x_m", "y_m", "heading_deg", "slot_s", "width_m", "depth_m", "contact_mv",

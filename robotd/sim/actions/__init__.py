@@ -9,13 +9,15 @@ from __future__ import annotations
 
 from robotd.sim.actions.dock import DOCK_ACTIONS
 from robotd.sim.actions.motor_board import MOTOR_BOARD_ACTIONS
+from robotd.sim.actions.robot import ROBOT_ACTIONS
 from robotd.sim.actions.step import Action, Step
 from robotd.sim.actions.world import WORLD_ACTIONS
 
 ACTIONS: dict[str, Action] = {
+    **DOCK_ACTIONS,
     **MOTOR_BOARD_ACTIONS,
     **WORLD_ACTIONS,
-    **DOCK_ACTIONS,
+    **ROBOT_ACTIONS,
 }
 """Action name (``script[i].action``) -> what it does."""
 

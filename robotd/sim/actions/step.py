@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from robotd.sim.crash import DaemonKeeper
     from robotd.sim.rig import SimRig
     from robotd.sim.scenario import Scenario
 
@@ -21,10 +22,13 @@ class Step:
     args: dict[str, Any]
     later: Callable[[float, Callable[[], None], str], None]
     """``later(delay_s, fn, name)``: run ``fn`` then, recorded as the script action ``name``."""
+    daemons: DaemonKeeper | None = None
+    """The robots' daemons, to kill and restart one (None where nothing can be killed)."""
 
     def duration_s(self) -> float | None:
         value = self.args.get("duration_s")
         return None if value is None else float(value)
 
 
-Action = Callable[[Step], None]
+Action = Callable[[Step], Awaitable[None] | None]
+"""Does the step; an action that must wait (a daemon going down) returns an awaitable."""

@@ -91,3 +91,16 @@ class TestLoadConfig:
             for option in section.options:
                 _, error = option.check(defaults()[name][option.key])
                 assert error is None, f"{name}.{option.key}: {error}"
+
+
+class TestNamesTheFileGives:
+    def test_an_empty_or_odd_section_or_key_name_keeps_the_problem_line_readable(self) -> None:
+        """``[""]`` and ``"a:b" = 1`` are valid TOML: the problem line quotes the name (its
+        colons escaped) so it still reads ``PATH:LINE: section.key: message`` (found by the
+        config loader fuzz test)."""
+        with pytest.raises(ConfigError) as caught:
+            load_config_text('[""]\nx = 1\n[robot]\n"a:b" = 1\n', "r.toml")
+        assert [str(p) for p in caught.value.problems] == [
+            'r.toml:1: "": unknown section',
+            'r.toml:4: robot."a\\u003ab": unknown key (known: name, profile, state_dir)',
+        ]

@@ -20,6 +20,7 @@ from collections.abc import Callable
 
 import structlog
 
+from hal.looptime.timer_chain import timer_chain
 from hal.ports import StreamPair
 from hal.sim.devices.byte_pipe import BytePipe
 from hal.sim.devices.motor_board.dock_inputs import DockInputs
@@ -34,7 +35,6 @@ from hal.sim.devices.motor_board.mcu_frames import (
 )
 from hal.sim.devices.motor_board.mcu_uart import McuUart
 from hal.sim.world.plant import MotorPlant
-from hal.timer_chain import timer_chain
 
 log = structlog.get_logger(__name__)
 
@@ -356,7 +356,8 @@ class FakeMcu(DockInputs):
         self.uart.send(data)
 
     async def _telemetry(self) -> None:
-        # Each telemetry moment is a timer callback that sets the next one (hal.timer_chain).
+        # Each telemetry moment is a timer callback that sets the next one
+        # (hal.looptime.timer_chain).
         loop = asyncio.get_running_loop()
         periods = self.periods_s
         due = {name: loop.time() + period for name, period in periods.items()}

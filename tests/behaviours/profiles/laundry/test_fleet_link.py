@@ -36,6 +36,14 @@ name = "Ana"
 beacon = "AA:00:00:00:01:01"
 [[robots]]
 name = "r1"
+[[tokens]]
+role = "robot"
+subject = "r1"
+token = "robot-r1-token-0123456789abcdef"
+[[tokens]]
+role = "customer"
+subject = "1"
+token = "customer-1-token-0123456789abcdef"
 """
 
 
@@ -48,7 +56,8 @@ class TestFleetLink:
     def test_a_request_turns_line_following_on_toward_the_customer_room(
         self, tmp_path: Path
     ) -> None:
-        """Customer 1 asks: the next exchange says follow the line, target room 101."""
+        """Customer 1 asks: the next exchange (with the robot's own token) says follow the
+        line, target room 101."""
 
         async def main() -> list[Directive]:
             loop = asyncio.get_running_loop()
@@ -59,9 +68,12 @@ class TestFleetLink:
             seen: list[Directive] = []
             async with httpx.AsyncClient(transport=httpx.ASGITransport(app=app),
                                          base_url="http://fleet") as client:
-                link = FleetLink(client, "r1", _report, seen.append)
+                link = FleetLink(client, "r1", _report, seen.append,
+                                 token="robot-r1-token-0123456789abcdef")
                 await link.exchange_once()
-                created = await client.post("/api/requests", json={"CustomerId": 1})
+                created = await client.post(
+                    "/api/requests", json={"CustomerId": 1},
+                    headers={"Authorization": "Bearer customer-1-token-0123456789abcdef"})
                 assert created.status_code == 201
                 await link.exchange_once()
             await app.state.fleet.stop()

@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from hal.deadline import DeadlineSleeper
+from hal.looptime.deadline import DeadlineSleeper
 from hal.sim import vclock
 
 linux_only = pytest.mark.skipif(sys.platform != "linux", reason="timerfd is Linux's")

@@ -6,8 +6,8 @@ import asyncio
 
 import pytest
 
+from hal.looptime.timer_chain import timer_chain
 from hal.sim import vclock
-from hal.timer_chain import timer_chain
 
 
 class TestTimerChain:

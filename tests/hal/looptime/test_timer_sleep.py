@@ -6,8 +6,8 @@ import asyncio
 
 import pytest
 
+from hal.looptime.timer_sleep import timer_sleep
 from hal.sim import vclock
-from hal.timer_sleep import timer_sleep
 
 
 class TestTimerSleep:

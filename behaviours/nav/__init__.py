@@ -1,0 +1,1 @@
+"""Navigating a known map: grids, distance field, planning, following, localisation."""

@@ -1,0 +1,2 @@
+"""Where the robot is on the map, and who is around it: Monte Carlo localisation fused with
+wheel odometry (``filter``, ``service``), and people in the LiDAR scan (``people``)."""

@@ -1,0 +1,240 @@
+"""Monte Carlo localisation fused with wheel odometry: the robot's pose on the map.
+
+``Localiser`` is the filter with no I/O: each LiDAR scan comes with the odometry pose of the
+moment; once the robot has moved ``update_min_d_m`` or turned ``update_min_a_rad`` since the
+last update (AMCL's rule), the particles are moved by the odometry step (motion model),
+weighed by the likelihood field, resampled, and the correction ``map <- odom`` is renewed.
+Between scans the pose is that correction composed with live odometry, so it can be published
+at any rate (seed property 15: >= 10 Hz). Health is judged on every scan: the particle spread
+and the share of beams that match the map at the fused pose; past their limits for
+``diverged_s`` the filter is ``diverged`` (the profile decides what to do). With the LiDAR
+stale the pose runs on odometry alone, for ``lidar_lost_max_s`` at most, then ``lidar_lost``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import structlog
+
+from behaviours.nav.localisation.config import LocalisationConfig
+from behaviours.nav.localisation.likelihood_field import (
+    BeamModel,
+    DistanceGrid,
+    LikelihoodField,
+    select_beams,
+)
+from behaviours.nav.localisation.motion_model import compose, inverse, sample_odometry_motion, wrap
+from behaviours.nav.localisation.particles import Estimate, ParticleSet
+from hal.readings import LidarScan
+
+log = structlog.get_logger(__name__)
+
+FloatArray = npt.NDArray[np.float64]
+OdomPose = tuple[float, float, float]
+
+LOCALISED = "localised"
+UNCERTAIN = "uncertain"  # past a limit, not yet for diverged_s
+DIVERGED = "diverged"
+ODOMETRY_ONLY = "odometry_only"
+LIDAR_LOST = "lidar_lost"
+
+
+@dataclass(frozen=True, slots=True)
+class LocalisedPose:
+    """What the localiser publishes: the map pose now, and how far to trust it."""
+
+    x_m: float
+    y_m: float
+    theta_rad: float
+    t_s: float
+    status: str
+    spread_m: float
+    spread_rad: float
+    match_fraction: float
+    particles: int
+
+    def as_dict(self) -> dict[str, float | int | str]:
+        return {"x_m": round(self.x_m, 4), "y_m": round(self.y_m, 4),
+                "heading_deg": round(math.degrees(self.theta_rad), 2), "t_s": self.t_s,
+                "status": self.status, "spread_m": round(self.spread_m, 4),
+                "spread_deg": round(math.degrees(self.spread_rad), 2),
+                "match_fraction": round(self.match_fraction, 3), "particles": self.particles}
+
+
+class Localiser:
+    """The particle filter on one map, and the pose it fuses with odometry."""
+
+    def __init__(self, grid: DistanceGrid, config: LocalisationConfig) -> None:
+        self.config = config
+        self.grid = grid
+        self.field = LikelihoodField(grid, BeamModel(
+            z_hit=config.z_hit, z_rand=config.z_rand, sigma_hit_m=config.sigma_hit_m,
+            max_dist_m=config.likelihood_max_dist_m, max_range_m=config.laser_max_range_m,
+            max_beams=config.max_beams, combine=config.beam_combine))
+        self.rng = np.random.default_rng(config.seed)
+        rows, cols = np.nonzero(grid.free_cells())
+        self._free_rows, self._free_cols = rows, cols
+        self.particles = ParticleSet(np.zeros((0, 3)))
+        self.correction: FloatArray = np.zeros(3)
+        self.estimate: Estimate | None = None
+        self._odom_at_update: OdomPose | None = None
+        self.updates = 0
+        self.scans = 0
+        self.rejected = 0
+        self.match_fraction = 0.0
+        self.last_scan_s: float | None = None
+        self._bad_since_s: float | None = None
+        self._stale_since_s: float | None = None
+        self.status = UNCERTAIN
+        self.divergences = 0
+
+    # --- starting -------------------------------------------------------------------------
+
+    def start_at(self, x_m: float, y_m: float, theta_rad: float, sigma_m: float | None = None,
+                 sigma_rad: float | None = None) -> None:
+        """Particles in a Gaussian cloud around a pose (AMCL's initial pose)."""
+        c = self.config
+        s_m = c.initial_sigma_m if sigma_m is None else sigma_m
+        s_rad = c.initial_sigma_rad if sigma_rad is None else sigma_rad
+        n = c.max_particles
+        noise = self.rng.standard_normal((n, 3))
+        poses = np.column_stack((x_m + s_m * noise[:, 0], y_m + s_m * noise[:, 1],
+                                 wrap(theta_rad + s_rad * noise[:, 2])))
+        self._restart(poses, (x_m, y_m, theta_rad))
+        log.info("localisation.start", x_m=x_m, y_m=y_m, heading_deg=math.degrees(theta_rad),
+                 sigma_m=s_m, particles=n)
+
+    def start_global(self) -> None:
+        """Particles spread uniformly over the map's free space (global localisation)."""
+        poses = self.sample_free(self.config.global_particles)
+        self._restart(poses, None)
+        log.info("localisation.start_global", particles=len(self.particles),
+                 free_cells=int(self._free_rows.shape[0]))
+
+    def _restart(self, poses: FloatArray, guess: OdomPose | None) -> None:
+        self.particles = ParticleSet(poses)
+        self._odom_at_update = None
+        self.estimate = (None if guess is None
+                         else Estimate(guess[0], guess[1], guess[2], math.inf, math.inf))
+        self._bad_since_s = None
+
+    def sample_free(self, count: int) -> FloatArray:
+        """``count`` poses uniform over the free cells, any heading."""
+        g = self.grid
+        if self._free_rows.shape[0] == 0:
+            msg = "the map has no free cell to localise in"
+            raise ValueError(msg)
+        pick = self.rng.integers(0, self._free_rows.shape[0], count)
+        jitter = self.rng.random((count, 3))
+        x = g.origin_x_m + (self._free_cols[pick] + jitter[:, 0]) * g.resolution_m
+        y = g.origin_y_m + (self._free_rows[pick] + jitter[:, 1]) * g.resolution_m
+        theta = (jitter[:, 2] * 2 - 1) * math.pi
+        return np.column_stack((x, y, theta))
+
+    # --- scans ----------------------------------------------------------------------------
+
+    def on_scan(self, odom: OdomPose, scan: LidarScan, now_s: float) -> bool:
+        """Take one scan with the odometry pose of its time; True if the filter updated.
+
+        A malformed scan (angles and ranges of different shapes) or a non-finite odometry
+        pose is counted in ``rejected`` and skipped.
+        """
+        if (scan.angles_rad.shape != scan.ranges_m.shape or scan.ranges_m.ndim != 1
+                or not all(math.isfinite(v) for v in odom)):
+            self.rejected += 1
+            log.warning("localisation.rejected", count=self.rejected,
+                        angles=scan.angles_rad.shape, ranges=scan.ranges_m.shape, odom=odom)
+            return False
+        self.scans += 1
+        self.last_scan_s = now_s
+        self._stale_since_s = None
+        beams = select_beams(scan, self.config.max_beams, self.config.laser_max_range_m)
+        updated = False
+        if len(self.particles) and self._moved_enough(odom):
+            self._update(odom, beams)
+            updated = True
+        self.match_fraction = self.field.match_fraction(
+            self.pose_array(odom), beams, self.config.match_distance_m)
+        self._judge(now_s)
+        return updated
+
+    def _moved_enough(self, odom: OdomPose) -> bool:
+        last = self._odom_at_update
+        if last is None:
+            return True
+        c = self.config
+        return (math.hypot(odom[0] - last[0], odom[1] - last[1]) >= c.update_min_d_m
+                or abs(math.remainder(odom[2] - last[2], 2 * math.pi)) >= c.update_min_a_rad)
+
+    def _update(self, odom: OdomPose, beams: FloatArray) -> None:
+        c = self.config
+        ps = self.particles
+        if self._odom_at_update is not None:
+            ps.poses = sample_odometry_motion(ps.poses, self._odom_at_update, odom, c.alphas,
+                                              self.rng)
+        factors, likelihoods = self.field.weights(ps.poses, beams)
+        ps.weigh(factors, likelihoods, c.alpha_slow, c.alpha_fast)
+        self.estimate = ps.estimate()
+        self.correction = compose(self.estimate.as_array(), inverse(np.asarray(odom)))
+        ps.resample(self.rng, self.sample_free, kld_err=c.kld_err, kld_z=c.kld_z,
+                    min_particles=c.min_particles, max_particles=c.max_particles,
+                    recover=c.alpha_slow > 0 and c.alpha_fast > 0)
+        self._odom_at_update = odom
+        self.updates += 1
+
+    # --- the pose and its health ----------------------------------------------------------
+
+    def pose_array(self, odom: OdomPose) -> FloatArray:
+        """The map pose now: the last correction composed with live odometry."""
+        return compose(self.correction, np.asarray(odom, dtype=np.float64))
+
+    def pose(self, odom: OdomPose, now_s: float) -> LocalisedPose:
+        p = self.pose_array(odom)
+        est = self.estimate
+        return LocalisedPose(
+            float(p[0]), float(p[1]), float(p[2]), now_s, self.status,
+            est.spread_m if est else math.inf, est.spread_rad if est else math.inf,
+            self.match_fraction, len(self.particles))
+
+    def _judge(self, now_s: float) -> None:
+        c = self.config
+        est = self.estimate
+        bad = (est is None or est.spread_m > c.max_spread_m or est.spread_rad > c.max_spread_rad
+               or self.match_fraction < c.min_match_fraction)
+        if not bad:
+            self._bad_since_s = None
+            self._set_status(LOCALISED)
+            return
+        if self._bad_since_s is None:
+            self._bad_since_s = now_s
+        if now_s - self._bad_since_s >= c.diverged_s:
+            self._set_status(DIVERGED)
+        elif self.status != DIVERGED:
+            self._set_status(UNCERTAIN)
+
+    def lidar_stale(self, now_s: float) -> None:
+        """The LiDAR sent nothing for its stale time: odometry only, then an error."""
+        if self._stale_since_s is None:
+            self._stale_since_s = now_s
+        if now_s - self._stale_since_s >= self.config.lidar_lost_max_s:
+            self._set_status(LIDAR_LOST)
+        elif self.status != LIDAR_LOST:
+            self._set_status(ODOMETRY_ONLY)
+
+    def _set_status(self, status: str) -> None:
+        if status == self.status:
+            return
+        est = self.estimate
+        fields = {"old": self.status, "new": status, "match_fraction": self.match_fraction,
+                  "spread_m": est.spread_m if est else None}
+        if status == DIVERGED:
+            self.divergences += 1
+        if status in (DIVERGED, LIDAR_LOST):
+            log.error("localisation.status", **fields)
+        else:
+            log.info("localisation.status", **fields)
+        self.status = status

@@ -1,0 +1,145 @@
+"""Global planning on the occupancy grid: A* with a hard clearance and a soft inflation cost.
+
+A cell the robot may stand on is one whose centre is at least ``clearance_m`` plus half a
+cell's diagonal from every obstacle cell's centre; then every point of a path through such
+cells (and of the straight cuts smoothing makes through them) is at least ``clearance_m`` from
+every obstacle cell's centre (seed property 10). Beyond that, cells cost more the nearer they
+are, ``1 + inflation_weight`` at the edge down to 1 ``inflation_m`` farther: paths keep off
+walls where there is room. A path starts exactly at the start and ends exactly at the goal.
+No path is a ``NoPath`` that says why.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from behaviours.nav.astar import search
+from behaviours.nav.config import PlannerConfig
+from behaviours.nav.distance_field import DistanceField
+from behaviours.nav.grid import Grid
+from behaviours.nav.smoothing import Point, path_length_m, shorten
+
+REASONS = ("start_outside", "goal_outside", "start_in_collision", "goal_in_collision",
+           "disconnected")
+
+
+class NoPath(Exception):
+    """No path between two points; ``reason`` is one of ``REASONS``, the message says more."""
+
+    def __init__(self, reason: str, message: str) -> None:
+        super().__init__(message)
+        self.reason = reason
+
+
+@dataclass(frozen=True, slots=True)
+class Plan:
+    """Waypoints in the map frame from the start to the goal, and how they were found."""
+
+    points: list[Point]
+    cost: float
+    length_m: float
+    expanded: int
+    cells: int
+
+
+class Planner:
+    """Plans on one grid (the map, plus any obstacles seen since: ``with_obstacles``)."""
+
+    def __init__(self, grid: Grid, config: PlannerConfig | None = None, *,
+                 kernel: str | None = None) -> None:
+        self.grid = grid
+        self.config = config or PlannerConfig()
+        self.kernel = kernel
+        self.field = DistanceField(grid)
+        self.free, self.cost = cell_costs(self.field.distance_m, grid.resolution_m, self.config)
+
+    def with_obstacles(self, points: Iterable[Point]) -> Planner:
+        """A planner for the same map with these map-frame points as obstacles too."""
+        return Planner(self.grid.with_points(points), self.config, kernel=self.kernel)
+
+    def plan(self, start: Point, goal: Point) -> Plan:
+        """The cheapest path from ``start`` to ``goal``; NoPath says why there is none."""
+        start_cell = self._standing_cell(start, "start")
+        goal_cell = self._standing_cell(goal, "goal")
+        cols = self.grid.cols
+        found = search(self.cost, start_cell[0] * cols + start_cell[1],
+                       goal_cell[0] * cols + goal_cell[1], self.grid.resolution_m, self.kernel)
+        if not found.cells:
+            msg = (f"no path from ({start[0]:.2f}, {start[1]:.2f}) to ({goal[0]:.2f}, "
+                   f"{goal[1]:.2f}): they are not connected with {self.config.clearance_m} m "
+                   f"clearance ({found.expanded} cells searched)")
+            raise NoPath("disconnected", msg)
+        centres = [self.grid.centre_of(*divmod(c, cols)) for c in found.cells]
+        # The start lies in the first cell and the goal in the last: the legs to and from
+        # their centres stay inside cells the robot may stand on.
+        points = _dedupe([start, *centres, goal])
+        if self.config.smoothing:
+            points = shorten(self.grid, self.free, points)
+        return Plan(points, found.cost, path_length_m(points), found.expanded,
+                    len(found.cells))
+
+    def _standing_cell(self, point: Point, what: str) -> tuple[int, int]:
+        row, col = self.grid.cell_of(*point)
+        where = f"{what} ({point[0]:.2f}, {point[1]:.2f})"
+        if not (math.isfinite(point[0]) and math.isfinite(point[1])) or \
+                not self.grid.inside(row, col):
+            x0, y0, x1, y1 = self.grid.bounds_m()
+            msg = f"{where} is outside the map ({x0:.2f}..{x1:.2f}, {y0:.2f}..{y1:.2f})"
+            raise NoPath(f"{what}_outside", msg)
+        if not self.free[row, col]:
+            distance = float(self.field.distance_m[row, col])
+            msg = (f"{where} is in collision: {distance:.2f} m from an obstacle, "
+                   f"{self.config.clearance_m} m needed")
+            raise NoPath(f"{what}_in_collision", msg)
+        return row, col
+
+    def clear_of(self, points: list[Point], obstacles: Iterable[Point]) -> bool:
+        """True when no obstacle point is within the clearance of the path ``points``."""
+        obs = np.asarray(list(obstacles), dtype=np.float64).reshape(-1, 2)
+        if obs.shape[0] == 0 or len(points) < 2:
+            return True
+        return bool(min_distance_to_path(points, obs) >= self.config.clearance_m)
+
+
+def cell_costs(distance_m: npt.NDArray[np.float32], resolution_m: float, config: PlannerConfig
+               ) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float64]]:
+    """(cells the robot may stand on, the cost of entering each: inf where it may not)."""
+    edge_m = config.clearance_m + resolution_m * math.sqrt(0.5)
+    distance = distance_m.astype(np.float64)
+    free: npt.NDArray[np.bool_] = distance >= edge_m
+    if config.inflation_m > 0 and config.inflation_weight > 0:
+        nearness = np.clip(1.0 - (distance - edge_m) / config.inflation_m, 0.0, 1.0)
+        cost = 1.0 + config.inflation_weight * nearness
+    else:
+        cost = np.ones_like(distance)
+    cost[~free] = math.inf
+    return free, np.ascontiguousarray(cost)
+
+
+def min_distance_to_path(points: list[Point], obstacles: npt.NDArray[np.float64]) -> float:
+    """Shortest distance from any obstacle point to any segment of the path."""
+    p = np.asarray(points, dtype=np.float64)
+    a, b = p[:-1], p[1:]
+    ab = b - a
+    length2 = (ab * ab).sum(axis=1)
+    rel = obstacles[:, None, :] - a[None, :, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.clip((rel * ab[None]).sum(axis=2) / length2[None], 0.0, 1.0)
+    t = np.where(length2[None] > 0, t, 0.0)
+    nearest = a[None] + t[..., None] * ab[None]
+    return float(np.sqrt(((obstacles[:, None, :] - nearest) ** 2).sum(axis=2)).min())
+
+
+def _dedupe(points: list[Point]) -> list[Point]:
+    out = [points[0]]
+    for p in points[1:]:
+        if p != out[-1]:
+            out.append(p)
+    if len(out) == 1:
+        out.append(points[-1])  # start == goal: a path of one point, given twice
+    return out

@@ -23,7 +23,7 @@ from behaviours.docking.senses import DockSenses, run_phase
 if TYPE_CHECKING:
     from behaviours.context import RobotContext
 
-SWEEP_MPS = 0.04
+SWEEP_MPS = 0.05
 SWEEP_FIRST_M = 0.3
 SWEEP_BACK_M = 0.6
 LOST_AFTER_S = 0.1

@@ -35,9 +35,9 @@ DOCKING_OPTIONS: tuple[Option, ...] = (
            "beam name in docking.ir_codes."),
     Option("search_mps", "float", 0.18, "Speed while wall following to find the dock.",
            min=0.02, max=1.0, tunable=True),
-    Option("approach_mps", "float", 0.15, "Speed while approaching on the beams.",
+    Option("approach_mps", "float", 0.2, "Speed while approaching on the beams.",
            min=0.02, max=1.0, tunable=True),
-    Option("dock_mps", "float", 0.05, "The slow forward onto the contacts.", min=0.01,
+    Option("dock_mps", "float", 0.08, "The slow forward onto the contacts.", min=0.01,
            max=0.5, tunable=True),
     Option("turn_dps", "float", 60.0, "Turning rate in place.", min=5, max=360, tunable=True),
     Option("micro_turn_deg", "float", 4.0, "One micro turn (approach and align).", min=0.5,
@@ -100,8 +100,8 @@ class DockingConfig:
     battery_threshold_pct: float = 20.0
     beam_roles: dict[str, str] = field(default_factory=lambda: dict(DEFAULT_BEAM_ROLES))
     search_mps: float = 0.18
-    approach_mps: float = 0.15
-    dock_mps: float = 0.05
+    approach_mps: float = 0.2
+    dock_mps: float = 0.08
     turn_dps: float = 60.0
     micro_turn_deg: float = 4.0
     side_turn_deg: float = 60.0

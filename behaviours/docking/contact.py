@@ -40,7 +40,7 @@ async def slow_forward(ctx: RobotContext, senses: DockSenses) -> None:
     view = senses.view
     if not view().located("force_field"):
         run.travel_left_m -= await mover.straight(
-            run.travel_left_m, cfg.approach_mps / 2, heading_rad=hold,
+            run.travel_left_m, cfg.approach_mps, heading_rad=hold,
             until=lambda: touched() or view().located("force_field"))
     if not touched():
         run.travel_left_m -= await mover.straight(

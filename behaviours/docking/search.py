@@ -34,8 +34,8 @@ BUMP_TURN_RAD = math.radians(50)
 CONFIRM_S = 0.4
 MOVE_ON_M = 0.8
 SCAN_DPS = 45.0
-FINE_DPS = 12.0
-FINE_START_DEG = 45.0
+FINE_DPS = 20.0
+FINE_START_DEG = 40.0
 PERIOD_S = 0.05
 
 
@@ -179,6 +179,11 @@ HANDLERS = {"wall_follow": wall_follow, "force_field_detect": force_field_detect
 async def run_search(ctx: RobotContext, senses: DockSenses) -> None:
     """The ``docking.search`` state's task; next to the dock (after a fallback), it wall
     follows away first: the beams there say little about where to come in from."""
-    if senses.view().located("force_field"):
+    if senses.view().located("force_field") or senses.contact_mv() > 0:
+        # At the dock (a fallback after failed contacts): back out and turn round first;
+        # pushing on would only spin the wheels against the pads.
+        await senses.mover.straight(senses.config.undock_distance_m,
+                                    -senses.config.approach_mps)
+        await senses.mover.turn_by(math.pi)
         senses.run.moved_for_search_m = MOVE_ON_M
     await run_phase(ctx, senses, "docking.search", HANDLERS)

@@ -34,10 +34,12 @@ from robotd.sim.scenario import load_scenario
 
 ROOM_W_M, ROOM_H_M = 5.0, 4.0
 DOCK = (0.14, 2.0)
-FURNITURE = [  # (x_min, y_min, x_max, y_max): a sofa, a table, a cabinet
-    (1.5, 0.9, 1.9, 1.7),
-    (3.2, 1.4, 4.0, 2.2),
-    (2.6, 3.6, 4.2, 4.0),
+FURNITURE = [  # (x_min, y_min, x_max, y_max): a sofa and an armchair either side of the
+    # dock's beams, a table, a low cabinet along the top wall
+    (1.0, 2.5, 1.4, 3.2),
+    (1.0, 0.8, 1.4, 1.5),
+    (3.4, 1.6, 4.0, 2.2),
+    (2.6, 3.7, 4.2, 4.0),
 ]
 CLEARANCE_M = 0.8
 TIME_LIMIT_S = 400.0
@@ -112,6 +114,27 @@ def _clear(x: float, y: float) -> bool:
         if math.hypot(dx, dy) < CLEARANCE_M:
             return False
     return True
+
+
+def _crosses_box(x0: float, y0: float, x1: float, y1: float,
+                 box: tuple[float, float, float, float]) -> bool:
+    """Whether the segment passes through the box (sampled every centimetre)."""
+    steps = max(1, int(math.hypot(x1 - x0, y1 - y0) * 100))
+    bx0, by0, bx1, by1 = box
+    return any(bx0 <= x0 + (x1 - x0) * i / steps <= bx1
+               and by0 <= y0 + (y1 - y0) * i / steps <= by1 for i in range(steps + 1))
+
+
+def describe(poses: list[tuple[float, float, float]]) -> tuple[int, int]:
+    """(poses with furniture on the straight line to the dock, poses facing away from it)."""
+    blocked = sum(1 for x, y, _ in poses
+                  if any(_crosses_box(x, y, *DOCK, box) for box in FURNITURE))
+    away = 0
+    for x, y, heading in poses:
+        bearing = math.degrees(math.atan2(DOCK[1] - y, DOCK[0] - x))
+        if abs((heading - bearing + 180) % 360 - 180) > 90:
+            away += 1
+    return blocked, away
 
 
 def start_poses(count: int, seed: int) -> list[tuple[float, float, float]]:
@@ -194,7 +217,9 @@ def main() -> int:
     poses = start_poses(opts.poses, opts.seed)[opts.first:]
     with tempfile.TemporaryDirectory(prefix="bench-docking-") as tmp:
         for i, pose in enumerate(poses, start=opts.first):
-            trial = run_trial(pose, opts.seed * 100 + i, Path(tmp))
+            workdir = Path(tmp) / f"trial-{i}"  # a fresh state store: no latch carried over
+            workdir.mkdir()
+            trial = run_trial(pose, opts.seed * 100 + i, workdir)
             trials.append(trial)
             if opts.verbose or not trial.ok:
                 print(f"  #{i} start ({pose[0]:.2f}, {pose[1]:.2f}, {pose[2]:.0f} deg): "
@@ -204,7 +229,9 @@ def main() -> int:
                       + ("" if trial.ok else f": {'; '.join(trial.reasons)[:200]}"),
                       flush=True)
     ok = [t for t in trials if t.ok and t.time_s is not None]
-    print(f"docking from {len(trials)} random start poses (seed {opts.seed}):")
+    blocked, away = describe([t.pose for t in trials])
+    print(f"docking from {len(trials)} random start poses (seed {opts.seed}; {away} facing "
+          f"away from the dock, {blocked} with furniture on the line to it):")
     print(f"  success {len(ok)}/{len(trials)} = {100 * len(ok) / max(1, len(trials)):.1f} %")
     if ok:
         times = [t.time_s for t in ok if t.time_s is not None]

@@ -28,6 +28,12 @@ FORWARD_MAX_M = 4.0
 OVERLAP_MAX_M = 2.0
 CLOSE_IN_MAX_M = 3.0
 MAX_OFFSET_RAD = math.radians(50)
+MAX_BUMPS = 3
+FAR_STRENGTH = 30
+"""Front strength below this: the dock is farther than about 2.5 m (a sim-calibrated
+figure; the inverse-square fall-off makes it a coarse range)."""
+BUMP_BACK_M = 0.08
+BUMP_TURN_RAD = math.radians(30)
 
 
 # -- section 2 ------------------------------------------------------------------------------
@@ -48,21 +54,33 @@ def _side(sign: float) -> dict[str, object]:
     near = "front_right" if sign > 0 else "front_left"
 
     async def turn(ctx: RobotContext, senses: DockSenses) -> None:
-        await senses.mover.turn_by(sign * math.radians(senses.config.side_turn_deg))
-        await ctx.trigger("turned")
+        # Far out (a weak signal) cross at half the angle: more of the way goes towards
+        # the dock, and the far beam's 4 m range is not left on the way.
+        far = senses.strength() < FAR_STRENGTH
+        angle = math.radians(senses.config.side_turn_deg) * (0.5 if far else 1.0)
+        senses.run.offset_rad = sign * angle
+        await senses.mover.turn_by(sign * angle)
+        await ctx.trigger("turned", turn_deg=round(math.degrees(sign * angle), 1), far=far)
 
     async def forward(ctx: RobotContext, senses: DockSenses) -> None:
-        view = senses.view
-        driven = await senses.mover.straight(
-            FORWARD_MAX_M, senses.config.approach_mps,
-            until=lambda: front_case(view()) is not None or senses.bumped())
+        view, mover = senses.view, senses.mover
+        driven = 0.0
+        for _ in range(MAX_BUMPS):
+            driven += await mover.straight(
+                FORWARD_MAX_M - driven, senses.config.approach_mps,
+                until=lambda: front_case(view()) is not None or senses.bumped())
+            if not senses.bumped():
+                break
+            # Something in the way: back off and cross more steeply towards the dock.
+            await mover.straight(BUMP_BACK_M, -senses.config.approach_mps)
+            await mover.turn_by(-sign * BUMP_TURN_RAD)
         if front_case(view()) is None:
             await ctx.trigger("signal_lost", reason=f"{near} beam not met in {driven:.2f} m")
             return
         await ctx.trigger("front_beam_entered", beam=near)
 
     async def entry(ctx: RobotContext, senses: DockSenses) -> None:
-        await senses.mover.turn_by(-sign * math.radians(senses.config.side_turn_deg) / 2)
+        await senses.mover.turn_by(-senses.run.offset_rad / 2)
         await ctx.trigger("turned")
 
     async def overlap(ctx: RobotContext, senses: DockSenses) -> None:

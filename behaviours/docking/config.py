@@ -33,7 +33,7 @@ DOCKING_OPTIONS: tuple[Option, ...] = (
     Option("beam_roles", "table", DEFAULT_BEAM_ROLES,
            "Seed beam (far_left, far_right, front_left, front_right, centre, force_field) -> "
            "beam name in docking.ir_codes."),
-    Option("search_mps", "float", 0.18, "Speed while wall following to find the dock.",
+    Option("search_mps", "float", 0.25, "Speed while wall following to find the dock.",
            min=0.02, max=1.0, tunable=True),
     Option("approach_mps", "float", 0.2, "Speed while approaching on the beams.",
            min=0.02, max=1.0, tunable=True),
@@ -42,7 +42,7 @@ DOCKING_OPTIONS: tuple[Option, ...] = (
     Option("turn_dps", "float", 60.0, "Turning rate in place.", min=5, max=360, tunable=True),
     Option("micro_turn_deg", "float", 4.0, "One micro turn (approach and align).", min=0.5,
            max=30, tunable=True),
-    Option("side_turn_deg", "float", 60.0,
+    Option("side_turn_deg", "float", 45.0,
            "Left/right approach: how far to turn across the beams.", min=10, max=90,
            tunable=True),
     Option("balance_ratio", "float", 0.3,
@@ -54,7 +54,7 @@ DOCKING_OPTIONS: tuple[Option, ...] = (
            "Close in until the front pair reads this strength (0-1023), then align there "
            "(unsaturated: the compare still tells left from right).", min=50, max=1000,
            tunable=True),
-    Option("signal_lost_s", "float", 3.0, "No dock beam this long while docking: signal lost.",
+    Option("signal_lost_s", "float", 5.0, "No dock beam this long while docking: signal lost.",
            min=0.2, max=60, tunable=True),
     Option("ir_stale_s", "float", 1.5, "No dock IR reading this long: the device is lost.",
            min=0.2, max=60, tunable=True),
@@ -99,16 +99,16 @@ class DockingConfig:
 
     battery_threshold_pct: float = 20.0
     beam_roles: dict[str, str] = field(default_factory=lambda: dict(DEFAULT_BEAM_ROLES))
-    search_mps: float = 0.18
+    search_mps: float = 0.25
     approach_mps: float = 0.2
     dock_mps: float = 0.08
     turn_dps: float = 60.0
     micro_turn_deg: float = 4.0
-    side_turn_deg: float = 60.0
+    side_turn_deg: float = 45.0
     balance_ratio: float = 0.3
     min_signal: int = 20
     align_strength: int = 550
-    signal_lost_s: float = 3.0
+    signal_lost_s: float = 5.0
     ir_stale_s: float = 1.5
     contact_min_mv: int = 14_000
     contact_max_mv: int = 19_000

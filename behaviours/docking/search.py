@@ -1,7 +1,7 @@
 """Phase 1, search: follow the walls until a dock beam is seen, make sure of it, turn to it.
 
 ``wall_follow`` keeps the right-side wall sensor near ``WALL_TARGET_CM`` and turns left off a
-bump; it ends as soon as any receiver sees one of the dock's beams (``beam_detected``).
+bump; after ``WALL_LEG_S`` along one wall it turns away and crosses the room; it ends as soon as any receiver sees one of the dock's beams (``beam_detected``).
 ``force_field_detect`` stops and watches a little: the beam still seen is ``field_detected``,
 gone is ``field_lost`` (back to the walls). ``direction_turn`` turns to the dock, found by a
 turn each way across the arc where the crossed front pair sees it (``scan_dock_dir``), or
@@ -31,6 +31,8 @@ WALL_RANGE_CM = 30.0
 WALL_GAIN = 0.04  # rad/s per cm of wall-distance error
 BUMP_BACK_M = 0.05
 BUMP_TURN_RAD = math.radians(50)
+WALL_LEG_S = 10.0
+LEAVE_TURN_RAD = math.radians(150)
 CONFIRM_S = 0.4
 MOVE_ON_M = 0.8
 SCAN_DPS = 45.0
@@ -47,6 +49,8 @@ async def wall_follow(ctx: RobotContext, senses: DockSenses) -> None:
         moved = math.dist(start, mover.position())
         return moved >= run.moved_for_search_m and senses.view().dock_seen()
 
+    loop = asyncio.get_running_loop()
+    following_since: float | None = None
     while not heed():
         if senses.bumped():
             await mover.straight(BUMP_BACK_M, -cfg.search_mps)
@@ -55,6 +59,14 @@ async def wall_follow(ctx: RobotContext, senses: DockSenses) -> None:
         wall = senses.wall_cm()
         omega = 0.0
         if wall is not None and wall < WALL_RANGE_CM:
+            now = loop.time()
+            following_since = now if following_since is None else following_since
+            if now - following_since > WALL_LEG_S:
+                # Long enough along this wall: cross the room (a wall the beams do not
+                # reach, or an island, would keep the robot going round for ever).
+                await mover.turn_by(LEAVE_TURN_RAD)
+                following_since = None
+                continue
             omega = -WALL_GAIN * (wall - WALL_TARGET_CM)
         await mover.send(cfg.search_mps, max(-0.8, min(0.8, omega)))
         await asyncio.sleep(PERIOD_S)

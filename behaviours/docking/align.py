@@ -16,7 +16,7 @@ import asyncio
 import math
 from typing import TYPE_CHECKING
 
-from behaviours.docking.beams import signal_case
+from behaviours.docking.beams import front_case, signal_case
 from behaviours.docking.search import FINE_DPS, scan_dock_dir
 from behaviours.docking.senses import DockSenses, run_phase
 
@@ -62,12 +62,16 @@ async def center_beam_search(ctx: RobotContext, senses: DockSenses) -> None:
         await mover.turn_to(dock_dir)
         await mover.straight(BACK_OUT_MAX_M, -senses.config.approach_mps / 2,
                              until=lambda: senses.strength() <= senses.config.align_strength)
+    # Side-on, the dock to the right: forward is towards the dock's right-hand side, where
+    # the front_left beam lies; in the front_right beam only, the axis is that way.
+    towards = -1.0 if front_case(senses.view()) == "front_left_only" else 1.0
     await mover.turn_to(dock_dir + math.pi / 2)
     heading = mover.heading_rad
-    first = await _sweep(senses, 1.0, SWEEP_FIRST_M)
-    second = await _sweep(senses, -1.0, SWEEP_BACK_M + (SWEEP_FIRST_M if first is None else 0))
+    first = await _sweep(senses, towards, SWEEP_FIRST_M)
+    second = await _sweep(senses, -towards,
+                          SWEEP_BACK_M + (SWEEP_FIRST_M if first is None else 0))
     if first is None and second is not None:
-        first = await _sweep(senses, 1.0, SWEEP_BACK_M)
+        first = await _sweep(senses, towards, SWEEP_BACK_M)
     if first is None or second is None:
         await mover.turn_to(dock_dir)
         await ctx.trigger("signal_lost", reason="center_beam_search: no centre beam")

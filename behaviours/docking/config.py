@@ -50,9 +50,9 @@ DOCKING_OPTIONS: tuple[Option, ...] = (
            max=1.0, tunable=True),
     Option("min_signal", "int", 20, "Front strength below this counts as no signal (0-1023).",
            min=0, max=1023, tunable=True),
-    Option("align_strength", "int", 550,
+    Option("align_strength", "int", 120,
            "Close in until the front pair reads this strength (0-1023), then align there "
-           "(unsaturated: the compare still tells left from right).", min=50, max=1000,
+           "(unsaturated: the compare still tells left from right).", min=1, max=1000,
            tunable=True),
     Option("signal_lost_s", "float", 5.0, "No dock beam this long while docking: signal lost.",
            min=0.2, max=60, tunable=True),
@@ -107,7 +107,7 @@ class DockingConfig:
     side_turn_deg: float = 45.0
     balance_ratio: float = 0.3
     min_signal: int = 20
-    align_strength: int = 550
+    align_strength: int = 120
     signal_lost_s: float = 5.0
     ir_stale_s: float = 1.5
     contact_min_mv: int = 14_000

@@ -1,7 +1,8 @@
 """Phase 1, search: follow the walls until a dock beam is seen, make sure of it, turn to it.
 
 ``wall_follow`` keeps the right-side wall sensor near ``WALL_TARGET_CM`` and turns left off a
-bump; after ``WALL_LEG_S`` along one wall it turns away and crosses the room; it ends as soon as any receiver sees one of the dock's beams (``beam_detected``).
+bump; after ``WALL_LEG_S`` along one wall it turns away and crosses the room; it ends as soon
+as any receiver sees one of the dock's beams (``beam_detected``).
 ``force_field_detect`` stops and watches a little: the beam still seen is ``field_detected``,
 gone is ``field_lost`` (back to the walls). ``direction_turn`` turns to the dock, found by a
 turn each way across the arc where the crossed front pair sees it (``scan_dock_dir``), or

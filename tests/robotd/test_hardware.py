@@ -32,7 +32,8 @@ class TestBuildDevices:
             build_devices(s, ("camera",))
         assert exc.value.problems == [
             "hal.devices: unknown device 'toaster' (known: motors, encoders, front_range, "
-            "battery, servo, leds, camera, beacons, load_cell, dock_ir, lidar, audio)",
+            "battery, servo, leds, camera, beacons, load_cell, dock_ir, dock_signal, "
+            "dock_contacts, bumpers, wall, bin, station, lidar, audio)",
             "motors, encoders (arduino): serial port /dev/ttyNOPE3 does not exist (check "
             "serial.port, the USB cable, and ls /dev/ttyACM* /dev/ttyUSB*)",
             "camera (camera): camera /dev/videoNOPE does not exist (check camera.device and "

@@ -62,9 +62,10 @@ async def center_beam_search(ctx: RobotContext, senses: DockSenses) -> None:
         await mover.turn_to(dock_dir)
         await mover.straight(BACK_OUT_MAX_M, -senses.config.approach_mps / 2,
                              until=lambda: senses.strength() <= senses.config.align_strength)
-    # Side-on, the dock to the right: forward is towards the dock's right-hand side, where
-    # the front_left beam lies; in the front_right beam only, the axis is that way.
-    towards = -1.0 if front_case(senses.view()) == "front_left_only" else 1.0
+    # Side-on with the dock to the right, the omni receiver sits 12 cm ahead along the sweep:
+    # near the axis the beam is behind it, so sweep backwards first; only in the front_right
+    # beam alone (the robot off to the dock's left) does the axis lie ahead.
+    towards = 1.0 if front_case(senses.view()) == "front_right_only" else -1.0
     await mover.turn_to(dock_dir + math.pi / 2)
     heading = mover.heading_rad
     first = await _sweep(senses, towards, SWEEP_FIRST_M)

@@ -111,7 +111,10 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
     def wall_clock() -> datetime:
         return origin + timedelta(seconds=loop.time())
 
-    configure_logging("warning", mode="console" if console.tty else "json",
+    # --quiet prints the result only: the daemons' warnings (link.down as a robot shuts down...)
+    # are in events.jsonl's story already; a crash still shows its traceback.
+    configure_logging("critical" if console.quiet else "warning",
+                      mode="console" if console.tty else "json",
                       timestamper=lambda: wall_clock().isoformat())
 
     def on_event(robot: str, event: dict[str, Any]) -> None:

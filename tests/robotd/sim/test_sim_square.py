@@ -143,3 +143,18 @@ class TestOptionsCheckedBeforeRunning:
     ) -> None:
         assert main(["sim", "square", "--quiet", "--report", "/proc/nope"]) == 2
         assert "--report /proc/nope: cannot create the directory" in capsys.readouterr().out
+
+
+class TestQuiet:
+    def test_quiet_prints_the_result_and_no_log_lines(self) -> None:
+        """``--quiet``: the summary on stdout, nothing on stderr (the daemons' warnings, such
+        as link.down while the board is unplugged, are JSON log lines a user did not ask for)."""
+        import subprocess
+        import sys
+
+        done = subprocess.run([sys.executable, "-m", "robotd.cli", "sim", "square", "--quiet",
+                               "--seed", "1"], capture_output=True, text=True, timeout=120,
+                              check=False)
+        assert done.returncode == 0
+        assert done.stderr == ""
+        assert done.stdout.startswith("scenario square: SUCCESS")

@@ -157,4 +157,4 @@ class TestQuiet:
                               check=False)
         assert done.returncode == 0
         assert done.stderr == ""
-        assert done.stdout.startswith("scenario square: SUCCESS")
+        assert done.stdout.lstrip().startswith("scenario square: SUCCESS")

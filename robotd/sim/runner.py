@@ -28,6 +28,7 @@ from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.geometry import Pose
 from robotd.config import ConfigError
 from robotd.config.settings import Settings
+from robotd.control.access import socket_problem
 from robotd.logs import configure_logging
 from robotd.profiles import PROFILES
 from robotd.sim.actors import ActorContext, SimActors, actors_factory
@@ -180,6 +181,10 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
             if mine is not None:
                 mine.attach(rig)
             socket_path = _socket_path(getattr(args, "socket", None), workdir, spec.name, index)
+            socket_why = socket_problem(socket_path)
+            if socket_why is not None:  # no robot runs without its socket: exit 2, say why
+                msg = f"--socket {socket_path}: {socket_why}"
+                raise ValueError(msg)
             daemon = Daemon(settings, rig.devices, profile, state_dir=workdir / spec.name,
                             socket_path=socket_path, wall_clock=wall_clock, notify=False,
                             handle_signals=False)

@@ -158,3 +158,18 @@ class TestQuiet:
         assert done.returncode == 0
         assert done.stderr == ""
         assert done.stdout.lstrip().startswith("scenario square: SUCCESS")
+
+
+class TestSocketInUse:
+    def test_a_socket_another_daemon_listens_on_is_exit_2(
+            self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        """A second ``robotd sim --socket`` on a socket in use says so and exits 2 (it ran on
+        without its socket)."""
+        import socket
+
+        path = str(tmp_path / "r.sock")
+        with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as other:
+            other.bind(path)
+            other.listen()
+            assert main(["sim", "square", "--quiet", "--socket", path]) == 2
+        assert f"--socket {path}: another robotd is already listening" in capsys.readouterr().out

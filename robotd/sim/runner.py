@@ -134,7 +134,7 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
             if dst == "estop" or dst.startswith("estop."):
                 record.estops += 1
             console.transition(loop.time(), robot, str(entry.get("src")), dst,
-                               str(entry.get("trigger")), many)
+                               str(entry.get("trigger")))
             if player is not None:
                 player.state_changed()
         events.append(entry)

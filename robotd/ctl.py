@@ -206,8 +206,12 @@ def render(command: str, result: Any) -> str:
                 for e in result]
         return table(["t_s", "kind", "details"], rows) if rows else "no events\n"
     if command == "tune":
-        suffix = " (persisted)" if result.get("persisted") else ""
-        return f"{result['key']} = {json.dumps(result['value'])}{suffix}\n"
+        suffix = ""
+        if result.get("persisted"):
+            suffix = f" (persisted in {result['persisted_to']})" if "persisted_to" in result \
+                else " (persisted)"
+        note = f"note: {result['note']}\n" if result.get("note") else ""
+        return f"{result['key']} = {json.dumps(result['value'])}{suffix}\n{note}"
     if isinstance(result, dict):
         return table(["key", "value"], [[k, _short(v)] for k, v in result.items()])
     return f"{result}\n"

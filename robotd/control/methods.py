@@ -133,7 +133,14 @@ class _Methods:
                 raise RpcError(APP_ERROR, f"{key}: applied but not persisted: {path} cannot "
                                f"be read ({clip(str(exc))}); fix or remove it") from None
         self.d.emit("tune", key=key, value=value, persisted=persist)
-        return {"key": key, "value": value, "persisted": persist}
+        reply: dict[str, Any] = {"key": key, "value": value, "persisted": persist}
+        if persist:
+            reply["persisted_to"] = str(overrides_path(self.d.state_dir))
+            if settings.get("hal.backend") == "sim":
+                reply["note"] = ("the simulator's state directory is temporary: the value "
+                                 "is gone when the run ends; put it in the scenario's [config] "
+                                 "or a --config file to keep it")
+        return reply
 
     async def reload(self, _params: dict[str, Any], _client: Client) -> dict[str, Any]:
         ok, lines = self.d.reload()

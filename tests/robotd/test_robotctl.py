@@ -53,7 +53,8 @@ class TestCommands:
                                                   "line_follow.kp", "0.6", "--persist")
             get_code, get_out, _ = await robotctl(capsys, "--socket", sock, "tune", "get",
                                                   "line_follow.kp")
-        assert (set_code, set_out) == (0, "line_follow.kp = 0.6 (persisted)\n")
+            where = daemon.state_dir / "overrides.toml"
+        assert (set_code, set_out) == (0, f"line_follow.kp = 0.6 (persisted in {where})\n")
         assert (get_code, get_out) == (0, "line_follow.kp = 0.6\n")
 
     async def test_a_refusal_is_exit_1_with_the_daemons_reason(

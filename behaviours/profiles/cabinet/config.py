@@ -27,7 +27,7 @@ CABINET = Section("cabinet", "The cabinet robot: its map, tasks, node graph and 
     Option("standoff_m", "float", 0.50,
            "The node in front of a cabinet, and the approach's end, this far from its front.",
            min=0.05, max=3.0, tunable=True),
-    Option("fit_min_score", "float", 0.60,
+    Option("fit_min_score", "float", 0.50,
            "A scan fit counts only with at least this score (mean beam likelihood, 0-1).",
            min=0.0, max=1.0, tunable=True),
     Option("fit_margin", "float", 0.08,

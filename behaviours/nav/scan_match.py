@@ -14,7 +14,9 @@ Honesty: a fit counts only when its score clears ``min_score`` and beats the bes
 different pose (farther than ``distinct_m`` or ``distinct_rad``), also refined and polished,
 by ``margin``. A symmetric room gives two poses of equal score: that is reported as ambiguous,
 never as a confident fit. Scores are the mean over the scan's points of ``exp(-d^2/2 sigma^2)``
-with ``d`` the exact distance to the nearest wall segment (after ICP).
+with ``d`` the exact distance to the nearest wall segment (after ICP), less the share of beams
+that would have passed through a mapped wall (unmapped furniture only shortens beams, so a
+pose that explains furniture as walls is caught by the walls it sees through).
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from behaviours.nav.distance_field import DistanceField
-from behaviours.nav.icp import Pose, Walls, icp, wall_score
+from behaviours.nav.icp import Pose, Walls, icp, through_walls, wall_score
 
 FloatArray = npt.NDArray[np.float64]
 Area = tuple[float, float, float, float]
@@ -138,6 +140,11 @@ class ScanMatcher:
         rival_pose, rival_score, more = self._branch(pts, pick, coarse, best_pose, distinct_m,
                                                      distinct_rad)
         count += more
+        if rival_score > best_score:
+            # The search ranks by likelihood alone; the full score (beams through walls
+            # count against a pose) may prefer the rival: it is then the fit.
+            best_pose, rival_pose = rival_pose, best_pose
+            best_score, rival_score = rival_score, best_score
         accepted, reason = True, ""
         if best_score < c.min_score:
             accepted, reason = False, (f"score {best_score:.2f} below fit_min_score "
@@ -201,7 +208,13 @@ class ScanMatcher:
         if away_from is not None and not distinct(polished, away_from, distinct_m,
                                                   distinct_rad):
             polished = best_pose  # ICP slid onto the best fit: score the candidate itself
-        return (polished, wall_score(pts, self.walls, polished, c.sigma_m), tried)
+        return (polished, self.score(pts, polished), tried)
+
+    def score(self, points: FloatArray, pose: Pose) -> float:
+        """The fit's score at a pose: the points' mean likelihood by their exact distance to
+        the walls, less the share of beams that would have passed through a wall."""
+        return (wall_score(points, self.walls, pose, self.config.sigma_m)
+                - through_walls(points, self.walls, pose))
 
     def _refine(self, pick: FloatArray, theta: float, row: int, col: int
                 ) -> tuple[float, Pose]:

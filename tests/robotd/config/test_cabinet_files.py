@@ -50,8 +50,10 @@ class TestCabinetFiles:
         assert (f"{path}:6: cabinet.task_file: tasks.json: tasks[0].cabinet: unknown cabinet "
                 "'c9'") in str(info.value)
 
-    def test_no_cabinet_section_reads_no_files(self, tmp_path: Path) -> None:
-        """Other robots' configs do not need the cabinet files."""
+    def test_no_cabinet_files_named_reads_no_files(self, tmp_path: Path) -> None:
+        """Other robots' configs, and a [cabinet] section naming no files, read none."""
         path = tmp_path / "robotd.toml"
         path.write_text('[robot]\nname = "x"\n')
+        load_config(path)
+        path.write_text('[robot]\nname = "x"\n\n[cabinet]\nstandoff_m = 0.4\n')
         load_config(path)

@@ -3,11 +3,16 @@
 from __future__ import annotations
 
 import itertools
+import math
 
+import numpy as np
 import pytest
 from cabinet_site_fixture import site_doc
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 from behaviours.nav.distance_field import DistanceField
+from behaviours.nav.grid import Grid
 from behaviours.profiles.cabinet.map_reader import parse_site_map
 from behaviours.profiles.cabinet.node_graph import NodeGraph, NoPath, build_graph, line_clear
 from behaviours.profiles.cabinet.site_map import SiteMap, segments_cross
@@ -124,3 +129,37 @@ class TestPaths:
         _site, field, graph = example()
         assert graph.nearest_node(2.5, 2.0, field, 0.2) == "room:lab"
         assert graph.nearest_node(5.6, 2.0, field, 0.2) == "door:ab:b"
+
+
+coord = st.floats(min_value=0.2, max_value=5.8, allow_nan=False)
+
+
+def exact_clearance(a: tuple[float, float], b: tuple[float, float],
+                    walls: list[tuple[float, float, float, float]]) -> float:
+    t = np.linspace(0.0, 1.0, 400)
+    px, py = a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])
+    best = math.inf
+    for x1, y1, x2, y2 in walls:
+        dx, dy = x2 - x1, y2 - y1
+        u = np.clip(((px - x1) * dx + (py - y1) * dy) / (dx * dx + dy * dy), 0, 1)
+        best = min(best, float(np.hypot(px - x1 - u * dx, py - y1 - u * dy).min()))
+    return best
+
+
+class TestLinkProperty:
+    @settings(max_examples=60, deadline=None)
+    @given(wall=st.tuples(coord, coord, coord, coord), a=st.tuples(coord, coord),
+           b=st.tuples(coord, coord))
+    def test_a_clear_line_never_passes_through_a_wall(
+            self, wall: tuple[float, float, float, float], a: tuple[float, float],
+            b: tuple[float, float]) -> None:
+        """Whatever the wall, a line judged clear keeps the clearance less the grid's
+        quantisation (a cell's diagonal) from it: it never crosses or touches it."""
+        assume(math.hypot(wall[2] - wall[0], wall[3] - wall[1]) > 0.1)
+        walls = [(0.0, 0.0, 6.0, 0.0), (6.0, 0.0, 6.0, 4.0), (6.0, 4.0, 0.0, 4.0),
+                 (0.0, 4.0, 0.0, 0.0), (wall[0], wall[1] * 4 / 6, wall[2], wall[3] * 4 / 6)]
+        field = DistanceField(Grid.from_segments(walls, 0.05))
+        a2, b2 = (a[0], a[1] * 4 / 6), (b[0], b[1] * 4 / 6)
+        if line_clear(a2, b2, field, CLEARANCE_M):
+            assert not segments_cross((*a2, *b2), walls[4])
+            assert exact_clearance(a2, b2, walls) >= CLEARANCE_M - 0.05 * math.sqrt(2)

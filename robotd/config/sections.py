@@ -13,6 +13,7 @@ from typing import overload
 
 from behaviours.nav.config import NAV_SECTIONS
 from behaviours.nav.localisation.config import NAV_LOCALISATION_ORDERS, NAV_LOCALISATION_SECTIONS
+from behaviours.profiles.cabinet.config import CABINET
 from drivers.arduino.config import SERIAL
 from drivers.dock_ir.config import IR_OPTIONS, IR_ORDERS
 from drivers.lidar.config import LIDAR, LIDAR_ORDERS
@@ -191,6 +192,7 @@ _CORE: tuple[Section, ...] = (
     LIDAR,
     *NAV_SECTIONS,
     *NAV_LOCALISATION_SECTIONS,
+    CABINET,
     Section("docking", "Returning to the dock (seed 001).", (
         opt("battery_threshold_pct", "float", 20.0, "Go to the dock below this charge.",
           min=0, max=100, tunable=True),

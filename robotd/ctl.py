@@ -6,14 +6,16 @@ Exit codes: 0 ok, 1 the daemon answered with an error, 2 usage, 3 cannot connect
 from __future__ import annotations
 
 import argparse
+import collections
 import itertools
 import json
 import os
+import select
 import socket
 import stat
 import sys
 import time
-from typing import Any, TextIO
+from typing import Any
 
 DEFAULT_SOCKET = "/run/robotd/control.sock"
 EXIT_OK, EXIT_ERROR, EXIT_USAGE, EXIT_CONNECT = 0, 1, 2, 3
@@ -54,7 +56,9 @@ class Connection:
                                 "socket left by a crash?)") from None
         except OSError as exc:
             raise CannotConnect(f"cannot connect to {path}: {exc}") from None
-        self._file = self._sock.makefile("rb")
+        self._timeout_s = timeout_s
+        self._buffer = bytearray()
+        self._notifications: collections.deque[dict[str, Any]] = collections.deque()
 
     def call(self, method: str, params: dict[str, Any] | None = None) -> Any:
         request_id = next(self._ids)
@@ -62,12 +66,14 @@ class Connection:
         try:
             self._sock.sendall(json.dumps(message).encode() + b"\n")
             while True:
-                line = self._file.readline()
-                if not line:
-                    raise CannotConnect(f"robotd closed the connection on {self.path}")
+                line = self._readline(self._timeout_s)
+                if line is None:
+                    raise TimeoutError
                 reply = json.loads(line)
                 if reply.get("id") == request_id:
                     break
+                if "method" in reply and "id" not in reply:  # a notification: kept for later
+                    self._notifications.append(reply)
         except TimeoutError:
             raise CannotConnect(f"robotd did not answer {method!r} in time") from None
         except OSError as exc:
@@ -76,8 +82,37 @@ class Connection:
             raise DaemonError(reply["error"])
         return reply.get("result")
 
+    def next_notification(self, timeout_s: float) -> dict[str, Any] | None:
+        """The next notification of a subscription, or None when none came in ``timeout_s``."""
+        while not self._notifications:
+            try:
+                line = self._readline(timeout_s)
+            except OSError as exc:
+                raise CannotConnect(f"connection to {self.path} failed: {exc}") from None
+            if line is None:
+                return None
+            message = json.loads(line)
+            if "method" in message and "id" not in message:
+                self._notifications.append(message)
+        return self._notifications.popleft()
+
+    def _readline(self, timeout_s: float) -> bytes | None:
+        """One line from the daemon; None after ``timeout_s`` with no whole line (what came
+        so far is kept: a timeout never loses part of a line)."""
+        deadline = time.monotonic() + timeout_s
+        while (end := self._buffer.find(b"\n")) < 0:
+            left = deadline - time.monotonic()
+            if left <= 0 or not select.select([self._sock], [], [], left)[0]:
+                return None
+            chunk = self._sock.recv(65536)
+            if not chunk:
+                raise CannotConnect(f"robotd closed the connection on {self.path}")
+            self._buffer += chunk
+        line = bytes(self._buffer[:end])
+        del self._buffer[:end + 1]
+        return line
+
     def close(self) -> None:
-        self._file.close()
         self._sock.close()
 
 
@@ -93,8 +128,10 @@ def build_parser() -> argparse.ArgumentParser:
     events = sub.add_parser("events", help="recent events")
     events.add_argument("--limit", type=int, default=20)
     events.add_argument("--kind", help="only events of this kind (transition, service ...)")
-    watch = sub.add_parser("watch", help="a live view that refreshes in place (Ctrl-C ends)")
-    watch.add_argument("--interval", type=float, default=1.0, help="seconds between refreshes")
+    watch_p = sub.add_parser("watch", help="a live view that fits the terminal, redrawn on "
+                             "every state change (Ctrl-C ends)")
+    watch_p.add_argument("--interval", type=float, default=1.0,
+                         help="seconds between sensor refreshes")
     tune = sub.add_parser("tune", help="read or set a setting live")
     tune_sub = tune.add_subparsers(dest="tune_command", required=True, metavar="get|set")
     get = tune_sub.add_parser("get", help="tune get KEY")
@@ -122,6 +159,8 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_CONNECT
     try:
         if args.command == "watch":
+            from robotd.ctl_watch import watch
+
             return watch(conn, args.interval, sys.stdout)
         method, params = _request(args)
         result = conn.call(method, params)
@@ -171,27 +210,6 @@ def _print_error(exc: DaemonError, as_json: bool) -> None:
     if isinstance(data, dict):
         for problem in data.get("problems", []):
             print(f"  {problem}", file=sys.stderr)
-
-
-def watch(conn: Connection, interval_s: float, out: TextIO) -> int:
-    """Redraw status, sensors and the last events every ``interval_s`` until Ctrl-C."""
-    in_place = out.isatty()
-    try:
-        while True:
-            status = conn.call("status")
-            sensors = conn.call("sensors")
-            events = conn.call("events", {"limit": 8})
-            screen = (render("status", status) + "\n" + render("sensors", sensors) + "\n"
-                      + render("events", events))
-            if in_place:
-                out.write("\x1b[H\x1b[2J")  # cursor home, clear screen
-            else:
-                out.write(f"--- {time.strftime('%H:%M:%S')}\n")
-            out.write(screen)
-            out.flush()
-            time.sleep(interval_s)
-    except KeyboardInterrupt:
-        return EXIT_OK
 
 
 def render(command: str, result: Any) -> str:

@@ -141,7 +141,8 @@ _SUCCESS = ("time_limit_s", "states_reached", "final_state", "final_poses", "no_
             "no_collisions", "max_cross_track_m", "arrivals", "requests", "final_rooms",
             *NAV_SUCCESS_KEYS)
 _STEP = ("at_s", "action", "robot", "duration_s", "pct", "kg", "name", "x_m", "y_m", "key",
-         "value", "when_state", "delay_s", "points", "speed_mps", "loop", "heading_deg")
+         "value", "when_state", "delay_s", "points", "speed_mps", "loop", "heading_deg", "dx_m",
+         "dy_m")
 _FLEET = ("site", "settings", "customers", "washing_s")
 
 

@@ -49,14 +49,17 @@ def _stop(step: Step) -> None:
 
 
 def _teleport(step: Step) -> None:
-    """``body.teleport``: the robot lifted and put down at (``x_m``, ``y_m``) facing
-    ``heading_deg`` (default: as it was); its wheels' odometry sees nothing of it."""
+    """``body.teleport``: the robot lifted and put down at (``x_m``, ``y_m``), or moved by
+    (``dx_m``, ``dy_m``), facing ``heading_deg`` (default: as it was); its wheels' odometry
+    sees nothing of it (the kidnapped robot problem)."""
     body = step.rig.body
     now = body.pose
     args = step.args
     heading = math.radians(float(args["heading_deg"])) if "heading_deg" in args \
         else now.heading_rad
-    body.pose = Pose(float(args.get("x_m", now.x_m)), float(args.get("y_m", now.y_m)), heading)
+    x = float(args.get("x_m", now.x_m)) + float(args.get("dx_m", 0.0))
+    y = float(args.get("y_m", now.y_m)) + float(args.get("dy_m", 0.0))
+    body.pose = Pose(x, y, heading)
 
 
 PEOPLE_ACTIONS: dict[str, Action] = {

@@ -37,6 +37,9 @@ PATROL = Section("patrol", "The patrol robot: a route of goals on the map.", (
     Option("pose_event_s", "float", 0.5,
            "A nav.pose event (the estimate, its spread and status) this often.",
            min=0.05, max=60),
+    Option("particles_event_s", "float", 30.0,
+           "A nav.particles event (a sample of the particles, for the report) this often; "
+           "0: only at the start and when localisation is lost.", min=0, max=3600),
     Option("autostart", "bool", True, "Start the route as soon as the robot is idle."),
 ))
 
@@ -45,6 +48,7 @@ PATROL_MISSION = MissionRecord("patrol.mission", 1, {"goal": 0, "loop": 0})
 POSE_RECORD = MissionRecord("patrol.pose", 1, {"x_m": None, "y_m": None, "heading_rad": None})
 """The last localised pose (``localisation.initial_pose = "store"``)."""
 _STORE_POSE_S = 5.0
+_CLOUD_POINTS = 150
 
 
 class PatrolProfile(BaseProfile):
@@ -87,7 +91,7 @@ class PatrolProfile(BaseProfile):
                                   front_range=d.front_range, stored_pose=stored_pose,
                                   emit=ctx.emit)
         ctx.emit("nav.start", initial_pose=nav.started_from, particles=len(
-            nav.localiser.particles))
+            nav.localiser.particles), map_resolution_m=nav.planner.grid.resolution_m)
         progress = ctx.persisted(PATROL_MISSION)
         self.goal_index, self.loop = int(progress["goal"]), int(progress["loop"])
 
@@ -114,11 +118,21 @@ class PatrolProfile(BaseProfile):
         loop = asyncio.get_running_loop()
         stored_s = loop.time()
         period_s = ctx.settings.get("patrol.pose_event_s")
+        cloud_s = ctx.settings.get("patrol.particles_event_s")
+        self._particles(ctx, "start")
+        clouds_s = loop.time()
+        status = ""
         while True:
             await asyncio.sleep(period_s)
             if nav.service.poses.latest() is None:
                 continue  # not publishing yet
             pose = nav.live_pose()
+            if pose.status != status and pose.status in ("diverged", "lidar_lost"):
+                self._particles(ctx, pose.status)
+            elif cloud_s > 0 and loop.time() - clouds_s >= cloud_s:
+                clouds_s = loop.time()
+                self._particles(ctx, "periodic")
+            status = pose.status
             ctx.emit("nav.pose", est_x_m=round(pose.x_m, 4), est_y_m=round(pose.y_m, 4),
                      est_heading_deg=round(math.degrees(pose.theta_rad), 2),
                      status=pose.status, spread_m=round(min(pose.spread_m, 99.0), 4),
@@ -127,6 +141,15 @@ class PatrolProfile(BaseProfile):
                 stored_s = loop.time()
                 ctx.persisted(POSE_RECORD).set(x_m=round(pose.x_m, 4), y_m=round(pose.y_m, 4),
                                                heading_rad=round(pose.theta_rad, 5))
+
+    def _particles(self, ctx: RobotContext, why: str) -> None:
+        """``nav.particles``: a sample of the filter's particles (for the report)."""
+        nav = self.nav
+        assert nav is not None
+        poses = nav.localiser.particles.poses
+        step = max(1, len(poses) // _CLOUD_POINTS)
+        xy = [[round(float(p[0]), 3), round(float(p[1]), 3)] for p in poses[::step]]
+        ctx.emit("nav.particles", why=why, count=len(poses), xy=xy)
 
     def state_tasks(self) -> dict[str, StateTask]:
         return {"mission.plan": self._plan, "mission.drive": self._drive,

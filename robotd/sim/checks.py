@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from hal.sim.world.body import DiffDriveBody
-from robotd.sim.nav_checks import nav_failures, nav_figures
+from robotd.sim.nav.checks import nav_failures, nav_figures
 from robotd.sim.scenario import Scenario
 
 

@@ -14,7 +14,7 @@ import numpy as np
 from hal.sim.world.dock import Dock
 from hal.sim.world.floor_plan import World
 from hal.sim.world.geometry import FloatArray, raycast
-from robotd.sim.report_nav import draw_navigation
+from robotd.sim.nav.report import draw_navigation
 from robotd.sim.tracks import TrackPoint
 
 _EVENT_MARKERS = {

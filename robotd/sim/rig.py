@@ -34,7 +34,7 @@ from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import World
 from hal.sim.world.lidar_rays import LidarRays
 from robotd.config.settings import Settings
-from robotd.sim.map_writer import write_walls_map
+from robotd.sim.nav.map_writer import write_walls_map
 from robotd.sim.scenario import scenario_dir
 
 log = structlog.get_logger(__name__)

@@ -133,7 +133,7 @@ def parse_scenario(text: str, source: str) -> Scenario:
 
 NAV_SUCCESS_KEYS = ("max_localisation_error_p95_m", "max_heading_error_p95_deg",
                     "min_pose_rate_hz", "goals_reached_within_m", "divergence_within_s")
-"""Navigation conditions (``robotd.sim.nav_checks``)."""
+"""Navigation conditions (``robotd.sim.nav.checks``)."""
 _TOP = ("scenario", "config", "world", "robot", "robots", "script", "success", "fleet")
 _SCENARIO = ("name", "description", "profile", "seed")
 _ROBOT = ("name", "x_m", "y_m", "heading_deg", "config", "body", "payload_kg")

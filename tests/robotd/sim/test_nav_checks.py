@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from robotd.sim.nav_checks import nav_failures, nav_figures, pose_rate_hz
+from robotd.sim.nav.checks import nav_failures, nav_figures, pose_rate_hz
 
 
 def _pose(t: float, err_m: float, err_deg: float = 0.0, n: int = 0,

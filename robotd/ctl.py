@@ -10,6 +10,7 @@ import itertools
 import json
 import os
 import socket
+import stat
 import sys
 import time
 from typing import Any, TextIO
@@ -46,6 +47,9 @@ class Connection:
                                 "robotd; join that group (sudo usermod -aG robotd $USER, log in "
                                 "again) or use sudo") from None
         except ConnectionRefusedError:
+            if not stat.S_ISSOCK(os.stat(path).st_mode):
+                raise CannotConnect(f"{path} is not a socket (a regular file or another kind "
+                                    "of file): check --socket / control.socket") from None
             raise CannotConnect(f"nothing listens on {path}: robotd is not running (a stale "
                                 "socket left by a crash?)") from None
         except OSError as exc:

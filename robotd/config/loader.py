@@ -340,7 +340,8 @@ def _shown(name: str) -> str:
 
 
 def _suggest(word: str, known: list[str]) -> str:
-    close = difflib.get_close_matches(word, known, n=1)
+    same_but_case = [k for k in known if k.lower() == word.lower()]
+    close = same_but_case or difflib.get_close_matches(word, known, n=1)
     if close:
         return f" (did you mean {close[0]!r}?)"
     return f" (known: {', '.join(sorted(known))})" if len(known) <= 12 else ""

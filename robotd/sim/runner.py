@@ -29,6 +29,7 @@ from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.geometry import Pose
 from robotd.config import ConfigError
 from robotd.config.settings import Settings
+from robotd.control.access import socket_problem
 from robotd.logs import configure_logging
 from robotd.profiles import PROFILES
 from robotd.sim.actors import ActorContext, SimActors, actors_factory
@@ -112,7 +113,10 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
     def wall_clock() -> datetime:
         return origin + timedelta(seconds=loop.time())
 
-    configure_logging("warning", mode="console" if console.tty else "json",
+    # --quiet prints the result only: the daemons' warnings (link.down as a robot shuts down...)
+    # are in events.jsonl's story already; a crash still shows its traceback.
+    configure_logging("critical" if console.quiet else "warning",
+                      mode="console" if console.tty else "json",
                       timestamper=lambda: wall_clock().isoformat())
 
     def on_event(robot: str, event: dict[str, Any]) -> None:
@@ -133,7 +137,7 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
             if dst == "estop" or dst.startswith("estop."):
                 record.estops += 1
             console.transition(loop.time(), robot, str(entry.get("src")), dst,
-                               str(entry.get("trigger")), many)
+                               str(entry.get("trigger")))
             if player is not None:
                 player.state_changed()
         events.append(entry)
@@ -180,6 +184,10 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
             if mine is not None:
                 mine.attach(rig)
             socket_path = _socket_path(getattr(args, "socket", None), workdir, spec.name, index)
+            socket_why = socket_problem(socket_path)
+            if socket_why is not None:  # no robot runs without its socket: exit 2, say why
+                msg = f"--socket {socket_path}: {socket_why}"
+                raise ValueError(msg)
             daemon = Daemon(settings, rig.devices, profile, state_dir=workdir / spec.name,
                             socket_path=socket_path, wall_clock=wall_clock, notify=False,
                             handle_signals=False)

@@ -98,6 +98,14 @@ class TestConnectErrors:
         assert ctl.main(["--socket", path, "status"]) == 3
         assert "nothing listens on" in capsys.readouterr().err
 
+    def test_a_regular_file_is_not_called_a_stale_socket(
+            self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        """--socket naming a regular file: said as such (it was "a stale socket")."""
+        path = tmp_path / "robotd.toml"
+        path.write_text("[robot]\n")
+        assert ctl.main(["--socket", str(path), "status"]) == 3
+        assert f"robotctl: {path} is not a socket" in capsys.readouterr().err
+
     def test_a_socket_without_permission_says_what_to_check(self) -> None:
         """robotctl run as a user outside the socket's group (root drops to nobody)."""
         prefix: list[str] = []

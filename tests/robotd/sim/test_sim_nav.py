@@ -57,3 +57,27 @@ class TestNavScenarios:
         world = load_scenario("nav").world
         assert world.unmapped_walls == 4
         assert world.mapped_walls().shape[0] == world.walls.shape[0] - 4
+
+
+class TestLidarLoss:
+    def test_a_stalled_lidar_ends_in_recovery_with_the_reason(self, tmp_path: Path) -> None:
+        """The LiDAR stalls for good: odometry only for lidar_lost_max_s, then the robot
+        stops in recovery, saying lidar_lost."""
+        source = (Path(__file__).parents[3] / "robotd" / "sim" / "scenarios" /
+                  "nav-kidnap.toml").read_text()
+        text = source.replace('action = "body.teleport"\ndy_m = -1.0',
+                              'action = "lidar.stall"')
+        text = text.replace("update_min_a_deg = 5.0", "update_min_a_deg = 5.0\n"
+                            "lidar_lost_max_s = 2.0")
+        text = text.replace("divergence_within_s = 10.0", "")
+        scenario = tmp_path / "stall.toml"
+        scenario.write_text(text)
+        code = main(["sim", str(scenario), "--quiet", "--seed", "1", "--report",
+                     str(tmp_path)])
+        events = [json.loads(line) for line in
+                  (tmp_path / "events.jsonl").read_text().splitlines()]
+        assert code == 0, events[-1]["reasons"]
+        failed = next(e for e in events if e["kind"] == "nav.failed")
+        assert failed["reason"] == "lidar_lost"
+        stall_t = next(e["t"] for e in events if e.get("action") == "lidar.stall")
+        assert 2.0 <= failed["t"] - stall_t <= 4.0

@@ -74,6 +74,14 @@ class Option:
             if not all(math.isfinite(v) for v in value):
                 return None, f"expected finite numbers, got {value!r}"
             return [float(v) for v in value], None
+        if kind == "list[point]":  # [[x, y], ...] in metres
+            ok = isinstance(value, list) and all(
+                isinstance(p, list) and len(p) == 2 and all(
+                    isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+                    for v in p) for p in value)
+            if not ok:
+                return None, f"expected a list of [x, y] points, got {_show(value)}"
+            return [[float(p[0]), float(p[1])] for p in value], None
         if kind == "table":
             if not isinstance(value, dict):
                 return None, f"expected a table, got {_show(value)}"

@@ -71,6 +71,9 @@ class _Methods:
             except Exception as exc:  # one broken device must not hide the others
                 figures = {"error": repr(exc)}
             out[name] = figures
+        navigation = getattr(self.d.profile, "status", None)
+        if callable(navigation):  # a navigating profile: pose, spread, scan rate, plan
+            out["navigation"] = navigation()
         return {"devices": out, "present": self.d.devices.present()}
 
     async def events(self, params: dict[str, Any], _client: Client) -> list[dict[str, Any]]:

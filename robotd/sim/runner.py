@@ -11,6 +11,7 @@ import argparse
 import asyncio
 import contextlib
 import functools
+import math
 import random
 import signal
 import tempfile
@@ -127,6 +128,8 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
         if record is not None and "x_m" not in entry and entry.get("kind") != "service":
             pose = record.body.pose
             entry["x_m"], entry["y_m"] = pose.x_m, pose.y_m
+            if str(entry.get("kind", "")).startswith("nav."):  # the truth, beside estimates
+                entry["true_heading_deg"] = round(math.degrees(pose.heading_rad), 2)
         if record is not None and entry.get("kind") == "transition":
             dst = str(entry.get("dst", ""))
             record.state = dst

@@ -17,7 +17,8 @@ from pathlib import Path
 import pytest
 from daemon_harness import running_daemon
 
-from robotd import ctl, ctl_watch
+from robotd import ctl
+from robotd.ctl import watch as ctl_watch
 
 LOG_LINE = re.compile(r"^\d{4}-\d\d-\d\d \d\d:\d\d:\d\d \[")
 

@@ -12,6 +12,8 @@ import time
 from collections import deque
 from typing import Any, Protocol, TextIO
 
+from robotd.ctl.connection import EXIT_CONNECT, EXIT_OK, CannotConnect
+
 TOPICS = ["state", "estop", "service", "link"]
 TRANSITIONS_SHOWN = 4
 
@@ -60,8 +62,6 @@ class WatchScreen:
 
 def watch(conn: WatchConnection, interval_s: float, out: TextIO) -> int:
     """Redraw on every notification and every ``interval_s``; 3 when the daemon goes away."""
-    from robotd.ctl import EXIT_CONNECT, EXIT_OK, CannotConnect
-
     in_place = out.isatty()
     screen = WatchScreen()
     try:

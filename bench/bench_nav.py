@@ -1,5 +1,6 @@
 """Navigation benchmarks: figures, not pass/fail.
 
+    .venv/bin/python bench/bench_nav.py --part ld19 [--json]  (bench_lidar.py: parse rate)
     .venv/bin/python bench/bench_nav.py --part plan [--queries N] [--json]
     .venv/bin/python bench/bench_nav.py --part mcl [--updates N] [--json]  (bench_nav_mcl.py)
     .venv/bin/python bench/bench_nav.py --part sim [--scans N] [--runs N] [--json]
@@ -26,10 +27,12 @@ import json
 import math
 import random
 import statistics
+import sys
 import time
 from collections.abc import Callable
 from typing import Any
 
+import bench_lidar
 import bench_nav_mcl
 import bench_nav_sim
 import numpy as np
@@ -177,7 +180,7 @@ def plan_part(count: int, repeat: int) -> dict[str, Any]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--part", choices=("plan", "mcl", "sim"), default="plan")
+    parser.add_argument("--part", choices=("ld19", "plan", "mcl", "sim"), default="plan")
     parser.add_argument("--updates", type=int, default=200, help="--part mcl: filter updates")
     parser.add_argument("--queries", type=int, default=20)
     parser.add_argument("--scans", type=int, default=200, help="--part sim: scans cast")
@@ -185,6 +188,10 @@ def main() -> None:
     parser.add_argument("--json", action="store_true")
     parser.add_argument("--repeat", type=int, default=3, help="runs per query (the best)")
     args = parser.parse_args()
+    if args.part == "ld19":  # LD19 parsing against the line rate: bench_lidar.py's figures
+        sys.argv = [sys.argv[0], *(["--json"] if args.json else [])]
+        bench_lidar.main()
+        return
     if args.part == "sim":
         sim = bench_nav_sim.sim_part(args.scans, args.runs)
         if args.json:

@@ -66,6 +66,9 @@ def watch(conn: WatchConnection, interval_s: float, out: TextIO) -> int:
     screen = WatchScreen()
     try:
         conn.call("subscribe", {"topics": TOPICS})
+        for event in conn.call("events", {"limit": 100}):  # the story so far
+            if event.get("kind") == "transition":
+                screen.note({"method": "state", "params": event})
         next_sensors = 0.0
         while True:
             now = time.monotonic()

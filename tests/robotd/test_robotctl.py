@@ -161,6 +161,8 @@ class TestWatch:
             def call(self, method: str, params: object = None) -> object:
                 return {"subscribe": {}, "status": {"robot": "w", "state": "idle",
                                                     "services": []},
+                        "events": [{"kind": "transition", "t": 0.1, "src": "boot",
+                                    "dst": "idle", "trigger": "booted"}],
                         "sensors": {"devices": {}}}[method]
 
             def next_notification(self, timeout_s: float) -> None:
@@ -169,6 +171,7 @@ class TestWatch:
         out = _Screen(until="state idle")
         assert ctl_watch.watch(Conn(), 1.0, out) == 0  # type: ignore[arg-type]
         assert out.text.startswith("\x1b[H\x1b[2J")
+        assert "boot -> idle  (booted)" in out.text  # the transitions before it started
 
     def test_the_screen_fits_80_by_24_with_state_estop_and_link_on_top(self) -> None:
         """However many services and figures, the screen is 24 lines of at most 80 columns,

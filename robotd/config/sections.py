@@ -14,6 +14,7 @@ from typing import overload
 from behaviours.nav.config import NAV_SECTIONS
 from behaviours.nav.localisation.config import NAV_LOCALISATION_ORDERS, NAV_LOCALISATION_SECTIONS
 from drivers.arduino.config import SERIAL
+from drivers.audio.config import AUDIO
 from drivers.dock_ir.config import IR_OPTIONS, IR_ORDERS
 from drivers.lidar.config import LIDAR, LIDAR_ORDERS
 from hal.options import Option, Order, Section
@@ -189,6 +190,7 @@ _CORE: tuple[Section, ...] = (
         opt("timeout_s", "float", 1.0, "Longest wait for data-ready.", min=0.05, max=10),
     )),
     LIDAR,
+    AUDIO,
     *NAV_SECTIONS,
     *NAV_LOCALISATION_SECTIONS,
     Section("docking", "Returning to the dock (seed 001).", (

@@ -13,6 +13,7 @@ from typing import overload
 
 from behaviours.nav.config import NAV_SECTIONS
 from behaviours.nav.localisation.config import NAV_LOCALISATION_ORDERS, NAV_LOCALISATION_SECTIONS
+from behaviours.profiles.delivery.config import DELIVERY, DELIVERY_ORDERS
 from drivers.arduino.config import SERIAL
 from drivers.audio.config import AUDIO
 from drivers.dock_ir.config import IR_OPTIONS, IR_ORDERS
@@ -191,6 +192,7 @@ _CORE: tuple[Section, ...] = (
     )),
     LIDAR,
     AUDIO,
+    DELIVERY,  # moves to the delivery profile's SPEC.sections once that is registered
     *NAV_SECTIONS,
     *NAV_LOCALISATION_SECTIONS,
     Section("docking", "Returning to the dock (seed 001).", (
@@ -216,6 +218,7 @@ _CORE_ORDERS: tuple[Order, ...] = (
     *LIDAR_ORDERS,
     *NAV_LOCALISATION_ORDERS,
     *IR_ORDERS,
+    *DELIVERY_ORDERS,
 )
 
 

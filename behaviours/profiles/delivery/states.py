@@ -45,16 +45,27 @@ NAVIGATING = [path(s) for s in (APPROACHING, TO_WAREHOUSE, TO_CUSTOMER, RESETTIN
 """The states the diagram sends to ErrorRecovery on a navigation error."""
 
 
-def mission_states() -> list[str | dict[str, Any]]:
+@dataclass(frozen=True, slots=True)
+class Timers:
+    """The state timers (the ``delivery`` config section may change them; the seed's here)."""
+
+    verifying_timeout_s: float = VERIFYING_TIMEOUT_S
+    loading_timeout_s: float = LOADING_TIMEOUT_S
+    delivery_duration_s: float = DELIVERY_DURATION_S
+    delivering_timeout_s: float = DELIVERING_TIMEOUT_S
+
+
+def mission_states(timers: Timers | None = None) -> list[str | dict[str, Any]]:
     """The nine states, waiting first (the mission's initial state); timeouts from the seed."""
+    t = timers or Timers()
     return [
         WAITING,
         APPROACHING,
-        {"name": VERIFYING, "timeout": VERIFYING_TIMEOUT_S, "on_timeout": "timed_out"},
+        {"name": VERIFYING, "timeout": t.verifying_timeout_s, "on_timeout": "timed_out"},
         TO_WAREHOUSE,
-        {"name": LOADING, "timeout": LOADING_TIMEOUT_S, "on_timeout": "timed_out"},
+        {"name": LOADING, "timeout": t.loading_timeout_s, "on_timeout": "timed_out"},
         TO_CUSTOMER,
-        {"name": DELIVERING, "timeout": DELIVERING_TIMEOUT_S, "on_timeout": "timed_out"},
+        {"name": DELIVERING, "timeout": t.delivering_timeout_s, "on_timeout": "timed_out"},
         RESETTING,
         {"name": ERROR_RECOVERY, "on_enter": "stop_motors"},
     ]

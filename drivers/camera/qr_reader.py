@@ -18,12 +18,22 @@ import cv2
 import numpy.typing as npt
 import structlog
 
+from drivers.camera import open_camera
 from hal.devices import Camera
+from hal.settings import SettingsView
 
 log = structlog.get_logger(__name__)
 
 Image = npt.NDArray[Any]  # uint8 BGR or grey
 _CAMERA_RETRY_S = 0.5  # after a failed frame read, before asking again
+_KEYS = ("source", "device", "file", "loop", "width", "height", "fps")
+
+
+def from_settings(settings: SettingsView) -> QrCameraReader:
+    """The reader on the camera the ``qr_camera`` section describes (``robotd.hardware``)."""
+    camera = open_camera({key: settings.get(f"qr_camera.{key}") for key in _KEYS},
+                         name="qr_camera")
+    return QrCameraReader(camera)
 
 
 class QrCameraReader:

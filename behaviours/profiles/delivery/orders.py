@@ -13,15 +13,17 @@ from __future__ import annotations
 import asyncio
 import hmac
 import sqlite3
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol
+from typing import Any, Protocol, TypeVar
 
 import structlog
 
 from behaviours.profiles.delivery.qr_payload import Claim, Rejected, parse_payload
 
 log = structlog.get_logger(__name__)
+T = TypeVar("T")
 
 QUERY_TIMEOUT_S = 5.0
 """The seed: a 5 s timeout on every query (sqlite3's busy timeout)."""
@@ -134,10 +136,21 @@ class SqliteOrders:
             raise DatabaseUnavailable(f"{self.path}: {exc}") from exc
 
     async def lookup(self, order_id: int) -> OrderRow | None:
-        return await asyncio.to_thread(self._lookup, order_id)
+        return await self._off_loop(self._lookup, order_id)
 
     async def mark_delivered(self, order_id: int, at_iso: str) -> None:
-        await asyncio.to_thread(self._mark, order_id, at_iso)
+        await self._off_loop(self._mark, order_id, at_iso)
+
+    async def _off_loop(self, call: Callable[..., T], *args: Any) -> T:
+        # The busy timeout bounds waiting for a lock; this bounds the rest (a hung file system).
+        # The thread cannot be cancelled; it ends by itself, its answer is dropped.
+        limit_s = self.timeout_s + 1.0
+        try:
+            async with asyncio.timeout(limit_s):
+                return await asyncio.to_thread(call, *args)
+        except TimeoutError as exc:
+            msg = f"{self.path}: no answer within {limit_s:g} s"
+            raise DatabaseUnavailable(msg) from exc
 
 
 def create_database(path: Path, customers: list[tuple[int, str, str, int, str]],

@@ -19,6 +19,7 @@ from hal.devices import (
     Lidar,
     LoadCell,
     Motors,
+    QrReader,
     RangeSensor,
     ServoBox,
 )
@@ -49,6 +50,7 @@ class Devices:
     dock_ir: DockIr | None = None
     lidar: Lidar | None = None
     audio: Audio | None = None
+    qr: QrReader | None = None
     network: httpx.AsyncBaseTransport | None = None
     """How the robot reaches the fleet server: None is the operating system's network; the
     simulator gives a transport to its in-process server (and can cut it)."""

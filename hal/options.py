@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
 import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -30,6 +31,8 @@ class Option:
     unknown: str | None = None
     """What a value outside ``choices`` is called (``unknown profile 'x'``); the known values
     follow it. None: ``expected one of ...``."""
+    pattern: tuple[str, str] | None = None
+    """For ``str``: (regular expression the whole value must match, what that means)."""
 
     def check(self, value: Any) -> tuple[Any, str | None]:
         """Return (normalised value, None) or (None, what was expected)."""
@@ -61,6 +64,8 @@ class Option:
                 return None, f"expected one of {', '.join(map(repr, self.choices))}, got {value!r}"
             if self.min is not None and len(value) < self.min:
                 return None, f"expected at least {int(self.min)} characters"
+            if self.pattern is not None and re.fullmatch(self.pattern[0], value) is None:
+                return None, f"expected {self.pattern[1]}, got {value!r}"
             return value, None
         if kind == "list[str]":
             if not isinstance(value, list) or not all(isinstance(v, str) for v in value):

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 from robotd import __version__
 from robotd.config.overrides import overrides_path, persist_override, render_toml
 from robotd.config.screen import check_option, clip, parse_option_text
+from robotd.control.profile_methods import profile_handlers
 from robotd.control.rpc import APP_ERROR, INVALID_PARAMS, RpcError
 from robotd.control.server import Client, Handler
 
@@ -20,9 +21,9 @@ MAX_EVENTS = 1000
 
 
 def control_handlers(daemon: Daemon) -> dict[str, Handler]:
-    """Method name -> handler for the control server."""
+    """Method name -> handler for the control server: the core's and the profile's own."""
     methods = _Methods(daemon)
-    return {
+    core: dict[str, Handler] = {
         "status": methods.status,
         "sensors": methods.sensors,
         "events": methods.events,
@@ -35,6 +36,7 @@ def control_handlers(daemon: Daemon) -> dict[str, Handler]:
         "subscribe": methods.subscribe,
         "unsubscribe": methods.unsubscribe,
     }
+    return {**core, **profile_handlers(daemon.profile, daemon.context, core)}
 
 
 class _Methods:

@@ -55,6 +55,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("resume", help="leave estop for idle")
     trigger = sub.add_parser("trigger", help="fire a state machine trigger (e.g. go_dock)")
     trigger.add_argument("name", metavar="NAME")
+    loaded = sub.add_parser("confirm-loaded",
+                            help="delivery robot: the parcel is in the box (warehouse staff)")
+    loaded.add_argument("--by", default="robotctl", help="who confirms (kept in the event)")
     return parser
 
 
@@ -106,6 +109,8 @@ def _request(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
         return "estop", {"reason": args.reason}
     if args.command == "trigger":
         return "trigger", {"name": args.name}
+    if args.command == "confirm-loaded":
+        return "delivery.confirm_loaded", {"by": args.by}
     return args.command, {}
 
 

@@ -98,6 +98,8 @@ class Person:
     radius_m: float = 0.2
     legs: bool = True
     heading_rad: float = 0.0
+    qr_payload: str | None = None
+    """The text of the QR code this person holds up to a forward camera (a customer's order)."""
     walk: Walk | None = None
 
     def update(self, t_s: float) -> None:
@@ -226,7 +228,8 @@ class World:
                 br.text("room", ""), br.num("interval_s", 0.1)))
         dock = _dock(_Reader(r.get("dock"), f"{where}.dock")) if "dock" in table else None
         people = [Person(pr.text("name", f"person{i}"), pr.num("x_m"), pr.num("y_m"),
-                         bool(pr.get("present", True)), legs=bool(pr.get("legs", True)))
+                         bool(pr.get("present", True)), legs=bool(pr.get("legs", True)),
+                         qr_payload=pr.text("qr_payload") if "qr_payload" in pr.table else None)
                   for i, pr in ((i, _Reader(t, f"{where}.people[{i}]"))
                                 for i, t in enumerate(r.tables("people")))]
         mapped_boxes: list[tuple[float, float, float, float]] = []

@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from hal.looptime.timer_chain import timer_chain
+from hal.looptime.timer_chain import on_a_grid
 from hal.readings import Frame
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import World
@@ -148,17 +148,7 @@ class SimQrCamera:
 
     # --- internals ----------------------------------------------------------------------------
     async def _run(self) -> None:
-        loop = asyncio.get_running_loop()
-        period_s = 1.0 / self.mount.fps
-        deadline = loop.time() + period_s
-
-        def capture() -> float:
-            nonlocal deadline
-            self._capture()
-            deadline += period_s
-            return max(0.0, deadline - loop.time())
-
-        await timer_chain(capture, max(0.0, deadline - loop.time()))
+        await on_a_grid(self._capture, 1.0 / self.mount.fps)
 
     def _capture(self) -> None:
         self.frames_captured += 1

@@ -16,6 +16,14 @@ if TYPE_CHECKING:
 StateTask = Callable[[RobotContext], Awaitable[None]]
 """A long behaviour run while a state is active: started on enter, cancelled on exit."""
 
+ControlMethod = Callable[[dict[str, Any]], Awaitable[Any]]
+"""A control-socket method a profile offers (``robotctl``): params -> a JSON-able result.
+Raise ValueError for bad params, ``ControlRefused`` when the robot cannot do it now."""
+
+
+class ControlRefused(Exception):
+    """A profile's control method refuses (e.g. not in the state it needs); says why."""
+
 @runtime_checkable
 class Profile(Protocol):
     """What the daemon asks of a robot profile.
@@ -36,6 +44,7 @@ class Profile(Protocol):
     def on_enter(self, state: str, ctx: RobotContext) -> None: ...
     def on_exit(self, state: str, ctx: RobotContext) -> None: ...
     def mission_records(self) -> tuple[MissionRecord, ...]: ...
+    def control_methods(self, ctx: RobotContext) -> dict[str, ControlMethod]: ...
 
 
 class BaseProfile:
@@ -66,6 +75,10 @@ class BaseProfile:
     def mission_records(self) -> tuple[MissionRecord, ...]:
         """What must survive a restart; restored (``ctx.persisted``) before ``boot`` is left."""
         return ()
+
+    def control_methods(self, ctx: RobotContext) -> dict[str, ControlMethod]:
+        """Control-socket methods the profile adds, named ``<profile>.<method>``."""
+        return {}
 
 
 @dataclass(frozen=True, slots=True)

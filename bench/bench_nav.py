@@ -1,7 +1,10 @@
 """Navigation benchmarks: figures, not pass/fail.
 
+    .venv/bin/python bench/bench_nav.py --part ld19 [--json]  (bench_lidar.py: parse rate)
     .venv/bin/python bench/bench_nav.py --part plan [--queries N] [--json]
     .venv/bin/python bench/bench_nav.py --part mcl [--updates N] [--json]  (bench_nav_mcl.py)
+    .venv/bin/python bench/bench_nav.py --part sim [--scans N] [--runs N] [--json]
+        (bench_nav_sim.py: the simulated LiDAR's cost per scan, the nav scenario's speed)
 
 ``plan``: A* on 200 x 200 and 400 x 400 grids of 0.05 m cells (10 x 10 m and 20 x 20 m):
 an office-like map (walls with doorways, random furniture), the seed's 0.30 m clearance and
@@ -24,11 +27,14 @@ import json
 import math
 import random
 import statistics
+import sys
 import time
 from collections.abc import Callable
 from typing import Any
 
+import bench_lidar
 import bench_nav_mcl
+import bench_nav_sim
 import numpy as np
 
 from behaviours.nav import astar
@@ -174,12 +180,25 @@ def plan_part(count: int, repeat: int) -> dict[str, Any]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--part", choices=("plan", "mcl"), default="plan")
+    parser.add_argument("--part", choices=("ld19", "plan", "mcl", "sim"), default="plan")
     parser.add_argument("--updates", type=int, default=200, help="--part mcl: filter updates")
     parser.add_argument("--queries", type=int, default=20)
+    parser.add_argument("--scans", type=int, default=200, help="--part sim: scans cast")
+    parser.add_argument("--runs", type=int, default=2, help="--part sim: scenario runs")
     parser.add_argument("--json", action="store_true")
     parser.add_argument("--repeat", type=int, default=3, help="runs per query (the best)")
     args = parser.parse_args()
+    if args.part == "ld19":  # LD19 parsing against the line rate: bench_lidar.py's figures
+        sys.argv = [sys.argv[0], *(["--json"] if args.json else [])]
+        bench_lidar.main()
+        return
+    if args.part == "sim":
+        sim = bench_nav_sim.sim_part(args.scans, args.runs)
+        if args.json:
+            print(json.dumps({"sim": sim}, indent=2))
+        else:
+            bench_nav_sim.report(sim)
+        return
     if args.part == "mcl":
         bench_nav_mcl.report(bench_nav_mcl.mcl_part(args.updates), as_json=args.json)
         return

@@ -20,6 +20,7 @@ from starlette.types import Receive, Scope, Send
 from fleet.api import admin, requests, robot, tokens
 from fleet.api.auth import Authenticate
 from fleet.api.body_limit import BodyLimit
+from fleet.api.docs import add_offline_docs
 from fleet.api.error_bodies import add_error_handlers
 from fleet.api.exchange_fast import ExchangeFastPath
 from fleet.api.methods import AllowedMethods
@@ -86,6 +87,8 @@ def create_app(
         version="1",
         summary="Laundry robot fleet: requests, assignment, data exchange, monitors.",
         lifespan=lifespan,
+        docs_url=None,  # served from local assets below, not a CDN
+        redoc_url=None,
     )
     app.state.fleet = server
     app.add_middleware(HoldTimeMiddleware)
@@ -94,6 +97,7 @@ def create_app(
     app.include_router(admin.router)
     app.include_router(tokens.router)
     add_error_handlers(app)
+    add_offline_docs(app)
 
     @app.get("/health", tags=["meta"])
     async def health() -> dict[str, str]:

@@ -29,8 +29,11 @@ def _parser() -> argparse.ArgumentParser:
                        help="database URL: sqlite:///PATH (default) or postgresql://...")
     serve.add_argument("--site", default=os.environ.get("ROBOTD_FLEET_SITE"),
                        help="site TOML file: rooms, beacons, customers, robots, settings")
-    serve.add_argument("--host", default="127.0.0.1")
-    serve.add_argument("--port", type=_port, default=8080, help="TCP port (1-65535)")
+    serve.add_argument("--host", default="127.0.0.1",
+                       help="address to listen on (default: %(default)s, this machine only; "
+                            "0.0.0.0 for the site network)")
+    serve.add_argument("--port", type=_port, default=8080,
+                       help="TCP port, 1-65535 (default: %(default)s)")
     serve.add_argument("--sqlite-inline", action="store_true",
                        help="run SQLite calls on the event loop's thread instead of aiosqlite's "
                             "worker threads (one server process only)")

@@ -24,6 +24,7 @@ from hal.devices import (
     Lidar,
     LoadCell,
     Motors,
+    QrReader,
     RangeSensor,
     ServoBox,
     WallSensor,
@@ -63,6 +64,7 @@ class Devices:
     wall sensor, dust bin) and the auto-empty station it signals through the contacts."""
     lidar: Lidar | None = None
     audio: Audio | None = None
+    qr: QrReader | None = None
     network: httpx.AsyncBaseTransport | None = None
     """How the robot reaches the fleet server: None is the operating system's network; the
     simulator gives a transport to its in-process server (and can cut it)."""

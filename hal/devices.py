@@ -213,4 +213,23 @@ class LidarStale(Exception):
 
 @runtime_checkable
 class Audio(Protocol):
+    """Sound files by name (``request_qr``, ``order_accepted`` ...; the seed's list).
+
+    ``play`` returns when the sound has finished, or at once when it cannot be played (a
+    missing file or player is a warning and an event, never an exception); ``stop`` cuts the
+    sound playing now, and a ``play`` cancelled mid-sound stops it too.
+    """
+
     async def play(self, sound: str) -> None: ...
+    async def stop(self) -> None: ...
+
+
+@runtime_checkable
+class QrReader(Device, Protocol):
+    """QR codes seen by a forward camera, as their payload bytes.
+
+    ``next_code`` waits for a code decoded from a frame captured after the call, and returns
+    None after ``timeout_s`` without one (or while the camera gives no frames).
+    """
+
+    async def next_code(self, timeout_s: float) -> bytes | None: ...

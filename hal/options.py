@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
 import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -30,6 +31,8 @@ class Option:
     unknown: str | None = None
     """What a value outside ``choices`` is called (``unknown profile 'x'``); the known values
     follow it. None: ``expected one of ...``."""
+    pattern: tuple[str, str] | None = None
+    """For ``str``: (regular expression the whole value must match, what that means)."""
 
     def check(self, value: Any) -> tuple[Any, str | None]:
         """Return (normalised value, None) or (None, what was expected)."""
@@ -61,6 +64,8 @@ class Option:
                 return None, f"expected one of {', '.join(map(repr, self.choices))}, got {value!r}"
             if self.min is not None and len(value) < self.min:
                 return None, f"expected at least {int(self.min)} characters"
+            if self.pattern is not None and re.fullmatch(self.pattern[0], value) is None:
+                return None, f"expected {self.pattern[1]}, got {value!r}"
             return value, None
         if kind == "list[str]":
             if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
@@ -74,6 +79,14 @@ class Option:
             if not all(math.isfinite(v) for v in value):
                 return None, f"expected finite numbers, got {value!r}"
             return [float(v) for v in value], None
+        if kind == "list[point]":  # [[x, y], ...] in metres
+            ok = isinstance(value, list) and all(
+                isinstance(p, list) and len(p) == 2 and all(
+                    isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+                    for v in p) for p in value)
+            if not ok:
+                return None, f"expected a list of [x, y] points, got {_show(value)}"
+            return [[float(p[0]), float(p[1])] for p in value], None
         if kind == "table":
             if not isinstance(value, dict):
                 return None, f"expected a table, got {_show(value)}"

@@ -68,6 +68,16 @@ def _camera_check(settings: Settings) -> str | None:
     return None
 
 
+def _qr_camera_check(settings: Settings) -> str | None:
+    if settings.get("qr_camera.source") != "uvc":
+        return None
+    device = str(settings.get("qr_camera.device"))
+    if not Path(device).exists():
+        return (f"QR camera {device} does not exist (check qr_camera.device and the cable; "
+                "ls /dev/video*)")
+    return None
+
+
 def _any_path(pattern: str, what: str) -> Check:
     def check(_settings: Settings) -> str | None:
         return None if glob.glob(pattern) else f"no {what} found ({pattern})"
@@ -88,6 +98,7 @@ HARDWARE: dict[str, Hardware] = {
     "lidar": Hardware(("lidar",), _lidar_check, "drivers.lidar:from_settings"),
     "audio": Hardware(("audio",), _any_path("/dev/snd/pcm*", "sound card"),
                       "drivers.audio:from_settings"),
+    "qr_camera": Hardware(("qr",), _qr_camera_check, "drivers.camera.qr_reader:from_settings"),
 }
 SLOTS = tuple(f.name for f in fields(Devices)
               if any(f.name in hw.slots for hw in HARDWARE.values()))

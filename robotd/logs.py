@@ -17,7 +17,7 @@ import structlog
 
 _SYSLOG_PRIORITY = {"critical": 2, "error": 3, "warning": 4, "info": 6, "debug": 7}
 _LEVELS = {"debug": logging.DEBUG, "info": logging.INFO, "warning": logging.WARNING,
-           "error": logging.ERROR}
+           "error": logging.ERROR, "critical": logging.CRITICAL}
 
 
 def _journald_prefix(

@@ -194,12 +194,20 @@ class Supervisor:
         return problems
 
     def status(self) -> list[dict[str, Any]]:
-        return [
-            {"name": name, "state": s.state, "critical": s.service.critical,
-             "restarts": s.restarts, "failures_in_row": s.failures_in_row,
-             "last_error": s.last_error}
-            for name, s in self._slots.items()
-        ]
+        out = []
+        for name, s in self._slots.items():
+            entry: dict[str, Any] = {
+                "name": name, "state": s.state, "critical": s.service.critical,
+                "restarts": s.restarts, "failures_in_row": s.failures_in_row,
+                "last_error": s.last_error}
+            figures = getattr(s.service, "status", None)
+            if callable(figures):  # a service's own figures (the localisation's pose, ...)
+                try:
+                    entry["figures"] = figures()
+                except Exception as exc:  # one service's broken status must not hide the rest
+                    entry["figures"] = {"error": repr(exc)}
+            out.append(entry)
+        return out
 
 
 def _in_dependency_order(services: list[Service],

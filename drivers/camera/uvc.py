@@ -31,7 +31,14 @@ class UvcCamera(OpenCvCapture):
         return f"camera {self.device}"
 
     def _open(self) -> None:
-        cap = cv2.VideoCapture(_v4l2_target(self.device), cv2.CAP_V4L2)
+        # OpenCV prints its own WARN lines when a device cannot be opened; the failure is said
+        # once, below, with what to check.
+        level = cv2.utils.logging.getLogLevel()
+        cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+        try:
+            cap = cv2.VideoCapture(_v4l2_target(self.device), cv2.CAP_V4L2)
+        finally:
+            cv2.utils.logging.setLogLevel(level)
         if not cap.isOpened():
             cap.release()
             msg = (f"camera {self.device}: cannot open (plugged in? see `v4l2-ctl "

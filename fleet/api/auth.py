@@ -19,6 +19,7 @@ from fastapi import Request as HttpRequest
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from starlette.types import ASGIApp, Receive, Scope, Send
 
+from fleet.api.docs import ASSETS_URL
 from fleet.auth import Authenticator
 from fleet.errors import Forbidden, Unauthorized
 from fleet.timehold import hold_loop_time
@@ -44,7 +45,8 @@ class Authenticate:
         self.auth = authenticator
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http" or scope["path"] in PUBLIC_PATHS:
+        if scope["type"] != "http" or scope["path"] in PUBLIC_PATHS \
+                or scope["path"].startswith(ASSETS_URL + "/"):
             await self.app(scope, receive, send)
             return
         client = scope.get("client")

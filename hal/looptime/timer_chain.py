@@ -42,3 +42,18 @@ async def timer_chain(step: Callable[[], float | None],
     finally:
         if timer is not None:
             timer.cancel()
+
+
+async def on_a_grid(tick: Callable[[], None], period_s: float) -> None:
+    """Call ``tick()`` every ``period_s`` of loop time, the first one period from now, on a
+    fixed grid (a late call does not push the next ones back), until cancelled."""
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + period_s
+
+    def step() -> float:
+        nonlocal deadline
+        tick()
+        deadline += period_s
+        return max(0.0, deadline - loop.time())
+
+    await timer_chain(step, max(0.0, deadline - loop.time()))

@@ -18,6 +18,7 @@ from hal.options import Order, Section
 from robotd.config.errors import ConfigError, ConfigProblem
 from robotd.config.screen import check_option, clip
 from robotd.config.sections import ORDERS, SECTIONS
+from robotd.config.site_files import cabinet_file_problems
 from robotd.config.system_limits import socket_path_problem
 
 Values = dict[str, dict[str, Any]]
@@ -196,6 +197,7 @@ def _system_problems(values: Values, path: str, where: dict[tuple[str, str], int
         why = map_problem(map_file, Path(path).parent)
         if why is not None:
             problems.append(ConfigProblem(path, where.get(("map", "file")), "map.file", why))
+    problems += cabinet_file_problems(values, path, where)
     socket_path = values.get("control", {}).get("socket")
     if not isinstance(socket_path, str):
         return problems
@@ -340,7 +342,8 @@ def _shown(name: str) -> str:
 
 
 def _suggest(word: str, known: list[str]) -> str:
-    close = difflib.get_close_matches(word, known, n=1)
+    same_but_case = [k for k in known if k.lower() == word.lower()]
+    close = same_but_case or difflib.get_close_matches(word, known, n=1)
     if close:
         return f" (did you mean {close[0]!r}?)"
     return f" (known: {', '.join(sorted(known))})" if len(known) <= 12 else ""

@@ -14,7 +14,11 @@ from typing import overload
 from behaviours.docking.config import DOCKING_OPTIONS, DOCKING_ORDERS
 from behaviours.nav.config import NAV_SECTIONS
 from behaviours.nav.localisation.config import NAV_LOCALISATION_ORDERS, NAV_LOCALISATION_SECTIONS
+from behaviours.profiles.cabinet.config import CABINET
+from behaviours.profiles.delivery.config import DELIVERY, DELIVERY_ORDERS
 from drivers.arduino.config import SERIAL
+from drivers.audio.config import AUDIO
+from drivers.camera.qr_config import QR_CAMERA
 from drivers.dock_ir.config import IR_OPTIONS, IR_ORDERS
 from drivers.lidar.config import LIDAR, LIDAR_ORDERS
 from hal.options import Option, Order, Section
@@ -39,7 +43,7 @@ _CORE: tuple[Section, ...] = (
           choices=("real", "sim")),
         opt("devices", "list[str]", [],
           "Devices to open besides those the profile needs: motors (the Arduino board), "
-          "camera, beacons, load_cell, dock_ir, lidar, audio."),
+          "camera, beacons, load_cell, dock_ir, lidar, audio, qr (the forward QR camera)."),
     )),
     Section("control", "The local control socket for robotctl.", (
         opt("socket", "str", "/run/robotd/control.sock", "Unix socket path."),
@@ -190,8 +194,12 @@ _CORE: tuple[Section, ...] = (
         opt("timeout_s", "float", 1.0, "Longest wait for data-ready.", min=0.05, max=10),
     )),
     LIDAR,
+    AUDIO,
+    QR_CAMERA,
+    DELIVERY,  # moves to the delivery profile's SPEC.sections once that is registered
     *NAV_SECTIONS,
     *NAV_LOCALISATION_SECTIONS,
+    CABINET,
     Section("docking", "Returning to the dock (seed 001).", (*DOCKING_OPTIONS, *IR_OPTIONS)),
     Section("sim", "The simulated world (hal.backend = sim).", (
         opt("seed", "int", 1, "Random seed for sensor noise.", min=0),
@@ -211,6 +219,7 @@ _CORE_ORDERS: tuple[Order, ...] = (
     *LIDAR_ORDERS,
     *NAV_LOCALISATION_ORDERS,
     *IR_ORDERS,
+    *DELIVERY_ORDERS,
     *DOCKING_ORDERS,
 )
 

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 from robotd import __version__
 from robotd.config.overrides import overrides_path, persist_override, render_toml
 from robotd.config.screen import check_option, clip, parse_option_text
+from robotd.control.profile_methods import profile_handlers
 from robotd.control.rpc import APP_ERROR, INVALID_PARAMS, RpcError
 from robotd.control.server import Client, Handler
 
@@ -20,9 +21,9 @@ MAX_EVENTS = 1000
 
 
 def control_handlers(daemon: Daemon) -> dict[str, Handler]:
-    """Method name -> handler for the control server."""
+    """Method name -> handler for the control server: the core's and the profile's own."""
     methods = _Methods(daemon)
-    return {
+    core: dict[str, Handler] = {
         "status": methods.status,
         "sensors": methods.sensors,
         "events": methods.events,
@@ -35,6 +36,7 @@ def control_handlers(daemon: Daemon) -> dict[str, Handler]:
         "subscribe": methods.subscribe,
         "unsubscribe": methods.unsubscribe,
     }
+    return {**core, **profile_handlers(daemon.profile, daemon.context, core)}
 
 
 class _Methods:
@@ -71,6 +73,9 @@ class _Methods:
             except Exception as exc:  # one broken device must not hide the others
                 figures = {"error": repr(exc)}
             out[name] = figures
+        navigation = getattr(self.d.profile, "status", None)
+        if callable(navigation):  # a navigating profile: pose, spread, scan rate, plan
+            out["navigation"] = navigation()
         return {"devices": out, "present": self.d.devices.present()}
 
     async def events(self, params: dict[str, Any], _client: Client) -> list[dict[str, Any]]:
@@ -133,7 +138,14 @@ class _Methods:
                 raise RpcError(APP_ERROR, f"{key}: applied but not persisted: {path} cannot "
                                f"be read ({clip(str(exc))}); fix or remove it") from None
         self.d.emit("tune", key=key, value=value, persisted=persist)
-        return {"key": key, "value": value, "persisted": persist}
+        reply: dict[str, Any] = {"key": key, "value": value, "persisted": persist}
+        if persist:
+            reply["persisted_to"] = str(overrides_path(self.d.state_dir))
+            if settings.get("hal.backend") == "sim":
+                reply["note"] = ("the simulator's state directory is temporary: the value "
+                                 "is gone when the run ends; put it in the scenario's [config] "
+                                 "or a --config file to keep it")
+        return reply
 
     async def reload(self, _params: dict[str, Any], _client: Client) -> dict[str, Any]:
         ok, lines = self.d.reload()

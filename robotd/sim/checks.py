@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from hal.sim.world.body import DiffDriveBody
+from robotd.sim.nav.checks import nav_failures, nav_figures
 from robotd.sim.scenario import Scenario
 
 
@@ -76,6 +77,8 @@ def failures(scenario: Scenario, robots: dict[str, RobotRecord], elapsed_s: floa
             reasons.append(f"{who}ended {off * 100:.1f} cm from ({pose.x_m:.2f}, {pose.y_m:.2f})"
                            f", tolerance {pose.tolerance_m * 100:.1f} cm")
     reasons += _arrival_failures(scenario, events or [])
+    goals = scenario.config.get("patrol", {}).get("goals", [])
+    reasons += nav_failures(success.extra, events or [], goals)
     for want in success.extra.get("final_rooms", []):
         record = robots.get(str(want.get("robot")))
         if record is None:
@@ -115,6 +118,7 @@ def summary_figures(robots: dict[str, RobotRecord], scenario: Scenario | None = 
             mine = [e for e in events if e.get("robot", name) == name] if len(robots) > 1 \
                 else events
             fig.update(_arrival_figures(scenario, mine))
+            fig.update(nav_figures(mine))
         out[name] = fig
     return out
 

@@ -29,10 +29,10 @@ class SimConsole:
         self._clear_progress()
         print(text, file=self.stream, flush=True)
 
-    def transition(self, t_s: float, robot: str, src: str, dst: str, trigger: str,
-                   many: bool) -> None:
-        who = f"{robot}: " if many else ""
-        self.line(f"[{t_s:8.2f} s] {who}{src} -> {dst}  ({trigger})")
+    def transition(self, t_s: float, robot: str, src: str, dst: str, trigger: str) -> None:
+        """One robot's state change; the robot is named even when it is the only one (the
+        other lines of a run name theirs)."""
+        self.line(f"[{t_s:8.2f} s] {robot}: {src} -> {dst}  ({trigger})")
 
     def event(self, t_s: float, text: str) -> None:
         self.line(f"[{t_s:8.2f} s] {text}")

@@ -14,6 +14,7 @@ import numpy as np
 from hal.sim.world.dock import Dock
 from hal.sim.world.floor_plan import World
 from hal.sim.world.geometry import FloatArray, raycast
+from robotd.sim.nav.report import draw_navigation
 from robotd.sim.tracks import TrackPoint
 
 _EVENT_MARKERS = {
@@ -120,6 +121,7 @@ def draw_trajectory(
                     xytext=(4, 4), textcoords="offset points", color="tab:blue")
     if world.dock is not None:
         _draw_dock(ax, world.dock, world.walls)
+    draw_navigation(ax, world, events)
     for person in world.people:
         ax.plot(person.x_m, person.y_m, marker="o", color="purple", ms=9, zorder=3)
 
@@ -128,8 +130,15 @@ def draw_trajectory(
     colour = {s: cmap(i % 10) for i, s in enumerate(states)}
     styles = ["-", "--", ":", "-."]
     labelled: set[str] = set()
+    halo = plt.get_cmap("Set2")
     for index, (robot, points) in enumerate(tracks.items()):
         style = styles[index % len(styles)]
+        if len(tracks) > 1 and points:
+            # Each robot's own band under its state colours, each next one narrower and on top:
+            # two robots on one loop show as a stripe within a stripe where both drove.
+            ax.plot([p.x_m for p in points], [p.y_m for p in points], color=halo(index % 8),
+                    lw=9 - 3 * (index % 3), alpha=0.6, zorder=3.5 + 0.1 * index,
+                    solid_capstyle="round", label=f"band of {robot}")
         for state in states:
             px: list[float] = []
             py: list[float] = []
@@ -160,8 +169,13 @@ def draw_trajectory(
         # An arrival is where a script acts too (the load comes in): its star is drawn large,
         # outlined and underneath, so both show.
         big = kind == "arrival"
+        # Link markers are hollow and underneath: a script step or a deadman stop at the same
+        # spot (unplugging the board is both) shows through them.
+        hollow = kind == "link"
         ax.plot(event["x_m"], event["y_m"], marker=marker, color=col, ms=20 if big else 10,
-                mec="black" if big else col, mew=0.8 if big else 1.0, zorder=5.5 if big else 6,
+                mec="black" if big else col, mew=0.8 if big else 1.5 if hollow else 1.0,
+                mfc="none" if hollow else col,
+                zorder=5.5 if big else 5.8 if hollow else 7,
                 label=None if kind in seen else kind, ls="none")
         seen.add(kind)
         note = event.get("action") or event.get("state") or ""

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import asyncio
 import random
+import tempfile
+from pathlib import Path
 from typing import Any
 
 import structlog
@@ -22,6 +24,7 @@ from hal.sim.devices.ble_model import BleAirParams, SimBleAir
 from hal.sim.devices.camera_model import CameraMount, SimCamera
 from hal.sim.devices.dock_ir_model import SimDockIr, dock_signal
 from hal.sim.devices.hx711_model import SimHx711Lines
+from hal.sim.devices.ld19 import SimLd19
 from hal.sim.devices.motor_board.dock_inputs import DockInputs
 from hal.sim.devices.motor_board.fake_mcu import FakeMcu
 from hal.sim.devices.motor_board.simavr_bridge import SimavrBridge
@@ -29,7 +32,10 @@ from hal.sim.devices.motor_board.simavr_mcu import SimavrMcu, SimavrUnavailable,
 from hal.sim.devices.sim_serial import SimSerialPorts
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import World
+from hal.sim.world.lidar_rays import LidarRays
 from robotd.config.settings import Settings
+from robotd.sim.nav.map_writer import write_walls_map
+from robotd.sim.scenario import scenario_dir
 
 log = structlog.get_logger(__name__)
 
@@ -89,6 +95,11 @@ class SimRig:
             if hasattr(self.mcu, "evac_listeners"):  # the board's docking lines (mcu-dock)
                 self.wire_dock_inputs(self.mcu)
             self._fill_dock_slots()
+        self.ld19: SimLd19 | None = None
+        self.rays: LidarRays | None = None
+        self.map_dir: tempfile.TemporaryDirectory[str] | None = None
+        if "lidar" in needs:
+            self._fit_lidar(seed * 1000 + index)
         self._deadman_seen = 0
 
     def _fill_dock_slots(self) -> None:
@@ -101,6 +112,30 @@ class SimRig:
         self.devices.wall = facets.wall
         self.devices.bin = facets.bin
         self.devices.station = self.link
+
+    def _fit_lidar(self, seed: int) -> None:
+        """A ``SimLd19`` on ``lidar.port``, its beams cast in the world, the real driver on top;
+        ``map.file = "walls"``: the world's mapped walls written as the robot's map file."""
+        from drivers.lidar import Ld19Lidar, LidarConfig
+
+        config = LidarConfig.from_settings(self.settings)
+        loop = asyncio.get_running_loop()
+        self.rays = LidarRays(self.world, self.body, mount_x_m=config.mount_x_m,
+                              mount_y_m=config.mount_y_m, mount_yaw_rad=config.mount_yaw_rad,
+                              clock=loop.time)
+        self.ld19 = SimLd19(self.rays, model=config.model.value, max_range_m=config.max_range_m,
+                            chunk_s=0.02, seed=seed)
+        self.ports.attach(config.port, self.ld19)
+        self.devices.lidar = Ld19Lidar(self.ports, config)
+        if self.settings.get("map.file") == "walls":
+            self.map_dir = tempfile.TemporaryDirectory(prefix="robotd-sim-map-")
+            path = write_walls_map(self.world, Path(self.map_dir.name),
+                                   self.settings.get("map.resolution_m"))
+            self.settings.set("map.file", str(path))
+        elif not Path(self.settings.get("map.file")).expanduser().is_absolute():
+            # A scenario names its robot's map relative to itself, as its world.map.
+            path = scenario_dir(str(self.settings.source)) / self.settings.get("map.file")
+            self.settings.set("map.file", str(path))
 
     async def open_simavr(self) -> None:
         """Put the real firmware, in an emulated ATmega328P, on the body instead of the fake.
@@ -130,6 +165,10 @@ class SimRig:
 
     async def close(self) -> None:
         await self.mcu.close()
+        if self.ld19 is not None:
+            self.ld19.close()
+        if self.map_dir is not None:
+            self.map_dir.cleanup()
         if self.simavr is not None:
             await self.simavr.close()
 

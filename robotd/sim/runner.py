@@ -11,6 +11,7 @@ import argparse
 import asyncio
 import contextlib
 import functools
+import math
 import random
 import signal
 import tempfile
@@ -28,6 +29,7 @@ from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.geometry import Pose
 from robotd.config import ConfigError
 from robotd.config.settings import Settings
+from robotd.control.access import socket_problem
 from robotd.logs import configure_logging
 from robotd.profiles import PROFILES
 from robotd.sim.actors import ActorContext, SimActors, actors_factory
@@ -111,7 +113,10 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
     def wall_clock() -> datetime:
         return origin + timedelta(seconds=loop.time())
 
-    configure_logging("warning", mode="console" if console.tty else "json",
+    # --quiet prints the result only: the daemons' warnings (link.down as a robot shuts down...)
+    # are in events.jsonl's story already; a crash still shows its traceback.
+    configure_logging("critical" if console.quiet else "warning",
+                      mode="console" if console.tty else "json",
                       timestamper=lambda: wall_clock().isoformat())
 
     def on_event(robot: str, event: dict[str, Any]) -> None:
@@ -123,6 +128,8 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
         if record is not None and "x_m" not in entry and entry.get("kind") != "service":
             pose = record.body.pose
             entry["x_m"], entry["y_m"] = pose.x_m, pose.y_m
+            if str(entry.get("kind", "")).startswith("nav."):  # the truth, beside estimates
+                entry["true_heading_deg"] = round(math.degrees(pose.heading_rad), 2)
         if record is not None and entry.get("kind") == "transition":
             dst = str(entry.get("dst", ""))
             record.state = dst
@@ -130,7 +137,7 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
             if dst == "estop" or dst.startswith("estop."):
                 record.estops += 1
             console.transition(loop.time(), robot, str(entry.get("src")), dst,
-                               str(entry.get("trigger")), many)
+                               str(entry.get("trigger")))
             if player is not None:
                 player.state_changed()
         events.append(entry)
@@ -177,6 +184,10 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
             if mine is not None:
                 mine.attach(rig)
             socket_path = _socket_path(getattr(args, "socket", None), workdir, spec.name, index)
+            socket_why = socket_problem(socket_path)
+            if socket_why is not None:  # no robot runs without its socket: exit 2, say why
+                msg = f"--socket {socket_path}: {socket_why}"
+                raise ValueError(msg)
             daemon = Daemon(settings, rig.devices, profile, state_dir=workdir / spec.name,
                             socket_path=socket_path, wall_clock=wall_clock, notify=False,
                             handle_signals=False)

@@ -87,7 +87,7 @@ def read_beside(scenario: Scenario, name: str) -> str:
         raise ScenarioError(msg) from exc
 
 
-def _base_dir(source: str) -> Path:
+def scenario_dir(source: str) -> Path:
     """Where files a scenario names are (built-ins: beside them, in the package)."""
     if source.startswith("<builtin "):
         return Path(str(resources.files("robotd.sim") / "scenarios"))
@@ -131,13 +131,18 @@ def parse_scenario(text: str, source: str) -> Scenario:
         raise ScenarioError(msg) from exc
 
 
+NAV_SUCCESS_KEYS = ("max_localisation_error_p95_m", "max_heading_error_p95_deg",
+                    "min_pose_rate_hz", "goals_reached_within_m", "divergence_within_s")
+"""Navigation conditions (``robotd.sim.nav.checks``)."""
 _TOP = ("scenario", "config", "world", "robot", "robots", "script", "success", "fleet")
 _SCENARIO = ("name", "description", "profile", "seed")
 _ROBOT = ("name", "x_m", "y_m", "heading_deg", "config", "body", "payload_kg")
 _SUCCESS = ("time_limit_s", "states_reached", "final_state", "final_poses", "no_estop",
-            "no_collisions", "max_cross_track_m", "arrivals", "requests", "final_rooms")
+            "no_collisions", "max_cross_track_m", "arrivals", "requests", "final_rooms",
+            *NAV_SUCCESS_KEYS)
 _STEP = ("at_s", "action", "robot", "duration_s", "pct", "kg", "name", "x_m", "y_m", "key",
-         "value", "when_state", "delay_s")
+         "value", "when_state", "delay_s", "points", "speed_mps", "loop", "heading_deg", "dx_m",
+         "dy_m")
 _FLEET = ("site", "settings", "customers", "washing_s")
 
 
@@ -159,7 +164,7 @@ def _build(raw: dict[str, Any], source: str) -> Scenario:
         check_keys(_table(raw, "fleet"), _FLEET, "fleet")
     name = str(meta.get("name", Path(source).stem))
     profile = str(meta.get("profile", "square"))
-    world = World.from_table(_table(raw, "world"), base_dir=_base_dir(source))
+    world = World.from_table(_table(raw, "world"), base_dir=scenario_dir(source))
     config = _table(raw, "config", required=False)
     robots_raw = raw.get("robots")
     if robots_raw is None:

@@ -16,6 +16,11 @@ from hal.sim.devices.motor_board.mcu_frames import (
     crc8_bitwise as crc8,  # the firmware's own bitwise CRC
 )
 
+_PLAIN_STARTS = ("ACK", "NAK:", "HELLO:", "ENCODER:", "IR:", "IRS:", "BAT:", "BOOT:", "DOCK:",
+                 "BUMP:", "WALL:", "BIN:")
+"""How the board's whole plain lines begin; the tail of a line cut by the port's opening
+begins otherwise (a plain ACK, the first line a plain command gets, must not be dropped)."""
+
 
 def frame(body: str) -> bytes:
     return f"{body}*{crc8(body.encode()):02X}\n".encode()
@@ -56,8 +61,9 @@ class PtyLink:
         *lines, self._buf = self._buf.split(b"\n")
         if lines and not self._synced:
             self._synced = True
-            if unframe(lines[0].decode(errors="replace")) is None:
-                lines = lines[1:]
+            first = lines[0].decode(errors="replace")
+            if unframe(first) is None and not first.startswith(_PLAIN_STARTS):
+                lines = lines[1:]  # a tail: whole plain lines (a bare ACK first) are kept
         for raw in lines:
             line = raw.decode(errors="replace")
             body = unframe(line)

@@ -35,3 +35,13 @@ class TestServeArguments:
         assert sqlite_dir_problem("sqlite+aiosqlite:///fleet.db") is None  # the working dir
         assert sqlite_dir_problem("sqlite://") is None  # in memory
         assert sqlite_dir_problem("postgresql+asyncpg://u@localhost/fleet") is None
+
+
+class TestServeHelp:
+    def test_the_help_shows_the_host_and_port_defaults(
+            self, capsys: pytest.CaptureFixture[str]) -> None:
+        with pytest.raises(SystemExit):
+            main(["serve", "--help"])
+        out = " ".join(capsys.readouterr().out.split())
+        assert "(default: 127.0.0.1" in out
+        assert "(default: 8080)" in out

@@ -71,7 +71,20 @@ class TestTune:
             await client.close()
             text = (daemon.state_dir / "overrides.toml").read_text()
         assert reply["result"]["persisted"] is True
+        assert reply["result"]["persisted_to"] == str(daemon.state_dir / "overrides.toml")
+        assert "note" not in reply["result"]
         assert "[weight]\nmax_kg = 12.5\n" in text
+
+    async def test_persist_in_the_simulator_says_the_value_will_not_outlive_the_run(
+            self) -> None:
+        """The simulator's state directory is temporary: the reply says so (a technician
+        would otherwise expect the value at the next run)."""
+        async with running_daemon(config={"hal": {"backend": "sim"}}) as daemon:
+            client = await RpcClient.connect(socket_of(daemon))
+            reply = await client.call("tune.set", {"key": "weight.max_kg", "value": 12.5,
+                                                   "persist": True})
+            await client.close()
+        assert "temporary" in reply["result"]["note"]
 
 
 class TestSubscribe:

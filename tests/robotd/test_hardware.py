@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from robotd.config import Settings
@@ -33,7 +35,7 @@ class TestBuildDevices:
         assert exc.value.problems == [
             "hal.devices: unknown device 'toaster' (known: motors, encoders, front_range, "
             "battery, servo, leds, camera, beacons, load_cell, dock_ir, dock_signal, "
-            "dock_contacts, bumpers, wall, bin, station, lidar, audio)",
+            "dock_contacts, bumpers, wall, bin, station, lidar, audio, qr)",
             "motors, encoders (arduino): serial port /dev/ttyNOPE3 does not exist (check "
             "serial.port, the USB cable, and ls /dev/ttyACM* /dev/ttyUSB*)",
             "camera (camera): camera /dev/videoNOPE does not exist (check camera.device and "
@@ -57,3 +59,26 @@ class TestFacets:
         assert devices.encoders is link.encoders
         assert devices.front_range is link.front_range
         assert devices.battery is link.battery
+
+
+class TestQrCamera:
+    def test_a_missing_qr_camera_is_one_line(self) -> None:
+        """hal.devices = ["qr"] with no such video device: named with what to check."""
+        s = settings(hal={"devices": ["qr"]}, qr_camera={"device": "/dev/videoNOPE"})
+        with pytest.raises(HardwareMissing) as exc:
+            build_devices(s, ())
+        assert exc.value.problems == [
+            "qr (qr_camera): QR camera /dev/videoNOPE does not exist (check qr_camera.device "
+            "and the cable; ls /dev/video*)"]
+
+    def test_a_video_file_gives_a_reader(self, tmp_path: Path) -> None:
+        """qr_camera.source = file: the reader wraps the video file camera."""
+        from drivers.camera.qr_reader import QrCameraReader
+
+        video = tmp_path / "customer.avi"
+        video.write_bytes(b"")
+        s = settings(hal={"devices": ["qr"]},
+                     qr_camera={"source": "file", "file": str(video)})
+        devices = build_devices(s, ())
+        assert isinstance(devices.qr, QrCameraReader)
+        assert devices.qr.camera.name == "qr_camera"

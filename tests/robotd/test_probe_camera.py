@@ -84,6 +84,14 @@ class TestCameraProbe:
         assert code == 1
         assert "/dev/video97: cannot open" in capsys.readouterr().err
 
+    def test_a_missing_camera_prints_no_opencv_warnings(self, capfd: pytest.CaptureFixture[str]
+                                                        ) -> None:
+        """OpenCV's own WARN lines (written by its C++ to fd 2) do not come before ours."""
+        assert asyncio.run(probe.run(_args(["--device", "/dev/video97"]))) == 1
+        err = capfd.readouterr().err
+        assert "[ WARN" not in err
+        assert err.startswith("probe camera: camera /dev/video97: cannot open")
+
     def test_an_unknown_colour_is_a_usage_error(self, capsys: pytest.CaptureFixture[str]
                                                 ) -> None:
         """--colour purple: exit 2 naming it."""

@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from hal.looptime.timer_chain import timer_chain
+from hal.looptime.timer_chain import on_a_grid
 from hal.readings import Frame
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import PaintedLine, World
@@ -176,17 +176,7 @@ class SimCamera:
     async def _run(self) -> None:
         # Each capture is a timer callback that sets the next one (hal.looptime.timer_chain):
         # one loop turn a frame, where a task sleeping between frames would cost two.
-        loop = asyncio.get_running_loop()
-        period_s = 1.0 / self.mount.fps
-        deadline = loop.time() + period_s
-
-        def capture() -> float:
-            nonlocal deadline
-            self._capture()
-            deadline += period_s
-            return max(0.0, deadline - loop.time())
-
-        await timer_chain(capture, max(0.0, deadline - loop.time()))
+        await on_a_grid(self._capture, 1.0 / self.mount.fps)
 
     def _capture(self) -> None:
         loop = asyncio.get_running_loop()

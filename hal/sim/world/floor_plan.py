@@ -23,6 +23,7 @@ from hal.sim.world.geometry import (
     segments_array,
 )
 from hal.sim.world.occupancy_walls import known_bounds, map_walls
+from hal.sim.world.walkers import LEG_RADIUS_M, Walk, leg_centres
 
 # Colours a painted line can have, as a camera sees them under white light (BGR).
 LINE_COLOURS_BGR: dict[str, tuple[int, int, int]] = {
@@ -86,11 +87,37 @@ class SimBeacon:
 
 @dataclass
 class Person:
+    """A person on the floor: a body circle (``radius_m``) for bumpers and the front sensor;
+    the LiDAR, at shin height, sees two legs (``legs``) or the circle. ``walk``: a path
+    walked over time (``hal.sim.world.walkers``), applied by ``update(t_s)``."""
+
     name: str
     x_m: float
     y_m: float
     present: bool = True
     radius_m: float = 0.2
+    legs: bool = True
+    heading_rad: float = 0.0
+    qr_payload: str | None = None
+    """The text of the QR code this person holds up to a forward camera (a customer's order)."""
+    walk: Walk | None = None
+
+    def update(self, t_s: float) -> None:
+        """Move to where the walk puts the person at ``t_s`` (no walk: stay)."""
+        if self.walk is not None:
+            self.x_m, self.y_m, self.heading_rad, _ = self.walk.at(t_s)
+
+    def leg_circles(self, t_s: float) -> list[tuple[float, float, float]]:
+        """(x, y, radius) of what a LiDAR beam at shin height meets."""
+        if not self.legs:
+            return [(self.x_m, self.y_m, self.radius_m)]
+        walked = 0.0
+        if self.walk is not None:
+            walked = max(0.0, t_s - self.walk.start_s) * self.walk.speed_mps
+            if not self.walk.at(t_s)[3]:
+                walked = 0.0  # standing: legs together
+        return [(x, y, LEG_RADIUS_M)
+                for x, y in leg_centres(self.x_m, self.y_m, self.heading_rad, walked)]
 
 
 @dataclass
@@ -109,8 +136,13 @@ class World:
     x_min_m: float = 0.0  # the floor's lower-left corner (a map's origin can be negative)
     y_min_m: float = 0.0
     map_source: str = ""  # the map_server YAML the walls came from, if any
+    unmapped_walls: int = 0  # the last this many walls are furniture the robots' maps lack
     _segments_cache: tuple[tuple[PaintedLine, ...], FloatArray] | None = field(
         default=None, init=False, repr=False, compare=False)
+
+    def mapped_walls(self) -> FloatArray:
+        """The walls a robot's map has (``map.file = "walls"``): all but unmapped boxes."""
+        return self.walls[:self.walls.shape[0] - self.unmapped_walls]
 
     def room_at(self, x_m: float, y_m: float) -> str | None:
         for room in self.rooms:
@@ -154,7 +186,7 @@ class World:
         """
         r = _Reader(table, where)
         r.known("width_m", "height_m", "boundary", "walls", "rooms", "lines", "beacons", "dock",
-                "people", "zones", "floor_bgr", "robots_see_each_other", "map")
+                "people", "zones", "floor_bgr", "robots_see_each_other", "map", "boxes")
         x_min = y_min = 0.0
         map_walls_: FloatArray | None = None
         source = ""
@@ -196,18 +228,32 @@ class World:
                 br.text("room", ""), br.num("interval_s", 0.1)))
         dock = _dock(_Reader(r.get("dock"), f"{where}.dock")) if "dock" in table else None
         people = [Person(pr.text("name", f"person{i}"), pr.num("x_m"), pr.num("y_m"),
-                         bool(pr.get("present", True)))
+                         bool(pr.get("present", True)), legs=bool(pr.get("legs", True)),
+                         qr_payload=pr.text("qr_payload") if "qr_payload" in pr.table else None)
                   for i, pr in ((i, _Reader(t, f"{where}.people[{i}]"))
                                 for i, t in enumerate(r.tables("people")))]
+        mapped_boxes: list[tuple[float, float, float, float]] = []
+        unmapped_boxes: list[tuple[float, float, float, float]] = []
+        for i, t in enumerate(r.tables("boxes")):
+            xr = _Reader(t, f"{where}.boxes[{i}]")
+            xr.known("x_min_m", "y_min_m", "x_max_m", "y_max_m", "mapped")
+            x0, y0 = xr.num("x_min_m"), xr.num("y_min_m")
+            x1, y1 = xr.num("x_max_m"), xr.num("y_max_m")
+            sides = [(x0, y0, x1, y0), (x1, y0, x1, y1), (x1, y1, x0, y1), (x0, y1, x0, y0)]
+            (mapped_boxes if xr.get("mapped", True) else unmapped_boxes).extend(sides)
+        walls += mapped_boxes
         zones = {name: _room(_Reader(t, f"{where}.zones.{name}"), name)
                  for name, t in r.get("zones", {}).items()}
         floor = tuple(int(v) for v in r.get("floor_bgr", (200, 205, 210)))
         all_walls = segments_array(walls)
         if map_walls_ is not None:
             all_walls = np.concatenate([all_walls, map_walls_])
+        if unmapped_boxes:  # last, so that mapped_walls() is a prefix
+            all_walls = np.concatenate([all_walls, segments_array(unmapped_boxes)])
         return cls(width, height, all_walls, rooms, lines, beacons, dock, people,
                    zones, (floor[0], floor[1], floor[2]),
-                   bool(r.get("robots_see_each_other", True)), x_min, y_min, source)
+                   bool(r.get("robots_see_each_other", True)), x_min, y_min, source,
+                   len(unmapped_boxes))
 
 
 def _read_map(name: str, base_dir: Path | None, where: str

@@ -8,7 +8,9 @@ brings its actions in a module here and adds them to ``ACTIONS``.
 from __future__ import annotations
 
 from robotd.sim.actions.dock import DOCK_ACTIONS
+from robotd.sim.actions.lidar import LIDAR_ACTIONS
 from robotd.sim.actions.motor_board import MOTOR_BOARD_ACTIONS
+from robotd.sim.actions.people import PEOPLE_ACTIONS
 from robotd.sim.actions.robot import ROBOT_ACTIONS
 from robotd.sim.actions.step import Action, Step
 from robotd.sim.actions.world import WORLD_ACTIONS
@@ -18,6 +20,8 @@ ACTIONS: dict[str, Action] = {
     **MOTOR_BOARD_ACTIONS,
     **WORLD_ACTIONS,
     **ROBOT_ACTIONS,
+    **LIDAR_ACTIONS,
+    **PEOPLE_ACTIONS,
 }
 """Action name (``script[i].action``) -> what it does."""
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import contextlib
 
 import pytest
 
@@ -72,3 +73,26 @@ class TestTimerChain:
             return seen
 
         assert vclock.run(main()) == 4
+
+
+class TestOnAGrid:
+    def test_ticks_land_on_the_grid_of_the_period(self) -> None:
+        """Ticks at 0.1, 0.2, 0.3 ... of loop time, the first one period after the start."""
+        from hal.looptime.timer_chain import on_a_grid
+
+        async def main() -> list[float]:
+            loop = asyncio.get_running_loop()
+            start = loop.time()
+            times: list[float] = []
+
+            def tick() -> None:
+                times.append(round(loop.time() - start, 6))
+
+            task = asyncio.create_task(on_a_grid(tick, 0.1))
+            await asyncio.sleep(0.55)
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+            return times
+
+        assert vclock.run(main()) == [0.1, 0.2, 0.3, 0.4, 0.5]

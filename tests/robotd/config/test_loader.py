@@ -104,3 +104,11 @@ class TestNamesTheFileGives:
             'r.toml:1: "": unknown section',
             'r.toml:4: robot."a\\u003ab": unknown key (known: name, profile, state_dir)',
         ]
+
+
+class TestDidYouMean:
+    def test_a_key_wrong_only_in_case_is_named(self) -> None:
+        """``Kp`` for ``kp``: difflib's ratio is too low for a two-letter key; case is not."""
+        with pytest.raises(ConfigError,
+                           match=r"line_follow.Kp: unknown key \(did you mean 'kp'\?\)"):
+            load_config_text("[line_follow]\nKp = 1\n", "r.toml")

@@ -143,3 +143,33 @@ class TestOptionsCheckedBeforeRunning:
     ) -> None:
         assert main(["sim", "square", "--quiet", "--report", "/proc/nope"]) == 2
         assert "--report /proc/nope: cannot create the directory" in capsys.readouterr().out
+
+
+class TestQuiet:
+    def test_quiet_prints_the_result_and_no_log_lines(self) -> None:
+        """``--quiet``: the summary on stdout, nothing on stderr (the daemons' warnings, such
+        as link.down while the board is unplugged, are JSON log lines a user did not ask for)."""
+        import subprocess
+        import sys
+
+        done = subprocess.run([sys.executable, "-m", "robotd.cli", "sim", "square", "--quiet",
+                               "--seed", "1"], capture_output=True, text=True, timeout=120,
+                              check=False)
+        assert done.returncode == 0
+        assert done.stderr == ""
+        assert done.stdout.lstrip().startswith("scenario square: SUCCESS")
+
+
+class TestSocketInUse:
+    def test_a_socket_another_daemon_listens_on_is_exit_2(
+            self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        """A second ``robotd sim --socket`` on a socket in use says so and exits 2 (it ran on
+        without its socket)."""
+        import socket
+
+        path = str(tmp_path / "r.sock")
+        with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as other:
+            other.bind(path)
+            other.listen()
+            assert main(["sim", "square", "--quiet", "--socket", path]) == 2
+        assert f"--socket {path}: another robotd is already listening" in capsys.readouterr().out

@@ -6,75 +6,22 @@ Exit codes: 0 ok, 1 the daemon answered with an error, 2 usage, 3 cannot connect
 from __future__ import annotations
 
 import argparse
-import itertools
 import json
 import os
-import socket
 import sys
-import time
-from typing import Any, TextIO
+from typing import Any
 
-DEFAULT_SOCKET = "/run/robotd/control.sock"
-EXIT_OK, EXIT_ERROR, EXIT_USAGE, EXIT_CONNECT = 0, 1, 2, 3
+from robotd.ctl.connection import (
+    DEFAULT_SOCKET,
+    EXIT_CONNECT,
+    EXIT_ERROR,
+    EXIT_OK,
+    CannotConnect,
+    Connection,
+    DaemonError,
+)
 
-
-class CannotConnect(Exception):
-    pass
-
-
-class DaemonError(Exception):
-    def __init__(self, error: dict[str, Any]) -> None:
-        self.error = error
-        super().__init__(error.get("message", "error"))
-
-
-class Connection:
-    """A blocking JSON-RPC client over the Unix socket (robotctl is a short-lived process)."""
-
-    def __init__(self, path: str, timeout_s: float) -> None:
-        self.path = path
-        self._ids = itertools.count(1)
-        self._sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-        self._sock.settimeout(timeout_s)
-        try:
-            self._sock.connect(path)
-        except FileNotFoundError:
-            raise CannotConnect(f"no control socket at {path}: is robotd running? "
-                                "(systemctl status robotd; or give --socket PATH)") from None
-        except PermissionError:
-            raise CannotConnect(f"permission denied on {path}: the socket is mode 0660, group "
-                                "robotd; join that group (sudo usermod -aG robotd $USER, log in "
-                                "again) or use sudo") from None
-        except ConnectionRefusedError:
-            raise CannotConnect(f"nothing listens on {path}: robotd is not running (a stale "
-                                "socket left by a crash?)") from None
-        except OSError as exc:
-            raise CannotConnect(f"cannot connect to {path}: {exc}") from None
-        self._file = self._sock.makefile("rb")
-
-    def call(self, method: str, params: dict[str, Any] | None = None) -> Any:
-        request_id = next(self._ids)
-        message = {"jsonrpc": "2.0", "id": request_id, "method": method, "params": params or {}}
-        try:
-            self._sock.sendall(json.dumps(message).encode() + b"\n")
-            while True:
-                line = self._file.readline()
-                if not line:
-                    raise CannotConnect(f"robotd closed the connection on {self.path}")
-                reply = json.loads(line)
-                if reply.get("id") == request_id:
-                    break
-        except TimeoutError:
-            raise CannotConnect(f"robotd did not answer {method!r} in time") from None
-        except OSError as exc:
-            raise CannotConnect(f"connection to {self.path} failed: {exc}") from None
-        if "error" in reply:
-            raise DaemonError(reply["error"])
-        return reply.get("result")
-
-    def close(self) -> None:
-        self._file.close()
-        self._sock.close()
+__all__ = ["DEFAULT_SOCKET", "CannotConnect", "Connection", "DaemonError", "main", "render"]
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -89,8 +36,10 @@ def build_parser() -> argparse.ArgumentParser:
     events = sub.add_parser("events", help="recent events")
     events.add_argument("--limit", type=int, default=20)
     events.add_argument("--kind", help="only events of this kind (transition, service ...)")
-    watch = sub.add_parser("watch", help="a live view that refreshes in place (Ctrl-C ends)")
-    watch.add_argument("--interval", type=float, default=1.0, help="seconds between refreshes")
+    watch_p = sub.add_parser("watch", help="a live view that fits the terminal, redrawn on "
+                             "every state change (Ctrl-C ends)")
+    watch_p.add_argument("--interval", type=float, default=1.0,
+                         help="seconds between sensor refreshes")
     tune = sub.add_parser("tune", help="read or set a setting live")
     tune_sub = tune.add_subparsers(dest="tune_command", required=True, metavar="get|set")
     get = tune_sub.add_parser("get", help="tune get KEY")
@@ -106,6 +55,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("resume", help="leave estop for idle")
     trigger = sub.add_parser("trigger", help="fire a state machine trigger (e.g. go_dock)")
     trigger.add_argument("name", metavar="NAME")
+    loaded = sub.add_parser("confirm-loaded",
+                            help="delivery robot: the parcel is in the box (warehouse staff)")
+    loaded.add_argument("--by", default="robotctl", help="who confirms (kept in the event)")
     return parser
 
 
@@ -118,6 +70,8 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_CONNECT
     try:
         if args.command == "watch":
+            from robotd.ctl.watch import watch
+
             return watch(conn, args.interval, sys.stdout)
         method, params = _request(args)
         result = conn.call(method, params)
@@ -155,6 +109,8 @@ def _request(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
         return "estop", {"reason": args.reason}
     if args.command == "trigger":
         return "trigger", {"name": args.name}
+    if args.command == "confirm-loaded":
+        return "delivery.confirm_loaded", {"by": args.by}
     return args.command, {}
 
 
@@ -169,27 +125,6 @@ def _print_error(exc: DaemonError, as_json: bool) -> None:
             print(f"  {problem}", file=sys.stderr)
 
 
-def watch(conn: Connection, interval_s: float, out: TextIO) -> int:
-    """Redraw status, sensors and the last events every ``interval_s`` until Ctrl-C."""
-    in_place = out.isatty()
-    try:
-        while True:
-            status = conn.call("status")
-            sensors = conn.call("sensors")
-            events = conn.call("events", {"limit": 8})
-            screen = (render("status", status) + "\n" + render("sensors", sensors) + "\n"
-                      + render("events", events))
-            if in_place:
-                out.write("\x1b[H\x1b[2J")  # cursor home, clear screen
-            else:
-                out.write(f"--- {time.strftime('%H:%M:%S')}\n")
-            out.write(screen)
-            out.flush()
-            time.sleep(interval_s)
-    except KeyboardInterrupt:
-        return EXIT_OK
-
-
 def render(command: str, result: Any) -> str:
     """Readable text for a command's result."""
     if command == "status":
@@ -202,8 +137,12 @@ def render(command: str, result: Any) -> str:
                 for e in result]
         return table(["t_s", "kind", "details"], rows) if rows else "no events\n"
     if command == "tune":
-        suffix = " (persisted)" if result.get("persisted") else ""
-        return f"{result['key']} = {json.dumps(result['value'])}{suffix}\n"
+        suffix = ""
+        if result.get("persisted"):
+            suffix = f" (persisted in {result['persisted_to']})" if "persisted_to" in result \
+                else " (persisted)"
+        note = f"note: {result['note']}\n" if result.get("note") else ""
+        return f"{result['key']} = {json.dumps(result['value'])}{suffix}\n{note}"
     if isinstance(result, dict):
         return table(["key", "value"], [[k, _short(v)] for k, v in result.items()])
     return f"{result}\n"
@@ -262,6 +201,3 @@ def _short(value: Any) -> str:
         return json.dumps(value, default=str)
     return str(value)
 
-
-if __name__ == "__main__":
-    sys.exit(main())

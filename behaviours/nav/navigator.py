@@ -1,0 +1,190 @@
+"""Going to (x, y) on the map as one awaitable: the navigation stack's glue for profiles.
+
+``NavStack`` builds, from the settings, what every navigating profile needs: the map
+(``map`` section), the planner, the localiser and its service (a pose at ``publish_hz``), the
+people tracker, and a ``PathFollower`` whose ``WaypointDrive`` runs on the localised pose
+(through the obstacle guard when the robot has a front sensor). ``NavStack.go_to(x, y)``
+returns a ``NavOutcome``: reached, or why not: ``no_path``, ``no_progress``, ``diverged``
+(localisation lost), ``lidar_lost``. It never raises those; the motors are stopped before it
+returns a failure. Scan points the map does not explain (seen while localised) are handed to
+the follower as obstacles, so an unmapped box or a walker on the path makes it replan.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import structlog
+
+from behaviours.motion.obstacle_guard import ObstacleGuard
+from behaviours.motion.odometry import Odometry, OdometryPose
+from behaviours.motion.waypoint_drive import WaypointDrive
+from behaviours.nav.config import MapConfig, PlannerConfig
+from behaviours.nav.localisation.config import LocalisationConfig, PeopleConfig
+from behaviours.nav.localisation.filter import (
+    DIVERGED,
+    LIDAR_LOST,
+    LOCALISED,
+    LocalisedPose,
+    Localiser,
+)
+from behaviours.nav.localisation.likelihood_field import DistanceGrid
+from behaviours.nav.localisation.motion_model import compose, inverse
+from behaviours.nav.localisation.people import PeopleTracker, unexplained_points
+from behaviours.nav.localisation.service import LocalisationService, odometry_source, start_filter
+from behaviours.nav.map_file import load_grid
+from behaviours.nav.path_follower import NoProgress, PathFollower
+from behaviours.nav.planner import NoPath, Planner
+from hal.devices import Lidar, Motors, RangeSensor
+from hal.readings import LidarScan
+from hal.settings import SettingsView
+from hal.tasks import cancel_and_wait
+
+log = structlog.get_logger(__name__)
+
+FAILURES = ("no_path", "no_progress", "diverged", "lidar_lost")
+_WATCH_S = 0.1
+_OBSTACLE_RANGE_M = 3.0
+
+
+@dataclass(frozen=True, slots=True)
+class NavOutcome:
+    """How a ``go_to`` ended: ``reason`` is ``reached`` or one of ``FAILURES``."""
+
+    reason: str
+    goal: tuple[float, float]
+    x_m: float
+    y_m: float
+    remaining_m: float
+    replans: int
+    duration_s: float
+    detail: str = ""
+
+    @property
+    def reached(self) -> bool:
+        return self.reason == "reached"
+
+
+class NavStack:
+    """Map, planner, localisation and follower of one robot (one per profile instance)."""
+
+    def __init__(self, settings: SettingsView, motors: Motors, lidar: Lidar,
+                 odometry: Odometry, *, front_range: RangeSensor | None = None,
+                 stored_pose: tuple[float, float, float] | None = None,
+                 emit: Callable[..., None] | None = None) -> None:
+        self.settings = settings
+        self.lidar = lidar
+        self.odometry = odometry
+        grid = load_grid(MapConfig.from_settings(settings))
+        self.planner_config = PlannerConfig.from_settings(settings)
+        self.planner = Planner(grid, self.planner_config)
+        self.distance = DistanceGrid.from_field(self.planner.field)
+        self.localiser = Localiser(self.distance, LocalisationConfig.from_settings(settings))
+        self.started_from = start_filter(self.localiser, stored_pose)
+        self.people_config = PeopleConfig.from_settings(settings)
+        self.people = PeopleTracker(self.people_config, self.distance)
+        self._odom = odometry_source(odometry)
+        est = self.localiser.estimate
+        if est is not None:  # the start pose is the pose until the first filter update
+            start = np.array([est.x_m, est.y_m, est.theta_rad])
+            self.localiser.correction = compose(start, inverse(np.asarray(self._odom())))
+        self.service = LocalisationService(self.localiser, lidar, self._odom, people=self.people)
+        self.motors: Motors = motors
+        if front_range is not None:
+            self.motors = ObstacleGuard(motors, front_range, settings, emit)
+        self.drive = WaypointDrive(self.motors, odometry, settings, pose_source=self.pose)
+        self.follower = PathFollower(self.planner, self.drive, self.planner_config)
+        self.poses_published = 0
+        self.service.poses.listen(self._count)
+        self._stop_scans: Callable[[], None] | None = None
+
+    def _count(self, _pose: object) -> None:
+        self.poses_published += 1
+
+    def pose(self) -> OdometryPose:
+        """The fused map pose now (correction x live odometry)."""
+        p = self.localiser.pose_array(self._odom())
+        return OdometryPose(float(p[0]), float(p[1]), float(p[2]))
+
+    def live_pose(self) -> LocalisedPose:
+        """The fused pose as of now (not the last one published)."""
+        return self.localiser.pose(self._odom(), asyncio.get_running_loop().time())
+
+    def watch_scans(self) -> Callable[[], None]:
+        """Feed unexplained scan points to the follower as obstacles (call once running)."""
+        if self._stop_scans is None:
+            self._stop_scans = self.lidar.listen(self._on_scan)
+        return self._stop_scans
+
+    def _on_scan(self, scan: LidarScan) -> None:
+        if self.localiser.status != LOCALISED:
+            return  # unexplained points of a wrong pose are the map's walls, misplaced
+        pose = self.localiser.pose_array(self._odom())
+        pts = unexplained_points(scan, pose, self.distance, self.people_config)
+        if pts.shape[0] == 0:
+            return
+        pts = pts[np.hypot(pts[:, 0], pts[:, 1]) <= _OBSTACLE_RANGE_M]
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        mx = pose[0] + c * pts[:, 0] - s * pts[:, 1]
+        my = pose[1] + s * pts[:, 0] + c * pts[:, 1]
+        res = self.planner.grid.resolution_m
+        cells = np.unique(np.column_stack((np.round(mx / res), np.round(my / res))), axis=0)
+        self.follower.see_obstacles((float(x * res), float(y * res)) for x, y in cells)
+
+    async def go_to(self, x_m: float, y_m: float) -> NavOutcome:
+        """Plan and drive to a map point; the outcome says whether and why not."""
+        loop = asyncio.get_running_loop()
+        started = loop.time()
+        replans = self.follower.replans
+        task = asyncio.create_task(self.follower.go_to(x_m, y_m))
+        reason, detail = "reached", ""
+        try:
+            while True:
+                done, _ = await asyncio.wait({task}, timeout=_WATCH_S)
+                if done:
+                    break
+                status = self.localiser.status
+                if status in (DIVERGED, LIDAR_LOST):
+                    reason = "diverged" if status == DIVERGED else "lidar_lost"
+                    detail = f"localisation {status}"
+                    break
+            if reason == "reached":
+                try:
+                    task.result()
+                except NoPath as exc:
+                    reason, detail = "no_path", str(exc)
+                except NoProgress as exc:
+                    reason, detail = "no_progress", str(exc)
+        finally:
+            if not task.done():
+                await cancel_and_wait(task)
+            if reason != "reached":
+                await self.drive.stop()
+        pose = self.pose()
+        outcome = NavOutcome(reason, (x_m, y_m), pose.x_m, pose.y_m,
+                             math.hypot(x_m - pose.x_m, y_m - pose.y_m),
+                             self.follower.replans - replans, loop.time() - started, detail)
+        log.info("nav.outcome", reason=reason, goal_x_m=x_m, goal_y_m=y_m,
+                 remaining_m=round(outcome.remaining_m, 3), detail=detail)
+        return outcome
+
+    def status(self) -> dict[str, Any]:
+        """For ``robotctl status``/``sensors``: pose, spread, scan rate, the plan."""
+        out = self.service.status()
+        lidar_status = getattr(self.lidar, "status", None)
+        if callable(lidar_status):
+            figures = lidar_status()
+            if isinstance(figures, dict) and "scan_rate_hz" in figures:
+                out["scan_rate_hz"] = figures["scan_rate_hz"]
+        plan = self.follower.plan
+        if plan is not None:
+            out["plan"] = {"waypoints": [[round(x, 3), round(y, 3)] for x, y in plan.points],
+                           "length_m": round(plan.length_m, 3),
+                           "replans": self.follower.replans}
+        out["poses_published"] = self.poses_published
+        return out

@@ -1,0 +1,7 @@
+"""``python -m robotd.ctl``: robotctl without its console script."""
+
+import sys
+
+from robotd.ctl import main
+
+sys.exit(main())

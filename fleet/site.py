@@ -56,6 +56,8 @@ _KEYS: dict[str, dict[str, type]] = {
     "robots": {"name": str},
     "tokens": {"role": str, "subject": str, "token": str},
 }
+_MAX_CHARS = {"floor_color": 32, "name": 100, "room": 100}
+"""What the database's columns hold (fleet/models.py): a longer value is refused here."""
 _REQUIRED: dict[str, set[str]] = {
     "rooms": {"name"}, "beacons": {"mac", "name", "room"}, "customers": {"name"},
     "robots": {"name"}, "tokens": {"role", "subject", "token"},
@@ -115,6 +117,10 @@ def _entries(source: str, section: str, value: Any) -> list[dict[str, Any]]:
                 raise SiteError(msg)
             if not isinstance(item, want) or (want is int and isinstance(item, bool)):
                 msg = f"{where}.{key}: must be {want.__name__}, got {item!r}"
+                raise SiteError(msg)
+            limit = _MAX_CHARS.get(key)
+            if limit is not None and isinstance(item, str) and len(item) > limit:
+                msg = f"{where}.{key}: at most {limit} characters, got {len(item)}"
                 raise SiteError(msg)
         missing = _REQUIRED[section] - entry.keys()
         if missing:

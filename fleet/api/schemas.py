@@ -22,6 +22,9 @@ Whole = BeforeValidator(_whole_number)
 Id = Annotated[int, Field(strict=True, ge=1, le=2**31 - 1), Whole]
 Text = Annotated[str, StringConstraints(min_length=1, max_length=100,
                                         pattern=r"^[^\x00-\x1f\x7f]+$")]
+ShortText = Annotated[str, StringConstraints(min_length=1, max_length=32,
+                                             pattern=r"^[^\x00-\x1f\x7f]+$")]
+"""A short name such as a floor colour (the database column holds 32 characters)."""
 Mac = Annotated[str, StringConstraints(pattern=r"^[0-9A-Fa-f]{2}(:[0-9A-Fa-f]{2}){5}$")]
 Real = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-1e6, le=1e6)]
 Rssi = Annotated[int, Field(strict=True, ge=-200, le=50), Whole]
@@ -122,7 +125,7 @@ class RobotOut(BaseModel):
 
 class RoomIn(Strict):
     Name: Text
-    FloorColor: Text | None = None
+    FloorColor: ShortText | None = None
 
 
 class RoomOut(BaseModel):

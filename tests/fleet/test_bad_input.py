@@ -140,6 +140,8 @@ class TestBadRequests:
             ("post", "/api/customers", {"Name": "Zed", "BeaconMacAddress": "C3:00:00:00:09:09"},
              404),
             ("put", "/api/rooms", {"Name": "x\x00y"}, 422),
+            # The column holds 32 characters: PostgreSQL answered a longer one with a 500.
+            ("put", "/api/rooms", {"Name": "Attic", "FloorColor": "c" * 33}, 422),
         ]
         before = await snapshot(fleet)
         for method, path, body, code in cases:
@@ -166,6 +168,8 @@ class TestSiteFile:
         ("rooms = 3\n", "rooms: must be an array of tables"),
         ("[[beacons]]\nmac='a'\nname='b'\nroom='c'\nrssi_threshold_dbm=true\n",
          "beacons[0].rssi_threshold_dbm: must be int"),
+        ("[[rooms]]\nname = 'a'\nfloor_color = '" + "c" * 33 + "'\n",
+         "rooms[0].floor_color: at most 32 characters, got 33"),
     ])
     def test_bad_site_files_name_the_entry(self, text, message):
         with pytest.raises(SiteError, match=r"site\.toml") as info:

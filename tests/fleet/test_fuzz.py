@@ -119,8 +119,12 @@ def test_no_input_makes_the_server_fail(served: str, mode: GenerationMode) -> No
 
     for operation in operations:
 
+        # Derandomized: the same examples every run, so CI is reproducible (a random run once
+        # found a 33-character floor colour answered 500 by PostgreSQL, now a test of its own);
+        # set HYPOTHESIS_FUZZ_RANDOM=1 to explore new examples.
         @given(case=operation.as_strategy(generation_mode=mode))
         @settings(max_examples=15, deadline=None, database=None,
+                  derandomize=not os.environ.get("HYPOTHESIS_FUZZ_RANDOM"),
                   suppress_health_check=list(HealthCheck))
         def call(case: schemathesis.Case) -> None:
             token = token_of(case.method, case.path, "staff")

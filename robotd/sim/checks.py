@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from hal.sim.world.body import DiffDriveBody
+from robotd.sim.delivery.checks import delivery_failures
 from robotd.sim.nav.checks import nav_failures, nav_figures
 from robotd.sim.scenario import Scenario
 
@@ -79,6 +80,7 @@ def failures(scenario: Scenario, robots: dict[str, RobotRecord], elapsed_s: floa
     reasons += _arrival_failures(scenario, events or [])
     goals = scenario.config.get("patrol", {}).get("goals", [])
     reasons += nav_failures(success.extra, events or [], goals)
+    reasons += delivery_failures(success.extra, events or [])
     for want in success.extra.get("final_rooms", []):
         record = robots.get(str(want.get("robot")))
         if record is None:

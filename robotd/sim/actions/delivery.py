@@ -1,0 +1,55 @@
+"""Script actions around the delivery robot: warehouse staff confirm the loading, a customer
+holds up a (different) QR code."""
+
+from __future__ import annotations
+
+from collections.abc import Awaitable
+
+import structlog
+
+from robotd.sim.actions.people import _person
+from robotd.sim.actions.step import Action, Step
+from robotd.sim.scenario import ScenarioError
+
+log = structlog.get_logger(__name__)
+
+
+async def _confirm(step: Step) -> None:
+    """``staff.confirm_loaded``: a worker runs ``robotctl confirm-loaded --by NAME``; the
+    call goes through the daemon's own control handler, as the socket's would."""
+    from robotd.control.methods import control_handlers
+    from robotd.control.rpc import RpcError
+
+    assert step.daemons is not None
+    daemon = step.daemons.robots[step.robot].daemon
+    handler = control_handlers(daemon).get("delivery.confirm_loaded")
+    if handler is None:
+        msg = f"{step.robot} has no delivery.confirm_loaded (its profile is not delivery)"
+        raise ScenarioError(msg)
+    try:
+        await handler({"by": str(step.args.get("name", "staff"))}, None)  # type: ignore[arg-type]
+    except RpcError as exc:  # refused (not loading): the staff's press is logged, not fatal
+        log.warning("sim.confirm_refused", error=str(exc))
+
+
+def _confirm_loaded(step: Step) -> Awaitable[None] | None:
+    if step.daemons is None:
+        return None
+    return _confirm(step)
+
+
+def _show_qr(step: Step) -> None:
+    """``person.show_qr``: ``name`` now holds up the code of ``value`` (a string; "" for
+    none) to the robot's forward camera."""
+    person = _person(step)
+    value = step.args.get("value", "")
+    if not isinstance(value, str):
+        msg = "person.show_qr: value: expected the code's text"
+        raise ScenarioError(msg)
+    person.qr_payload = value or None
+
+
+DELIVERY_ACTIONS: dict[str, Action] = {
+    "staff.confirm_loaded": _confirm_loaded,
+    "person.show_qr": _show_qr,
+}

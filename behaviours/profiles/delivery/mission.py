@@ -50,6 +50,11 @@ DISMISS_M = 0.8
 DISMISS_CLEAR_S = 3.0
 """... until nobody has stood there for this long."""
 QR_POLL_S = 1.0
+APPROACH_ATTEMPTS = 6
+"""Standoffs tried (``no_path``/``no_progress``: a moving customer, a spot by a shelf) before
+the approach is a navigation error."""
+STANDOFF_TURNS_RAD = (0.0, math.radians(35), math.radians(-35), math.radians(70),
+                      math.radians(-70), 0.0)
 BODIES_M = 0.38
 """Centre to centre less this is the gap between robot and customer: the robot's footprint
 radius (0.18 m) and a customer's (0.2 m). "< 50 cm" (property 4) is that gap: the front range
@@ -186,14 +191,14 @@ class DeliveryMission:
         return min(near, key=lambda p: math.hypot(p.map_x_m - target.map_x_m,
                                                    p.map_y_m - target.map_y_m), default=None)
 
-    def _standoff(self, person: Person) -> tuple[float, float]:
+    def _standoff(self, person: Person, turn_rad: float = 0.0) -> tuple[float, float]:
         """In front of the customer (``STANDOFF_GAP_M`` between the bodies), on the line from
-        the customer to the robot."""
+        the customer to the robot, turned by ``turn_rad`` around the customer (another side
+        when that spot cannot be reached)."""
         pose = self.nav.pose()
-        dx, dy = pose.x_m - person.map_x_m, pose.y_m - person.map_y_m
-        d = math.hypot(dx, dy) or 1.0
+        bearing = math.atan2(pose.y_m - person.map_y_m, pose.x_m - person.map_x_m) + turn_rad
         a = BODIES_M + min(STANDOFF_GAP_M, self.places.approach_m * 0.7)
-        return person.map_x_m + dx / d * a, person.map_y_m + dy / d * a
+        return person.map_x_m + math.cos(bearing) * a, person.map_y_m + math.sin(bearing) * a
 
     async def approaching(self, ctx: RobotContext) -> None:
         target = self.customer
@@ -204,6 +209,7 @@ class DeliveryMission:
         seen_s = loop.time()
         aimed = (target.map_x_m, target.map_y_m)
         drive: asyncio.Task[NavOutcome] | None = None
+        failed = 0
         try:
             while True:
                 now = loop.time()
@@ -236,13 +242,17 @@ class DeliveryMission:
                 if drive is None or moved > RETARGET_M:
                     await cancel_and_wait(drive)
                     aimed = (target.map_x_m, target.map_y_m)
-                    drive = asyncio.create_task(self.nav.go_to(*self._standoff(target)))
+                    turn = STANDOFF_TURNS_RAD[failed % len(STANDOFF_TURNS_RAD)]
+                    drive = asyncio.create_task(self.nav.go_to(*self._standoff(target, turn)))
                 elif drive.done():
                     outcome = drive.result()
-                    if not outcome.reached and outcome.reason != "no_progress":
-                        await self.nav_failed(ctx, outcome)
-                        return
-                    drive = None  # reached the standoff but still too far: aim again
+                    if not outcome.reached:
+                        failed += 1
+                        if outcome.reason in ("diverged", "lidar_lost") \
+                                or failed >= APPROACH_ATTEMPTS:
+                            await self.nav_failed(ctx, outcome)
+                            return
+                    drive = None  # the standoff (reached or not) did not do: aim again
                 await asyncio.sleep(WATCH_S)
         finally:
             await cancel_and_wait(drive)

@@ -105,7 +105,7 @@ class DeliveryProfile(BaseProfile):
         return states.mission_states()
 
     def mission_transitions(self) -> list[dict[str, Any]]:
-        return [{**t, "after": "delivery_moved"}
+        return [{**t, "before": "delivery_moved"}
                 for t in [*states.mission_transitions(), *RESUME_TRANSITIONS]]
 
     def mission_records(self) -> tuple[MissionRecord, ...]:
@@ -207,7 +207,8 @@ class DeliveryProfile(BaseProfile):
         self._previous = state
 
     def delivery_moved(self, event: Any) -> None:
-        """After every mission transition: its outputs, and the error's category."""
+        """As each mission transition starts: its outputs queued, the error's category kept
+        (before the new state's task reads it)."""
         src = _relative(str(event.transition.source))
         dst = _relative(str(event.transition.dest))
         trigger = str(event.event.name)

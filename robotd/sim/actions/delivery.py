@@ -49,7 +49,18 @@ def _show_qr(step: Step) -> None:
     person.qr_payload = value or None
 
 
+def _servo_fail(step: Step) -> None:
+    """``servo.fail``: the box servo jams (the board refuses SERVO); ``duration_s``: freed
+    again after that long."""
+    board = step.rig.mcu
+    board.servo_fault = True
+    duration = step.duration_s()
+    if duration is not None:
+        step.later(duration, lambda: setattr(board, "servo_fault", False), "servo.fixed")
+
+
 DELIVERY_ACTIONS: dict[str, Action] = {
+    "servo.fail": _servo_fail,
     "staff.confirm_loaded": _confirm_loaded,
     "person.show_qr": _show_qr,
 }

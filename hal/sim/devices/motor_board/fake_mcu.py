@@ -77,6 +77,8 @@ class FakeMcu(DockInputs):
         self.naks: list[tuple[int | None, str]] = []
         self.dropped_frames = 0
         self.leds: list[str] = []
+        self.servo_fault = False
+        """A jammed box servo: SERVO is refused (NAK:RANGE), as firmware sensing the stall."""
         self.deadman_stops: list[float] = []
         self.boots = 0
         self.last_drive_s: float | None = None
@@ -250,7 +252,8 @@ class FakeMcu(DockInputs):
             self._reply(seq, self._hello() if word == "HELLO" else "ACK")
             return
         reply = self._execute(seq, word, args, payload)
-        self._last = (seq, crc)
+        if not reply.startswith("NAK"):  # a refused command was not done: a resend is new
+            self._last = (seq, crc)
         self._reply(seq, reply)
 
     def _handle_plain_line(self, line: bytes) -> None:
@@ -289,6 +292,8 @@ class FakeMcu(DockInputs):
         elif word == "STOP":
             self._motors_off()
         elif word == "SERVO":
+            if self.servo_fault:
+                return "NAK:RANGE"
             self.plant.servo(args[0])
         elif word == "HELLO":
             return self._hello()

@@ -34,7 +34,7 @@ from behaviours.nav.localisation.people import Person
 from behaviours.nav.navigator import NavOutcome, NavStack
 from behaviours.profiles.delivery.memory import DeliveryMemory
 from behaviours.profiles.delivery.orders import Accepted, OrderVerifier
-from behaviours.profiles.delivery.recovery import category_of, wait_for_lidar
+from behaviours.profiles.delivery.recovery import GoodCorrection, category_of, face, relocalise
 from hal.tasks import cancel_and_wait
 
 log = structlog.get_logger(__name__)
@@ -88,6 +88,7 @@ class DeliveryMission:
         self.memory = memory
         self.places = places
         self.mark_delivered = mark_delivered
+        self.good = GoodCorrection(nav)
         self.customer: Person | None = None
         self.dismissed: list[tuple[float, float, float]] = []  # (x, y, last seen there)
         self.last_category: str | None = None
@@ -103,14 +104,13 @@ class DeliveryMission:
         return math.hypot(pose.x_m - self.places.home[0], pose.y_m - self.places.home[1])
 
     async def go(self, ctx: RobotContext, x_m: float, y_m: float, why: str) -> NavOutcome:
-        """``go_to`` with the error table's LiDAR rule: a lost LiDAR is waited for (stopped,
-        up to 30 s) and the goal tried again; any other failure is returned."""
+        """``go_to`` with the error table's localisation rule: a diverged filter is stopped and
+        re-localised (3 attempts) and the goal tried again; any other failure is returned (a
+        lost LiDAR has had its 30 s of odometry inside the localisation already)."""
         while True:
             ctx.emit("delivery.goal", why=why, goal_x_m=round(x_m, 3), goal_y_m=round(y_m, 3))
             outcome = await self.nav.go_to(x_m, y_m)
-            if outcome.reason != "lidar_lost":
-                return outcome
-            if not await wait_for_lidar(ctx, self.nav):
+            if outcome.reason != "diverged" or not await relocalise(ctx, self.nav, self.good):
                 return outcome
 
     async def nav_failed(self, ctx: RobotContext, outcome: NavOutcome) -> None:
@@ -259,23 +259,7 @@ class DeliveryMission:
 
     async def face(self, x_m: float, y_m: float) -> None:
         """Turn on the spot towards a map point (the QR camera looks ahead)."""
-        from behaviours.motion.waypoint_drive import DriveTuning, wheel_command
-        from hal.readings import MotorCommand
-
-        tuning = DriveTuning.from_settings(self.nav.settings)
-        loop = asyncio.get_running_loop()
-        deadline = loop.time() + 10.0
-        while loop.time() < deadline:
-            pose = self.nav.pose()
-            error = math.atan2(y_m - pose.y_m, x_m - pose.x_m) - pose.theta_rad
-            error = math.atan2(math.sin(error), math.cos(error))
-            if abs(error) < math.radians(5):
-                break
-            speed = max(tuning.min_mps, min(tuning.turn_mps, abs(error) * 0.25))
-            sign = 1 if error > 0 else -1
-            await self.nav.motors.drive(wheel_command(-sign * speed, sign * speed, tuning))
-            await asyncio.sleep(0.05)
-        await self.nav.motors.drive(MotorCommand.stopped())
+        await face(self.nav, x_m, y_m)
 
     async def verifying(self, ctx: RobotContext) -> None:
         qr = ctx.devices.qr

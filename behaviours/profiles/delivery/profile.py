@@ -23,6 +23,7 @@ Choices where the seed is ambiguous (docs/delivery.md has the whole list):
 from __future__ import annotations
 
 import asyncio
+import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -147,7 +148,8 @@ class DeliveryProfile(BaseProfile):
             await orders.mark_delivered(order_id, ctx.wall_clock().isoformat())
 
         self.mission = DeliveryMission(nav, OrderVerifier(orders), memory, places, mark)
-        self.recovery = ErrorRecovery(nav, memory, home)
+        self.recovery = ErrorRecovery(nav, memory, home, self.mission.good)
+        self.mission.good.watch()
         box = BoxController(_SeenServo(d.servo, ctx.emit), ctx.emit) \
             if d.servo is not None else None
         audio = _HeardAudio(d.audio, ctx.emit) if d.audio is not None else None
@@ -163,6 +165,8 @@ class DeliveryProfile(BaseProfile):
             TaskService("odometry", OdometryTracker(d.encoders, odometry).run, critical=True),
             _Localisation(nav),
             TaskService("delivery.outputs", outputs.run),
+            TaskService("delivery.poses", lambda: _pose_events(ctx, nav),
+                        depends_on=("localisation",)),
             TaskService("delivery.autostart", autostart, depends_on=("localisation",)),
         ]
 
@@ -233,6 +237,19 @@ class DeliveryProfile(BaseProfile):
         if self.memory is not None:
             out["delivery"] = self.memory.values()
         return out
+
+
+async def _pose_events(ctx: RobotContext, nav: NavStack, period_s: float = 0.5) -> None:
+    """``nav.pose`` (the estimate, its spread and status) for the record and the report."""
+    while True:
+        await asyncio.sleep(period_s)
+        if nav.service.poses.latest() is None:
+            continue  # not publishing yet
+        pose = nav.live_pose()
+        ctx.emit("nav.pose", est_x_m=round(pose.x_m, 4), est_y_m=round(pose.y_m, 4),
+                 est_heading_deg=round(math.degrees(pose.theta_rad), 2), status=pose.status,
+                 spread_m=round(min(pose.spread_m, 99.0), 4), particles=pose.particles,
+                 poses_published=nav.poses_published)
 
 
 def _relative(state: str) -> str:

@@ -62,6 +62,9 @@ sensor's obstacle guard stops the robot 30 cm before anything, so centres never 
 apart."""
 STANDOFF_GAP_M = 0.34
 """The gap the approach aims for: inside the 50 cm, outside the guard's 30 cm."""
+GAP_MARGIN_M = 0.1
+"""Reached below 50 cm less this: the LiDAR sees the near side of the legs, the pose is a few
+centimetres off; the true gap must still be under 50 cm."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -228,7 +231,7 @@ class DeliveryMission:
                     return
                 pose = self.nav.pose()
                 range_m = math.hypot(target.map_x_m - pose.x_m, target.map_y_m - pose.y_m)
-                if range_m - BODIES_M < self.places.approach_m \
+                if range_m - BODIES_M < self.places.approach_m - GAP_MARGIN_M \
                         and (drive is None or drive.done()):
                     await cancel_and_wait(drive)
                     await self.nav.drive.stop()

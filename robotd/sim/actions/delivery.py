@@ -32,6 +32,27 @@ async def _confirm(step: Step) -> None:
         log.warning("sim.confirm_refused", error=str(exc))
 
 
+async def _trigger(step: Step) -> None:
+    from robotd.control.methods import control_handlers
+    from robotd.control.rpc import RpcError
+
+    assert step.daemons is not None
+    daemon = step.daemons.robots[step.robot].daemon
+    try:
+        await control_handlers(daemon)["trigger"]({"name": str(step.args.get("name", ""))},
+                                                  None)  # type: ignore[arg-type]
+    except RpcError as exc:
+        log.warning("sim.trigger_refused", error=str(exc))
+
+
+def _robotctl_trigger(step: Step) -> Awaitable[None] | None:
+    """``robotctl.trigger``: an operator fires the machine trigger ``name`` (``robotctl
+    trigger NAME``), e.g. ``error`` for a fault seen by someone rather than a sensor."""
+    if step.daemons is None:
+        return None
+    return _trigger(step)
+
+
 def _confirm_loaded(step: Step) -> Awaitable[None] | None:
     if step.daemons is None:
         return None
@@ -61,6 +82,7 @@ def _servo_fail(step: Step) -> None:
 
 DELIVERY_ACTIONS: dict[str, Action] = {
     "servo.fail": _servo_fail,
+    "robotctl.trigger": _robotctl_trigger,
     "staff.confirm_loaded": _confirm_loaded,
     "person.show_qr": _show_qr,
 }

@@ -112,6 +112,10 @@ class DeliveryMission:
         lost LiDAR has had its 30 s of odometry inside the localisation already)."""
         while True:
             ctx.emit("delivery.goal", why=why, goal_x_m=round(x_m, 3), goal_y_m=round(y_m, 3))
+            pose = self.nav.pose()
+            off_m = math.hypot(x_m - pose.x_m, y_m - pose.y_m)
+            if off_m <= self.nav.planner_config.goal_tolerance_m:  # there already (a resume)
+                return NavOutcome("reached", (x_m, y_m), pose.x_m, pose.y_m, off_m, 0, 0.0)
             outcome = await self.nav.go_to(x_m, y_m)
             if outcome.reason != "diverged" or not await relocalise(ctx, self.nav, self.good):
                 return outcome
@@ -176,9 +180,10 @@ class DeliveryMission:
                     if self._in_zone(person) and not self._is_dismissed(person, now):
                         self.customer = person
                         ctx.emit("delivery.person_detected", track_id=person.track_id,
-                                 map_x_m=round(person.map_x_m, 3),
-                                 map_y_m=round(person.map_y_m, 3),
-                                 rel_x_m=round(person.x_m, 3), rel_y_m=round(person.y_m, 3))
+                                 map_x_m=round(float(person.map_x_m), 3),
+                                 map_y_m=round(float(person.map_y_m), 3),
+                                 rel_x_m=round(float(person.x_m), 3),
+                                 rel_y_m=round(float(person.y_m), 3))
                         await ctx.trigger("person_detected", track_id=person.track_id)
                         return
             await asyncio.sleep(WATCH_S)
@@ -236,9 +241,10 @@ class DeliveryMission:
                     await cancel_and_wait(drive)
                     await self.nav.drive.stop()
                     await self.face(target.map_x_m, target.map_y_m)
-                    ctx.emit("delivery.reached_customer", range_m=round(range_m, 3),
-                             gap_m=round(range_m - BODIES_M, 3),
-                             map_x_m=round(target.map_x_m, 3), map_y_m=round(target.map_y_m, 3))
+                    ctx.emit("delivery.reached_customer", range_m=round(float(range_m), 3),
+                             gap_m=round(float(range_m) - BODIES_M, 3),
+                             map_x_m=round(float(target.map_x_m), 3),
+                             map_y_m=round(float(target.map_y_m), 3))
                     await ctx.trigger("reached_customer")
                     return
                 moved = math.hypot(target.map_x_m - aimed[0], target.map_y_m - aimed[1])
@@ -286,7 +292,7 @@ class DeliveryMission:
                 await self.memory.persisted.update(stand_x_m=round(pose.x_m, 4),
                                                    stand_y_m=round(pose.y_m, 4))
                 ctx.emit("delivery.order_valid", order_id=verdict.order_id,
-                         customer_x_m=round(cx, 3), customer_y_m=round(cy, 3))
+                         customer_x_m=round(float(cx), 3), customer_y_m=round(float(cy), 3))
                 await ctx.trigger("order_valid", order_id=verdict.order_id)
                 return
             ctx.emit("delivery.order_invalid", reason=verdict.reason, detail=verdict.detail)

@@ -31,6 +31,7 @@ import structlog
 
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker
+from behaviours.nav.localisation.filter import LOCALISED
 from behaviours.nav.navigator import NavStack
 from behaviours.persistence import MissionRecord
 from behaviours.profile import BaseProfile, ControlMethod, StateTask
@@ -52,6 +53,11 @@ if TYPE_CHECKING:
     from behaviours.context import RobotContext
 
 log = structlog.get_logger(__name__)
+
+POSE_RECORD = MissionRecord("delivery.pose", 1, {"x_m": None, "y_m": None, "heading_rad": None})
+"""The last trusted pose, every second (``localisation.initial_pose = "store"`` restarts there:
+a daemon killed on the way back to a customer must know where it is)."""
+_STORE_POSE_S = 1.0
 
 RESUME_TRANSITIONS: list[dict[str, Any]] = [
     {"trigger": "resume_delivery", "source": states.path(states.WAITING),
@@ -110,7 +116,7 @@ class DeliveryProfile(BaseProfile):
                 for t in [*states.mission_transitions(), *RESUME_TRANSITIONS]]
 
     def mission_records(self) -> tuple[MissionRecord, ...]:
-        return (DELIVERY_MISSION,)
+        return (DELIVERY_MISSION, POSE_RECORD)
 
     def control_methods(self, ctx: RobotContext) -> dict[str, ControlMethod]:
         return LoadingConfirmation(ctx).methods()
@@ -125,8 +131,13 @@ class DeliveryProfile(BaseProfile):
         drive = s.section("drive")
         odometry = Odometry(drive["wheel_base_m"], drive["wheel_radius_m"],
                             drive["ticks_per_rev"])
+        stored = ctx.persisted(POSE_RECORD).values()
+        stored_pose = None
+        if stored["x_m"] is not None:
+            stored_pose = (float(stored["x_m"]), float(stored["y_m"]),
+                           float(stored["heading_rad"]))
         nav = self.nav = NavStack(s, d.motors, d.lidar, odometry, front_range=d.front_range,
-                                  emit=ctx.emit)
+                                  stored_pose=stored_pose, emit=ctx.emit)
         ctx.emit("nav.start", initial_pose=nav.started_from,
                  particles=len(nav.localiser.particles),
                  map_resolution_m=nav.planner.grid.resolution_m)
@@ -240,12 +251,19 @@ class DeliveryProfile(BaseProfile):
 
 
 async def _pose_events(ctx: RobotContext, nav: NavStack, period_s: float = 0.5) -> None:
-    """``nav.pose`` (the estimate, its spread and status) for the record and the report."""
+    """``nav.pose`` (the estimate, its spread and status) for the record and the report; the
+    pose kept in the store while localised."""
+    loop = asyncio.get_running_loop()
+    stored_s = loop.time()
     while True:
         await asyncio.sleep(period_s)
         if nav.service.poses.latest() is None:
             continue  # not publishing yet
         pose = nav.live_pose()
+        if loop.time() - stored_s >= _STORE_POSE_S and pose.status == LOCALISED:
+            stored_s = loop.time()
+            ctx.persisted(POSE_RECORD).set(x_m=round(pose.x_m, 4), y_m=round(pose.y_m, 4),
+                                           heading_rad=round(pose.theta_rad, 5))
         ctx.emit("nav.pose", est_x_m=round(pose.x_m, 4), est_y_m=round(pose.y_m, 4),
                  est_heading_deg=round(math.degrees(pose.theta_rad), 2), status=pose.status,
                  spread_m=round(min(pose.spread_m, 99.0), 4), particles=pose.particles,

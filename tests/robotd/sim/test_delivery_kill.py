@@ -1,4 +1,5 @@
-"""SIGKILL of RelayBot's daemon while the parcel is in the box, then a restart (issue 17)."""
+"""SIGKILL of RelayBot's daemon while the parcel is in the box, then a restart (issue 17);
+and the end of the error table: home unreachable 3 times, estop."""
 
 from __future__ import annotations
 
@@ -50,3 +51,24 @@ def test_a_killed_daemon_knows_the_parcel_it_holds(when_state: str, delay_s: flo
     left = [r for r in result.reasons if not (when_state == "mission.delivering"
                                               and r.startswith(cut))]
     assert left == [], result.reasons
+
+
+def test_home_unreachable_three_times_is_an_estop() -> None:
+    """The LiDAR unplugged for good on the way to the warehouse: 30 s on odometry, then
+    error_recovery; each of its 3 home attempts waits 30 s for the scans in vain, then the
+    root estop (latched, manual intervention), as the seed's recovery step 7 says."""
+    from delivery_harness import ORDER_7, mission_text, person
+
+    result = run_mission(mission_text(
+        people=person("customer", 1.4, 1.0, ORDER_7),
+        script=('[[script]]\nat_s = 0.0\nwhen_state = "mission.navigating_to_warehouse"\n'
+                'delay_s = 3.0\naction = "lidar.unplug"\n'),
+        success=('time_limit_s = 300\nfinal_state = "estop"\nno_collisions = true\n'
+                 'no_estop = false')))
+    assert result.reasons == []
+    assert ("mission.navigating_to_warehouse", "navigation_error",
+            "mission.error_recovery") in moves(result.events)
+    assert ("mission.error_recovery", "recovery_failed", "estop") in moves(result.events)
+    attempts = kinds(result.events, "delivery.recovery_attempt")
+    assert [a["attempt"] for a in attempts] == [1, 2, 3]
+    assert [e["category"] for e in kinds(result.events, "delivery.recovery")] == ["lidar_lost"]

@@ -90,6 +90,18 @@ class _Shot:
     noise_at: tuple[int, int]
 
 
+class _Buffers:
+    """The images a render works in, kept from frame to frame (see ``SimCamera._lit``)."""
+
+    def __init__(self, height_px: int, width_px: int) -> None:
+        self.paint = np.empty((height_px, width_px, 3), np.uint8)
+        self.texture = np.empty((height_px, width_px), np.float32)
+        self.ambient = np.empty((height_px, width_px), np.float32)
+        self.gain = np.empty((height_px, width_px), np.float32)
+        self.gain3 = np.empty((height_px, width_px, 3), np.float32)
+        self.lit = np.empty((height_px, width_px, 3), np.float32)
+
+
 class SimCamera:
     """A `hal.devices.Camera` over the simulated world, looking down from the robot's body.
 
@@ -124,6 +136,8 @@ class SimCamera:
                               (self.width_px / 2 - cc - 0.5) * mpp)
         self._segments: dict[int, tuple[PaintedLine, npt.NDArray[np.float64]]] = {}
         self._phases = self._rng.uniform(0, 2 * math.pi, 4)
+        self._bufs = _Buffers(self.height_px, self.width_px)
+        self._lit_key: tuple[Pose, tuple[float, float], tuple[int, int, int]] | None = None
         self._shot: _Shot | None = None
         self._floor: tuple[tuple[int, int, int], U8Image] | None = None
         self._frame: Frame | None = None
@@ -210,13 +224,28 @@ class SimCamera:
         if self.covered:
             dark = np.full((h, w, 3), 8.0, np.float32)
             return self._finish(dark, shot.noise_at)
-        image = self._bare_floor().copy()
-        self._draw_lines(image, shot.pose)
-        # Blurring the paint before lighting it is close enough: the light field is smooth.
-        image = self._blur(image, shot.wheel_mps)
-        gain = self._texture_gain(shot.pose) * self._static_gain * self._ambient_gain(shot.pose)
-        lit = cv2.multiply(image, cv2.merge([gain, gain, gain]), dtype=cv2.CV_32F)
+        lit = self._lit(shot.pose, shot.wheel_mps)
         return self._finish(lit, shot.noise_at)
+
+    def _lit(self, pose: Pose, wheel_mps: tuple[float, float]) -> F32Array:
+        """The noiseless image: paint, blur and light; reused while the robot stands still.
+
+        Every step writes into buffers kept from frame to frame: a fresh 1 MB float image a
+        frame costs page faults worth as much as the arithmetic on it.
+        """
+        key = (pose, wheel_mps, self.world.floor_bgr)
+        if self._lit_key == key:
+            return self._bufs.lit
+        b = self._bufs
+        np.copyto(b.paint, self._bare_floor())
+        drawn = self._draw_lines(b.paint, pose)
+        # Blurring the paint before lighting it is close enough: the light field is smooth.
+        painted = self._blur(b.paint, wheel_mps, drawn)
+        self._gain(pose, b.gain)
+        cv2.merge([b.gain, b.gain, b.gain], dst=b.gain3)
+        cv2.multiply(painted, b.gain3, dst=b.lit, dtype=cv2.CV_32F)
+        self._lit_key = key
+        return b.lit
 
     def _finish(self, lit: F32Array, noise_at: tuple[int, int]) -> U8Image:
         oy, ox = noise_at
@@ -224,13 +253,15 @@ class SimCamera:
         out: U8Image = cv2.add(lit, noise, dtype=cv2.CV_8U)  # saturates to 0-255
         return out
 
-    def _draw_lines(self, image: U8Image, pose: Pose) -> None:
+    def _draw_lines(self, image: U8Image, pose: Pose) -> tuple[int, int, int, int] | None:
+        """Paint the lines near the view; returns the box (x0, y0, x1, y1) they touch, if any."""
         m = self.mount
         mpp = m.m_per_px
         cx, cy = pose.to_world(m.forward_m, 0.0)
         reach_m = math.hypot(m.view_width_m, mpp * m.height_px) / 2
         scale = 1 << _DRAW_SHIFT
         c, s = math.cos(pose.heading_rad), math.sin(pose.heading_rad)
+        box: list[float] = []
         for line in self.world.lines:
             segs = self._line_segments(line)
             if segs.shape[0] == 0:
@@ -250,6 +281,14 @@ class SimCamera:
                 p1 = (int(fixed[i, 0]), int(fixed[i, 1]))
                 p2 = (int(fixed[i + 1, 0]), int(fixed[i + 1, 1]))
                 cv2.line(image, p1, p2, colour, thickness, cv2.LINE_AA, _DRAW_SHIFT)
+            margin = thickness / 2 + 3  # anti-aliasing reaches past the nominal width
+            box = _grow(box, float(cols.min()) - margin, float(rows.min()) - margin,
+                        float(cols.max()) + margin, float(rows.max()) + margin)
+        if not box:
+            return None
+        x0, y0 = max(0, math.floor(box[0])), max(0, math.floor(box[1]))
+        x1, y1 = min(m.width_px, math.ceil(box[2]) + 1), min(m.height_px, math.ceil(box[3]) + 1)
+        return (x0, y0, x1, y1) if x0 < x1 and y0 < y1 else None
 
     def _line_segments(self, line: PaintedLine) -> npt.NDArray[np.float64]:
         cached = self._segments.get(id(line))
@@ -274,7 +313,7 @@ class SimCamera:
         self._texture_centre = reps * n / 2
         return np.tile(tile.astype(np.float32), (reps, reps))
 
-    def _texture_gain(self, pose: Pose) -> F32Array:
+    def _texture_gain(self, pose: Pose, dst: F32Array | None = None) -> F32Array:
         m = self.mount
         mpp = m.m_per_px
         c, s = math.cos(pose.heading_rad), math.sin(pose.heading_rad)
@@ -289,9 +328,15 @@ class SimCamera:
         affine = np.array([[s, -c, x0 / mpp - shift_x], [-c, -s, y0 / mpp - shift_y]],
                           np.float64)
         out: F32Array = cv2.warpAffine(self._texture, affine, (m.width_px, m.height_px),
-                                       flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
+                                       dst=dst, flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
                                        borderMode=cv2.BORDER_REFLECT)
         return out
+
+    def _gain(self, pose: Pose, out: F32Array) -> None:
+        """Light reaching each pixel: floor texture x lens and LED falloff x room light."""
+        b = self._bufs
+        cv2.multiply(self._texture_gain(pose, b.texture), self._static_gain, dst=out)
+        cv2.multiply(out, self._ambient_gain(pose, b.ambient), dst=out)
 
     def _make_static_gain(self) -> F32Array:
         m = self.mount
@@ -307,7 +352,7 @@ class SimCamera:
         gain = (1.0 - m.vignette * falloff) * gradient[None, :]
         return gain.astype(np.float32)
 
-    def _ambient_gain(self, pose: Pose) -> F32Array:
+    def _ambient_gain(self, pose: Pose, dst: F32Array | None = None) -> F32Array:
         m = self.mount
         fwd, left = self._ambient_grid
         c, s = math.cos(pose.heading_rad), math.sin(pose.heading_rad)
@@ -317,11 +362,13 @@ class SimCamera:
         field = (np.sin(x * 2.1 + p[0]) * np.sin(y * 1.7 + p[1])
                  + 0.5 * np.sin(x * 5.3 + y * 3.1 + p[2]))
         coarse = (1.0 + m.ambient_variation * field / 1.5).astype(np.float32)
-        out: F32Array = cv2.resize(coarse, (m.width_px, m.height_px),
+        out: F32Array = cv2.resize(coarse, (m.width_px, m.height_px), dst=dst,
                                    interpolation=cv2.INTER_LINEAR)
         return out
 
-    def _blur(self, image: U8Image, wheel_mps: tuple[float, float]) -> U8Image:
+    def _blur(self, image: U8Image, wheel_mps: tuple[float, float],
+              drawn: tuple[int, int, int, int] | None) -> U8Image:
+        """Motion blur; only around the paint (``drawn``): blurring bare floor changes nothing."""
         m = self.mount
         speed = (wheel_mps[0] + wheel_mps[1]) / 2
         yaw_rps = (wheel_mps[1] - wheel_mps[0]) / self.body.params.wheel_base_m
@@ -329,7 +376,19 @@ class SimCamera:
         across_px = abs(yaw_rps) * m.forward_m * m.exposure_s / m.m_per_px
         # Odd box sizes: an even one has no centre pixel and shifts the image half a pixel.
         ky, kx = 1 + 2 * round(along_px / 2), 1 + 2 * round(across_px / 2)
-        if kx == 1 and ky == 1:
+        if (kx == 1 and ky == 1) or drawn is None:
             return image
-        out: U8Image = cv2.blur(image, (kx, ky))
-        return out
+        # The box is grown by a kernel width of bare floor, so the mirrored border cv2 reads at
+        # its edges is floor, as the real neighbours are.
+        x0, y0, x1, y1 = drawn
+        x0, x1 = max(0, x0 - kx), min(m.width_px, x1 + kx)
+        y0, y1 = max(0, y0 - ky), min(m.height_px, y1 + ky)
+        region = image[y0:y1, x0:x1]
+        region[:] = cv2.blur(region, (kx, ky))
+        return image
+
+
+def _grow(box: list[float], x0: float, y0: float, x1: float, y1: float) -> list[float]:
+    if not box:
+        return [x0, y0, x1, y1]
+    return [min(box[0], x0), min(box[1], y0), max(box[2], x1), max(box[3], y1)]

@@ -30,6 +30,7 @@ U8Image = npt.NDArray[Any]  # uint8 BGR
 _TEXTURE_TILE_PX = 256
 _DRAW_SHIFT = 4  # cv2 fixed-point bits: sub-pixel line positions
 _AMBIENT_GRID = (8, 6)  # coarse grid the world-fixed light field is computed on
+_BAND_ROWS = 32  # rows lit at a time: a band's float images fit in the CPU's cache
 
 
 @dataclass(frozen=True, slots=True)
@@ -91,15 +92,15 @@ class _Shot:
 
 
 class _Buffers:
-    """The images a render works in, kept from frame to frame (see ``SimCamera._lit``)."""
+    """The images a render works in, kept from frame to frame (see ``SimCamera._render_shot``)."""
 
     def __init__(self, height_px: int, width_px: int) -> None:
         self.paint = np.empty((height_px, width_px, 3), np.uint8)
         self.texture = np.empty((height_px, width_px), np.float32)
         self.ambient = np.empty((height_px, width_px), np.float32)
         self.gain = np.empty((height_px, width_px), np.float32)
-        self.gain3 = np.empty((height_px, width_px, 3), np.float32)
-        self.lit = np.empty((height_px, width_px, 3), np.float32)
+        self.gain3 = np.empty((_BAND_ROWS, width_px, 3), np.float32)
+        self.lit = np.empty((_BAND_ROWS, width_px, 3), np.float32)
 
 
 class SimCamera:
@@ -137,7 +138,8 @@ class SimCamera:
         self._segments: dict[int, tuple[PaintedLine, npt.NDArray[np.float64]]] = {}
         self._phases = self._rng.uniform(0, 2 * math.pi, 4)
         self._bufs = _Buffers(self.height_px, self.width_px)
-        self._lit_key: tuple[Pose, tuple[float, float], tuple[int, int, int]] | None = None
+        self._paint_key: tuple[Pose, tuple[float, float], tuple[int, int, int]] | None = None
+        self._gain_pose: Pose | None = None
         self._shot: _Shot | None = None
         self._floor: tuple[tuple[int, int, int], U8Image] | None = None
         self._frame: Frame | None = None
@@ -224,28 +226,38 @@ class SimCamera:
         if self.covered:
             dark = np.full((h, w, 3), 8.0, np.float32)
             return self._finish(dark, shot.noise_at)
-        lit = self._lit(shot.pose, shot.wheel_mps)
-        return self._finish(lit, shot.noise_at)
+        paint = self._paint(shot.pose, shot.wheel_mps)
+        gain = self._gain(shot.pose)
+        # Light and noise a band of rows at a time: the float images of a band stay in the
+        # cache, where whole-frame ones (1 MB each) went to memory and back at every step.
+        b = self._bufs
+        out: U8Image = np.empty((h, w, 3), np.uint8)
+        oy, ox = shot.noise_at
+        for r0 in range(0, h, _BAND_ROWS):
+            r1 = min(h, r0 + _BAND_ROWS)
+            n = r1 - r0
+            g3, lit = b.gain3[:n], b.lit[:n]
+            cv2.merge([gain[r0:r1]] * 3, dst=g3)
+            cv2.multiply(paint[r0:r1], g3, dst=lit, dtype=cv2.CV_32F)
+            cv2.add(lit, self._noise[oy + r0:oy + r1, ox:ox + w], dst=out[r0:r1],
+                    dtype=cv2.CV_8U)  # saturates to 0-255
+        return out
 
-    def _lit(self, pose: Pose, wheel_mps: tuple[float, float]) -> F32Array:
-        """The noiseless image: paint, blur and light; reused while the robot stands still.
+    def _paint(self, pose: Pose, wheel_mps: tuple[float, float]) -> U8Image:
+        """The floor and its lines as the lens sees them, blurred by the motion.
 
-        Every step writes into buffers kept from frame to frame: a fresh 1 MB float image a
-        frame costs page faults worth as much as the arithmetic on it.
+        Kept while the robot stands still; drawn into the same buffer every frame (a fresh
+        image a frame costs page faults worth as much as the drawing).
         """
         key = (pose, wheel_mps, self.world.floor_bgr)
-        if self._lit_key == key:
-            return self._bufs.lit
         b = self._bufs
-        np.copyto(b.paint, self._bare_floor())
-        drawn = self._draw_lines(b.paint, pose)
-        # Blurring the paint before lighting it is close enough: the light field is smooth.
-        painted = self._blur(b.paint, wheel_mps, drawn)
-        self._gain(pose, b.gain)
-        cv2.merge([b.gain, b.gain, b.gain], dst=b.gain3)
-        cv2.multiply(painted, b.gain3, dst=b.lit, dtype=cv2.CV_32F)
-        self._lit_key = key
-        return b.lit
+        if self._paint_key != key:
+            np.copyto(b.paint, self._bare_floor())
+            drawn = self._draw_lines(b.paint, pose)
+            # Blurring the paint before lighting it is close enough: the light field is smooth.
+            self._blur(b.paint, wheel_mps, drawn)
+            self._paint_key = key
+        return b.paint
 
     def _finish(self, lit: F32Array, noise_at: tuple[int, int]) -> U8Image:
         oy, ox = noise_at
@@ -332,11 +344,14 @@ class SimCamera:
                                        borderMode=cv2.BORDER_REFLECT)
         return out
 
-    def _gain(self, pose: Pose, out: F32Array) -> None:
+    def _gain(self, pose: Pose) -> F32Array:
         """Light reaching each pixel: floor texture x lens and LED falloff x room light."""
         b = self._bufs
-        cv2.multiply(self._texture_gain(pose, b.texture), self._static_gain, dst=out)
-        cv2.multiply(out, self._ambient_gain(pose, b.ambient), dst=out)
+        if self._gain_pose != pose:
+            cv2.multiply(self._texture_gain(pose, b.texture), self._static_gain, dst=b.gain)
+            cv2.multiply(b.gain, self._ambient_gain(pose, b.ambient), dst=b.gain)
+            self._gain_pose = pose
+        return b.gain
 
     def _make_static_gain(self) -> F32Array:
         m = self.mount

@@ -3,12 +3,12 @@
 The image is what the real tracker reads: painted lines in their colours, a floor texture fixed
 to the world, light that falls off towards the corners and varies over the floor, sensor noise
 and motion blur from the wheel speeds. Frames are captured at the mount's rate on the event
-loop's clock; a frame is only rendered when somebody looks at it, so an idle camera costs little.
+loop's clock; a frame is only rendered when somebody looks at it, so an idle camera costs little
+(hal/sim/devices/frame_source.py).
 """
 
 from __future__ import annotations
 
-import asyncio
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -17,12 +17,10 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from hal.looptime.timer_chain import on_a_grid
-from hal.readings import Frame
+from hal.sim.devices.frame_source import FrameSource
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import PaintedLine, World
 from hal.sim.world.geometry import Pose, segment_distances
-from hal.tasks import cancel_and_wait
 
 F32Array = npt.NDArray[Any]  # float32; cv2 returns loosely typed arrays
 U8Image = npt.NDArray[Any]  # uint8 BGR
@@ -103,7 +101,7 @@ class _Buffers:
         self.lit = np.empty((_BAND_ROWS, width_px, 3), np.float32)
 
 
-class SimCamera:
+class SimCamera(FrameSource[_Shot]):
     """A `hal.devices.Camera` over the simulated world, looking down from the robot's body.
 
     Args:
@@ -115,10 +113,11 @@ class SimCamera:
 
     def __init__(self, world: World, body: DiffDriveBody, mount: CameraMount | None = None,
                  *, seed: int = 1, name: str = "camera") -> None:
+        self.mount = mount or CameraMount()
+        super().__init__(self.mount.fps)
         self.name = name
         self.world = world
         self.body = body
-        self.mount = mount or CameraMount()
         self.width_px = self.mount.width_px
         self.height_px = self.mount.height_px
         self._rng = np.random.default_rng(seed)
@@ -140,44 +139,8 @@ class SimCamera:
         self._bufs = _Buffers(self.height_px, self.width_px)
         self._paint_key: tuple[Pose, tuple[float, float], tuple[int, int, int]] | None = None
         self._gain_pose: Pose | None = None
-        self._shot: _Shot | None = None
         self._floor: tuple[tuple[int, int, int], U8Image] | None = None
-        self._frame: Frame | None = None
-        self._waiters: list[asyncio.Future[Frame]] = []
-        self._task: asyncio.Task[None] | None = None
-        self.frames_captured = 0
-        self.frames_rendered = 0
         self.covered = False
-
-    # --- Device -------------------------------------------------------------------------------
-    async def start(self) -> None:
-        if self._task is None:
-            self._capture()
-            self._task = asyncio.get_running_loop().create_task(self._run(), name=self.name)
-
-    async def close(self) -> None:
-        """Stop capturing and release the camera; safe to call twice."""
-        task, self._task = self._task, None
-        await cancel_and_wait(task)
-
-    def status(self) -> dict[str, Any]:
-        return {"source": "sim", "width_px": self.width_px, "height_px": self.height_px,
-                "fps": self.mount.fps, "captured": self.frames_captured,
-                "rendered": self.frames_rendered, "covered": self.covered}
-
-    # --- Camera -------------------------------------------------------------------------------
-    def latest(self) -> Frame | None:
-        shot = self._shot
-        if shot is None:
-            return None
-        if self._frame is None or self._frame.seq != shot.seq:
-            self._frame = Frame(self._render_shot(shot), shot.seq, shot.t_s)
-        return self._frame
-
-    async def next_reading(self) -> Frame:
-        fut: asyncio.Future[Frame] = asyncio.get_running_loop().create_future()
-        self._waiters.append(fut)
-        return await fut
 
     # --- physics-style methods ----------------------------------------------------------------
     def cover(self, covered: bool = True) -> None:
@@ -186,28 +149,21 @@ class SimCamera:
 
     def render(self, pose: Pose, wheel_mps: tuple[float, float] = (0.0, 0.0)) -> U8Image:
         """Render what the camera sees from ``pose`` (fresh noise), without the clock."""
+        self.frames_rendered += 1
         return self._render_shot(_Shot(0, 0.0, pose, wheel_mps, self._noise_offset()))
 
-    # --- internals ----------------------------------------------------------------------------
-    async def _run(self) -> None:
-        # Each capture is a timer callback that sets the next one (hal.looptime.timer_chain):
-        # one loop turn a frame, where a task sleeping between frames would cost two.
-        await on_a_grid(self._capture, 1.0 / self.mount.fps)
-
-    def _capture(self) -> None:
-        loop = asyncio.get_running_loop()
+    # --- FrameSource ---------------------------------------------------------------------------
+    def _snapshot(self, seq: int, t_s: float) -> _Shot:
         wheels = (float(self.body.wheel_mps[0]), float(self.body.wheel_mps[1]))
-        self.frames_captured += 1
-        self._shot = _Shot(self.frames_captured, loop.time(), self.body.pose, wheels,
-                           self._noise_offset())
-        waiters, self._waiters = self._waiters, []
-        if waiters:
-            frame = self.latest()
-            assert frame is not None
-            for fut in waiters:
-                if not fut.done():
-                    fut.set_result(frame)
+        return _Shot(seq, t_s, self.body.pose, wheels, self._noise_offset())
 
+    def _draw(self, shot: _Shot) -> U8Image:
+        return self._render_shot(shot)
+
+    def _status_extra(self) -> dict[str, Any]:
+        return {"covered": self.covered}
+
+    # --- internals ----------------------------------------------------------------------------
     def _bare_floor(self) -> U8Image:
         floor = self.world.floor_bgr
         if self._floor is None or self._floor[0] != floor:
@@ -220,7 +176,6 @@ class SimCamera:
         return int(self._rng.integers(0, self.height_px)), int(self._rng.integers(0, self.width_px))
 
     def _render_shot(self, shot: _Shot) -> U8Image:
-        self.frames_rendered += 1
         m = self.mount
         h, w = m.height_px, m.width_px
         if self.covered:

@@ -25,6 +25,11 @@ from hal.sim.world.geometry import Pose, segment_distances
 F32Array = npt.NDArray[Any]  # float32; cv2 returns loosely typed arrays
 U8Image = npt.NDArray[Any]  # uint8 BGR
 
+try:
+    from hal.sim.devices import _camera_light
+except ImportError:  # not built (no C compiler or Python headers): OpenCV calls, same pixels
+    _camera_light = None  # type: ignore[assignment]
+
 _TEXTURE_TILE_PX = 256
 _DRAW_SHIFT = 4  # cv2 fixed-point bits: sub-pixel line positions
 _AMBIENT_GRID = (8, 6)  # coarse grid the world-fixed light field is computed on
@@ -139,6 +144,13 @@ class SimCamera(FrameSource[_Shot]):
         self._bufs = _Buffers(self.height_px, self.width_px)
         self._paint_key: tuple[Pose, tuple[float, float], tuple[int, int, int]] | None = None
         self._gain_pose: Pose | None = None
+        self._fields_pose: Pose | None = None
+        # The C pass rounds as OpenCV does for gains > 0 and lit values below 2**22.
+        bounded = (float(self._texture.min()) > 0 and float(self._static_gain.min()) > 0
+                   and self.mount.ambient_variation < 1
+                   and 255 * float(self._texture.max()) * float(self._static_gain.max())
+                   * (1 + self.mount.ambient_variation) < 2**22)
+        self.light_kernel = "c" if _camera_light is not None and bounded else "opencv"
         self._floor: tuple[tuple[int, int, int], U8Image] | None = None
         self.covered = False
 
@@ -182,12 +194,18 @@ class SimCamera(FrameSource[_Shot]):
             dark = np.full((h, w, 3), 8.0, np.float32)
             return self._finish(dark, shot.noise_at)
         paint = self._paint(shot.pose, shot.wheel_mps)
-        gain = self._gain(shot.pose)
-        # Light and noise a band of rows at a time: the float images of a band stay in the
-        # cache, where whole-frame ones (1 MB each) went to memory and back at every step.
         b = self._bufs
         out: U8Image = np.empty((h, w, 3), np.uint8)
         oy, ox = shot.noise_at
+        if self.light_kernel == "c" and _camera_light is not None:
+            # The steps below in one pass, to the bit (hal/sim/devices/_camera_light.c).
+            self._light_fields(shot.pose)
+            _camera_light.light(paint, b.texture, self._static_gain, b.ambient, self._noise,
+                                oy, ox, out)
+            return out
+        gain = self._gain(shot.pose)
+        # Light and noise a band of rows at a time: the float images of a band stay in the
+        # cache, where whole-frame ones (1 MB each) went to memory and back at every step.
         for r0 in range(0, h, _BAND_ROWS):
             r1 = min(h, r0 + _BAND_ROWS)
             n = r1 - r0
@@ -299,12 +317,20 @@ class SimCamera(FrameSource[_Shot]):
                                        borderMode=cv2.BORDER_REFLECT)
         return out
 
+    def _light_fields(self, pose: Pose) -> None:
+        """The floor texture and the room light under the view, kept while the pose is."""
+        if self._fields_pose != pose:
+            self._texture_gain(pose, self._bufs.texture)
+            self._ambient_gain(pose, self._bufs.ambient)
+            self._fields_pose = pose
+
     def _gain(self, pose: Pose) -> F32Array:
         """Light reaching each pixel: floor texture x lens and LED falloff x room light."""
         b = self._bufs
         if self._gain_pose != pose:
-            cv2.multiply(self._texture_gain(pose, b.texture), self._static_gain, dst=b.gain)
-            cv2.multiply(b.gain, self._ambient_gain(pose, b.ambient), dst=b.gain)
+            self._light_fields(pose)
+            cv2.multiply(b.texture, self._static_gain, dst=b.gain)
+            cv2.multiply(b.gain, b.ambient, dst=b.gain)
             self._gain_pose = pose
         return b.gain
 

@@ -20,7 +20,7 @@ import numpy.typing as npt
 from hal.sim.devices.frame_source import FrameSource
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import PaintedLine, World
-from hal.sim.world.geometry import Pose, segment_distances
+from hal.sim.world.geometry import Pose, SegmentSet
 
 F32Array = npt.NDArray[Any]  # float32; cv2 returns loosely typed arrays
 U8Image = npt.NDArray[Any]  # uint8 BGR
@@ -139,7 +139,7 @@ class SimCamera(FrameSource[_Shot]):
         mpp = self.mount.m_per_px
         self._ambient_grid = (self.mount.forward_m + (self.height_px / 2 - rr - 0.5) * mpp,
                               (self.width_px / 2 - cc - 0.5) * mpp)
-        self._segments: dict[int, tuple[PaintedLine, npt.NDArray[np.float64]]] = {}
+        self._segments: dict[int, tuple[PaintedLine, SegmentSet]] = {}
         self._phases = self._rng.uniform(0, 2 * math.pi, 4)
         self._bufs = _Buffers(self.height_px, self.width_px)
         self._paint_key: tuple[Pose, tuple[float, float], tuple[int, int, int]] | None = None
@@ -239,46 +239,54 @@ class SimCamera(FrameSource[_Shot]):
         return out
 
     def _draw_lines(self, image: U8Image, pose: Pose) -> tuple[int, int, int, int] | None:
-        """Paint the lines near the view; returns the box (x0, y0, x1, y1) they touch, if any."""
+        """Paint the lines near the view; returns the box (x0, y0, x1, y1) they touch, if any.
+
+        The few segments in view are placed with scalar arithmetic: numpy's per-call cost was
+        most of this method's time on a frame's handful of points (same floats either way).
+        """
         m = self.mount
         mpp = m.m_per_px
         cx, cy = pose.to_world(m.forward_m, 0.0)
         reach_m = math.hypot(m.view_width_m, mpp * m.height_px) / 2
         scale = 1 << _DRAW_SHIFT
         c, s = math.cos(pose.heading_rad), math.sin(pose.heading_rad)
+        half_w, half_h = m.width_px / 2, m.height_px / 2
         box: list[float] = []
         for line in self.world.lines:
             segs = self._line_segments(line)
-            if segs.shape[0] == 0:
+            if segs.x1.shape[0] == 0:
                 continue
-            near = segment_distances(segs, cx, cy) < reach_m + line.width_m
-            if not near.any():
+            near = np.flatnonzero(segs.distances(cx, cy) < reach_m + line.width_m)
+            if near.shape[0] == 0:
                 continue
-            pts = segs[near].reshape(-1, 2)
-            dx, dy = pts[:, 0] - pose.x_m, pts[:, 1] - pose.y_m
-            fwd, left = c * dx + s * dy, -s * dx + c * dy
-            cols = m.width_px / 2 - left / mpp - 0.5
-            rows = m.height_px / 2 - (fwd - m.forward_m) / mpp - 0.5
-            fixed = np.round(np.stack([cols, rows], axis=1) * scale).astype(np.int64)
             thickness = max(1, round(line.width_m / mpp))
             colour = tuple(int(v) for v in line.bgr)
-            for i in range(0, fixed.shape[0], 2):
-                p1 = (int(fixed[i, 0]), int(fixed[i, 1]))
-                p2 = (int(fixed[i + 1, 0]), int(fixed[i + 1, 1]))
-                cv2.line(image, p1, p2, colour, thickness, cv2.LINE_AA, _DRAW_SHIFT)
+            cols: list[float] = []
+            rows: list[float] = []
+            for x1, y1, x2, y2 in segs.ends[near].tolist():
+                ends = []
+                for x, y in ((x1, y1), (x2, y2)):
+                    dx, dy = x - pose.x_m, y - pose.y_m
+                    fwd, left = c * dx + s * dy, -s * dx + c * dy
+                    col = half_w - left / mpp - 0.5
+                    row = half_h - (fwd - m.forward_m) / mpp - 0.5
+                    cols.append(col)
+                    rows.append(row)
+                    ends.append((round(col * scale), round(row * scale)))
+                cv2.line(image, ends[0], ends[1], colour, thickness, cv2.LINE_AA, _DRAW_SHIFT)
             margin = thickness / 2 + 3  # anti-aliasing reaches past the nominal width
-            box = _grow(box, float(cols.min()) - margin, float(rows.min()) - margin,
-                        float(cols.max()) + margin, float(rows.max()) + margin)
+            box = _grow(box, min(cols) - margin, min(rows) - margin,
+                        max(cols) + margin, max(rows) + margin)
         if not box:
             return None
         x0, y0 = max(0, math.floor(box[0])), max(0, math.floor(box[1]))
         x1, y1 = min(m.width_px, math.ceil(box[2]) + 1), min(m.height_px, math.ceil(box[3]) + 1)
         return (x0, y0, x1, y1) if x0 < x1 and y0 < y1 else None
 
-    def _line_segments(self, line: PaintedLine) -> npt.NDArray[np.float64]:
+    def _line_segments(self, line: PaintedLine) -> SegmentSet:
         cached = self._segments.get(id(line))
         if cached is None or cached[0] is not line:
-            cached = (line, line.segments())
+            cached = (line, SegmentSet(line.segments()))
             self._segments[id(line)] = cached
         return cached[1]
 

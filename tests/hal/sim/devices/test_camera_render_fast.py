@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from hal.sim.devices.camera_model import CameraMount, SimCamera, _Shot
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import PaintedLine, World
-from hal.sim.world.geometry import Pose, segments_array
+from hal.sim.world.geometry import Pose, SegmentSet, segment_distances, segments_array
 
 
 def world() -> World:
@@ -78,3 +78,15 @@ def test_a_robot_standing_still_gets_the_same_frames_as_a_fresh_camera() -> None
     b = SimCamera(WORLD, DiffDriveBody(WORLD, pose), CameraMount(), seed=9)
     assert np.array_equal(second, b._render_shot(_Shot(2, 0.0, pose, (0.2, 0.2), (30, 40))))
     assert not np.array_equal(first, second)
+
+
+coords = st.floats(-5.0, 5.0)
+
+
+@given(ends=st.lists(st.tuples(coords, coords, coords, coords), max_size=12), x=coords,
+       y=coords)
+def test_a_segment_set_measures_as_segment_distances(
+        ends: list[tuple[float, float, float, float]], x: float, y: float) -> None:
+    """SegmentSet.distances (the camera's per-frame cull) equals segment_distances exactly."""
+    segs = segments_array(ends)
+    assert np.array_equal(SegmentSet(segs).distances(x, y), segment_distances(segs, x, y))

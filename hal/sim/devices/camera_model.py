@@ -142,7 +142,7 @@ class SimCamera(FrameSource[_Shot]):
         self._segments: dict[int, tuple[PaintedLine, SegmentSet]] = {}
         self._phases = self._rng.uniform(0, 2 * math.pi, 4)
         self._bufs = _Buffers(self.height_px, self.width_px)
-        self._paint_key: tuple[Pose, tuple[float, float], tuple[int, int, int]] | None = None
+        self._paint_key: tuple[Any, ...] | None = None
         self._gain_pose: Pose | None = None
         self._fields_pose: Pose | None = None
         # The C pass rounds as OpenCV does for gains > 0 and lit values below 2**22.
@@ -219,10 +219,11 @@ class SimCamera(FrameSource[_Shot]):
     def _paint(self, pose: Pose, wheel_mps: tuple[float, float]) -> U8Image:
         """The floor and its lines as the lens sees them, blurred by the motion.
 
-        Kept while the robot stands still; drawn into the same buffer every frame (a fresh
-        image a frame costs page faults worth as much as the drawing).
+        Kept while the robot stands still (and the floor and its lines are the same); drawn
+        into the same buffer every frame (a fresh image a frame costs page faults worth as much
+        as the drawing).
         """
-        key = (pose, wheel_mps, self.world.floor_bgr)
+        key = (pose, wheel_mps, self.world.floor_bgr, tuple(self.world.lines))
         b = self._bufs
         if self._paint_key != key:
             np.copyto(b.paint, self._bare_floor())

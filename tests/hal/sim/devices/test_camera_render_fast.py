@@ -90,3 +90,14 @@ def test_a_segment_set_measures_as_segment_distances(
     """SegmentSet.distances (the camera's per-frame cull) equals segment_distances exactly."""
     segs = segments_array(ends)
     assert np.array_equal(SegmentSet(segs).distances(x, y), segment_distances(segs, x, y))
+
+
+def test_a_line_painted_while_the_robot_stands_still_shows() -> None:
+    """The paint kept for an unchanged pose is redrawn when the world's lines change."""
+    pose = Pose(1.0, 1.5, 0.0)
+    floor = World(4.0, 3.0, segments_array([]), lines=[])
+    camera = SimCamera(floor, DiffDriveBody(floor, pose), seed=2)
+    bare = camera._render_shot(_Shot(1, 0.0, pose, (0.0, 0.0), (0, 0)))
+    floor.lines.append(PaintedLine("new", ((0.0, 1.5), (4.0, 1.5)), "black", 0.025))
+    painted = camera._render_shot(_Shot(2, 0.0, pose, (0.0, 0.0), (0, 0)))
+    assert painted.mean() < bare.mean() - 1

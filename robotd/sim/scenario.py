@@ -16,6 +16,7 @@ from typing import Any
 
 from hal.sim.world.body import BodyParams
 from hal.sim.world.floor_plan import World, WorldError
+from robotd.sim.nav.site_world import expand_site_map
 
 
 class ScenarioError(ValueError):
@@ -164,7 +165,8 @@ def _build(raw: dict[str, Any], source: str) -> Scenario:
         check_keys(_table(raw, "fleet"), _FLEET, "fleet")
     name = str(meta.get("name", Path(source).stem))
     profile = str(meta.get("profile", "square"))
-    world = World.from_table(_table(raw, "world"), base_dir=scenario_dir(source))
+    base_dir = scenario_dir(source)
+    world = World.from_table(expand_site_map(_table(raw, "world"), base_dir), base_dir=base_dir)
     config = _table(raw, "config", required=False)
     robots_raw = raw.get("robots")
     if robots_raw is None:

@@ -24,11 +24,15 @@ def draw_cabinet(ax: Any, events: list[dict[str, Any]]) -> None:
                     alpha=0.7, zorder=2.2, label="node graph links" if i == 0 else None)
     ax.scatter([p[0] for p in xy.values()], [p[1] for p in xy.values()], s=14,
                color="#34495e", zorder=2.4, label="nodes")
-    closed = [e for e in events if e.get("kind") == "link.closed" and e.get("a_xy")]
-    for i, e in enumerate(closed):
+    resets = [float(e["t"]) for e in events if e.get("kind") == "links.reset"]
+    labelled: set[bool] = set()
+    for e in (e for e in events if e.get("kind") == "link.closed" and e.get("a_xy")):
         (ax_, ay), (bx, by) = e["a_xy"], e["b_xy"]
-        ax.plot([ax_, bx], [ay, by], color="red", lw=2.4, zorder=4.6,
-                label="broken links" if i == 0 else None)
+        reset = any(t > float(e["t"]) for t in resets)
+        ax.plot([ax_, bx], [ay, by], color="red", lw=2.4, zorder=4.6, ls="--" if reset else "-",
+                label=None if reset in labelled else
+                ("broken links, reset later" if reset else "broken links"))
+        labelled.add(reset)
     refused = [e for e in events if e.get("kind") == "fit.tried" and not e.get("accepted")]
     if refused:
         ax.scatter([e["x_m"] for e in refused], [e["y_m"] for e in refused], marker="x",

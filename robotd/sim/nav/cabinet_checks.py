@@ -21,7 +21,6 @@ CABINET_SUCCESS_KEYS = ("cabinets_in_order", "max_arrival_error_m", "min_change_
 
 _COUNTED = {"min_change_orientation": "fit.change_orientation",
             "min_links_closed": "link.closed", "min_links_reset": "links.reset"}
-_STOPPED_MPS = 0.005
 
 
 def _arrivals(events: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -70,9 +69,10 @@ def _expected_failure(cabinet: str, events: list[dict[str, Any]],
     reason = str(event.get("reason", ""))
     if event.get("cabinet") != cabinet or cabinet not in reason:
         return [f"expected mission.failed naming cabinet {cabinet}, got {reason!r}"]
-    moving = [b for b in bodies if max(abs(v) for v in b.wheel_mps) > _STOPPED_MPS]
+    # Stopped: no wheel power commanded, and the wheels at rest or running down.
+    moving = [b for b in bodies if b.pwm[0] or b.pwm[1]]
     if moving:
-        return [f"mission.failed naming cabinet {cabinet}, but the wheels still turn"]
+        return [f"mission.failed naming cabinet {cabinet}, but the wheels are still driven"]
     return [f"mission.failed as expected: {reason}"]
 
 

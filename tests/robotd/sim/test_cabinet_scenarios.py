@@ -71,6 +71,7 @@ profile = "cabinet"
 map_file = "{site}"
 task_file = "{tmp_path / 'tasks.json'}"
 fit_fov_deg = 120.0
+fit_min_view_deg = 250.0
 fit_min_score = 0.75
 max_link_resets = 0
 [world]

@@ -69,6 +69,16 @@ class Fitting:
             return
         view = in_view(scan.points_xy(), m.config.fit_fov_deg)
         m.local_points.append(_odom_points(m, view))
+        covered_deg = min(360.0, m.config.fit_fov_deg + math.degrees(m.turned_rad))
+        if covered_deg + 1e-6 < m.config.fit_min_view_deg:
+            m.fits += 1
+            ctx.emit("fit.tried", attempt=m.fits, accepted=False, score=None, rival_score=None,
+                     reason=(f"the local map covers {covered_deg:.0f} deg, fit_min_view_deg is "
+                             f"{m.config.fit_min_view_deg:.0f}"), points=int(sum(
+                                 p.shape[0] for p in m.local_points)),
+                     turned_deg=round(math.degrees(m.turned_rad), 1))
+            await self._no_fit(ctx)
+            return
         local = np.concatenate(m.local_points)
         if local.shape[0] > _MAX_LOCAL_POINTS:
             local = local[np.linspace(0, local.shape[0] - 1, _MAX_LOCAL_POINTS).astype(np.intp)]
@@ -100,6 +110,11 @@ class Fitting:
                      rival_score=round(fit.rival_score, 3), attempts=m.fits)
             await ctx.trigger("fitted")
             return
+        await self._no_fit(ctx)
+
+    async def _no_fit(self, ctx: RobotContext) -> None:
+        """Turn on (case 2), or after a full turn the room's middle (case 4), or give up."""
+        m = self.m
         if m.turned_rad < FULL_TURN_RAD:
             await ctx.trigger("no_fit")
         elif not m.room_middle_tried:

@@ -12,7 +12,7 @@ import contextlib
 from collections.abc import Iterator
 
 from behaviours.profile import Profile, ProfileSpec
-from behaviours.profiles import idle, laundry, patrol, square, vacuum
+from behaviours.profiles import cabinet, idle, laundry, patrol, square, vacuum
 from hal.options import Order, Section
 
 
@@ -78,3 +78,4 @@ PROFILES.register(square.SPEC)
 PROFILES.register(laundry.SPEC)
 PROFILES.register(patrol.SPEC)
 PROFILES.register(vacuum.SPEC)
+PROFILES.register(cabinet.SPEC)

@@ -25,6 +25,7 @@ from behaviours.motion.obstacle_guard import ObstacleGuard
 from behaviours.motion.odometry import Odometry, OdometryPose
 from behaviours.motion.waypoint_drive import WaypointDrive
 from behaviours.nav.config import MapConfig, PlannerConfig
+from behaviours.nav.grid import Grid
 from behaviours.nav.localisation.config import LocalisationConfig, PeopleConfig
 from behaviours.nav.localisation.filter import (
     DIVERGED,
@@ -76,11 +77,12 @@ class NavStack:
     def __init__(self, settings: SettingsView, motors: Motors, lidar: Lidar,
                  odometry: Odometry, *, front_range: RangeSensor | None = None,
                  stored_pose: tuple[float, float, float] | None = None,
-                 emit: Callable[..., None] | None = None) -> None:
+                 emit: Callable[..., None] | None = None, grid: Grid | None = None) -> None:
         self.settings = settings
         self.lidar = lidar
         self.odometry = odometry
-        grid = load_grid(MapConfig.from_settings(settings))
+        if grid is None:  # a profile with its own map format (cabinet) gives its grid
+            grid = load_grid(MapConfig.from_settings(settings))
         self.planner_config = PlannerConfig.from_settings(settings)
         self.planner = Planner(grid, self.planner_config)
         self.distance = DistanceGrid.from_field(self.planner.field)

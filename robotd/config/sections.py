@@ -14,7 +14,6 @@ from typing import overload
 from behaviours.docking.config import DOCKING_OPTIONS, DOCKING_ORDERS
 from behaviours.nav.config import NAV_SECTIONS
 from behaviours.nav.localisation.config import NAV_LOCALISATION_ORDERS, NAV_LOCALISATION_SECTIONS
-from behaviours.profiles.cabinet.config import CABINET
 from behaviours.profiles.delivery.config import DELIVERY, DELIVERY_ORDERS
 from drivers.arduino.config import SERIAL
 from drivers.audio.config import AUDIO
@@ -199,7 +198,6 @@ _CORE: tuple[Section, ...] = (
     DELIVERY,  # moves to the delivery profile's SPEC.sections once that is registered
     *NAV_SECTIONS,
     *NAV_LOCALISATION_SECTIONS,
-    CABINET,
     Section("docking", "Returning to the dock (seed 001).", (*DOCKING_OPTIONS, *IR_OPTIONS)),
     Section("sim", "The simulated world (hal.backend = sim).", (
         opt("seed", "int", 1, "Random seed for sensor noise.", min=0),

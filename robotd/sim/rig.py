@@ -101,6 +101,9 @@ class SimRig:
         if "lidar" in needs:
             self._fit_lidar(seed * 1000 + index)
         self._deadman_seen = 0
+        for key in ("cabinet.map_file", "cabinet.task_file"):  # named beside the scenario
+            if not Path(settings.get(key)).expanduser().is_absolute():
+                settings.set(key, str(scenario_dir(str(settings.source)) / settings.get(key)))
 
     def _fill_dock_slots(self) -> None:
         """A docking robot's motor-board senses: the link's docking facets, the link itself

@@ -8,6 +8,7 @@ brings its actions in a module here and adds them to ``ACTIONS``.
 from __future__ import annotations
 
 from robotd.sim.actions.dock import DOCK_ACTIONS
+from robotd.sim.actions.doors import DOOR_ACTIONS
 from robotd.sim.actions.lidar import LIDAR_ACTIONS
 from robotd.sim.actions.motor_board import MOTOR_BOARD_ACTIONS
 from robotd.sim.actions.people import PEOPLE_ACTIONS
@@ -22,6 +23,7 @@ ACTIONS: dict[str, Action] = {
     **ROBOT_ACTIONS,
     **LIDAR_ACTIONS,
     **PEOPLE_ACTIONS,
+    **DOOR_ACTIONS,
 }
 """Action name (``script[i].action``) -> what it does."""
 

@@ -121,6 +121,11 @@ class DockSenses:
             return float("inf")
         return asyncio.get_running_loop().time() - reading.t_s
 
+    def ir_edges(self) -> int:
+        """Edges the receivers have given so far, on all lines (a silent harness gives none)."""
+        total = self.dock_ir.status().get("total", {})
+        return int(total.get("edges", 0) or 0) if isinstance(total, dict) else 0
+
     def ir_trouble(self) -> str | None:
         """Why the dock IR device cannot be trusted now, or None."""
         status = self.dock_ir.status()

@@ -31,6 +31,7 @@ from behaviours.nav.localisation.filter import (
     DIVERGED,
     LIDAR_LOST,
     LOCALISED,
+    UNCERTAIN,
     LocalisedPose,
     Localiser,
 )
@@ -50,6 +51,8 @@ log = structlog.get_logger(__name__)
 
 FAILURES = ("no_path", "no_progress", "diverged", "lidar_lost")
 _WATCH_S = 0.1
+_LOCALISE_WAIT_S = 10.0
+"""How long a goal waits, standing, for the first localised pose."""
 _OBSTACLE_RANGE_M = 3.0
 
 
@@ -143,6 +146,20 @@ class NavStack:
         loop = asyncio.get_running_loop()
         started = loop.time()
         replans = self.follower.replans
+        # Not from an uncertain pose: after a global start the first scans must pick the
+        # pose out of the map before a path from it means anything.
+        while self.localiser.status == UNCERTAIN:  # the filter has no event: polled
+            if loop.time() - started >= _LOCALISE_WAIT_S:
+                break
+            await asyncio.sleep(_WATCH_S)
+        if self.localiser.status == UNCERTAIN:
+            pose = self.pose()
+            detail = f"not localised within {_LOCALISE_WAIT_S:g} s"
+            log.info("nav.outcome", reason="not_localised", goal_x_m=x_m, goal_y_m=y_m,
+                     detail=detail)
+            return NavOutcome("not_localised", (x_m, y_m), pose.x_m, pose.y_m,
+                              math.hypot(x_m - pose.x_m, y_m - pose.y_m), 0,
+                              loop.time() - started, detail)
         task = asyncio.create_task(self.follower.go_to(x_m, y_m))
         reason, detail = "reached", ""
         try:

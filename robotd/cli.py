@@ -60,7 +60,14 @@ def build_parser() -> argparse.ArgumentParser:
     pace.add_argument("--speed", type=_positive_float, metavar="X",
                       help="X times faster than real time")
     sim.add_argument("--socket", help="control socket path (for robotctl)")
-    sim.add_argument("--report", metavar="DIR", help="write events.jsonl and trajectory.png")
+    sim.add_argument("--report", metavar="DIR",
+                     help="write events.jsonl, trajectory.png and run.mcap (virtual time)")
+    sim.add_argument("--viz", action="store_true",
+                     help="serve the Foxglove live view (docs/live-view.md)")
+    sim.add_argument("--viz-host", default="127.0.0.1", metavar="HOST",
+                     help="address the live view listens on (default: %(default)s)")
+    sim.add_argument("--viz-port", type=int, default=8765, metavar="PORT",
+                     help="the live view's port, 0 for any free one (default: %(default)s)")
     sim.add_argument("--quiet", action="store_true", help="print only the result")
     sim.add_argument("--mcu", choices=("fake", "simavr"), default="fake",
                      help="motor board: the Python fake MCU or the firmware in simavr")

@@ -20,6 +20,7 @@ import structlog
 from hal.devices import BeaconScanner
 from hal.readings import BeaconSighting
 from hal.settings import SettingsView
+from hal.telemetry import NULL_TELEMETRY, Telemetry
 
 log = structlog.get_logger(__name__)
 
@@ -111,6 +112,7 @@ class BeaconTracker:
         self._clock = clock or (lambda: asyncio.get_running_loop().time())
         self._configs: dict[str, BeaconConfig] = {}
         self.removed = 0
+        self.telemetry: Telemetry = NULL_TELEMETRY  # the live view: each sighting's RSSI
         if scanner is not None:
             scanner.on_sighting(self.add_sighting)
 
@@ -158,6 +160,12 @@ class BeaconTracker:
             b.last_seen_s = max(b.last_seen_s, s.t_s)
             b.sightings += 1
         b.distance_m = distance_m(b.tx_power_dbm, b.smoothed_rssi_dbm, self.path_loss_exponent)
+        if self.telemetry.enabled:
+            self.telemetry.values("beacons", mac=mac, major=b.major, minor=b.minor,
+                                  rssi_dbm=b.rssi_dbm,
+                                  smoothed_rssi_dbm=round(b.smoothed_rssi_dbm, 2),
+                                  distance_m=round(b.distance_m, 3),
+                                  target=b.is_navigation_target)
 
     def prune(self, now_s: float | None = None) -> list[str]:
         """Forget beacons silent for longer than the removal timeout; returns their MACs."""

@@ -89,7 +89,7 @@ class PatrolProfile(BaseProfile):
                            float(stored["heading_rad"]))
         nav = self.nav = NavStack(ctx.settings, d.motors, d.lidar, odometry,
                                   front_range=d.front_range, stored_pose=stored_pose,
-                                  emit=ctx.emit)
+                                  emit=ctx.emit, telemetry=ctx.telemetry)
         ctx.emit("nav.start", initial_pose=nav.started_from, particles=len(
             nav.localiser.particles), map_resolution_m=nav.planner.grid.resolution_m)
         progress = ctx.persisted(PATROL_MISSION)

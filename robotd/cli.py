@@ -151,6 +151,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from robotd.daemon import Daemon
     from robotd.hardware import HardwareMissing, build_devices
     from robotd.logs import configure_logging
+    from robotd.viz.runtime import open_daemon_viz, run_daemon, telemetry_of
 
     config_path = Path(args.config or os.environ.get("ROBOTD_CONFIG") or DEFAULT_CONFIG)
     try:
@@ -185,15 +186,19 @@ def cmd_run(args: argparse.Namespace) -> int:
         for missing in exc.problems:
             print(f"robotd: missing device: {missing}", file=sys.stderr)
         return 1
+    viz = open_daemon_viz(settings, state_dir, system_wall_clock)  # None while [viz] is off
     try:
         daemon = Daemon(settings, devices, profile, state_dir=state_dir,
                         socket_path=settings.get("control.socket"),
-                        wall_clock=system_wall_clock, config_path=config_path, freeze_gc=True)
+                        wall_clock=system_wall_clock, config_path=config_path, freeze_gc=True,
+                        telemetry=telemetry_of(viz, settings.get("robot.name")))
     except (OSError, sqlite3.Error) as exc:
+        if viz is not None:
+            viz.close()
         print(f"robotd: cannot open the state store in {state_dir}: {exc} (check "
               "robot.state_dir; under systemd StateDirectory= provides it)", file=sys.stderr)
         return 1
-    code = asyncio.run(daemon.run())
+    code = asyncio.run(run_daemon(daemon, viz))
     for failure in daemon.start_problems:
         print(f"robotd: could not start: {failure}", file=sys.stderr)
     return code

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import foxglove
 import structlog
-from foxglove.mcap import MCAPWriter
+from foxglove.mcap import MCAPCompression, MCAPWriteOptions, MCAPWriter
 
 log = structlog.get_logger(__name__)
 
@@ -26,7 +26,9 @@ PROFILE = "robotd"
 def open_recording(path: Path, context: foxglove.Context) -> MCAPWriter:
     """A writer to ``path`` (replaced when it exists) on ``context``."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    options = foxglove.mcap.MCAPWriteOptions(profile=PROFILE, compression_threads=0)
+    # LZ4 rather than the default zstd: cheaper on the CPU for larger files (docs/live-view.md
+    # has bench/bench_mcap.py's figures), what keeps the recording's cost on the simulator small.
+    options = MCAPWriteOptions(profile=PROFILE, compression=MCAPCompression.Lz4)
     return foxglove.open_mcap(path, allow_overwrite=True, context=context,
                               writer_options=options)
 

@@ -44,8 +44,11 @@ _SHARED_FRAMES = ("map",)
 
 
 def loop_time_ns() -> int:
-    """The running event loop's time (virtual in the simulator) in nanoseconds."""
-    return int(asyncio.get_running_loop().time() * 1e9)
+    """The running event loop's time (virtual in the simulator) in nanoseconds; 0 outside."""
+    try:
+        return int(asyncio.get_running_loop().time() * 1e9)
+    except RuntimeError:
+        return 0
 
 
 class FoxgloveTelemetry:

@@ -5,8 +5,9 @@
 Runs the scenario N times without recording and N times recording ``run.mcap`` (what
 ``robotd sim --report DIR`` adds), alternating so both see the same machine load, and prints
 each run's virtual time, wall and CPU time, the recording's size, and the median CPU ratio
-(recording / not; the requirement is <= 1.10 on ``laundry``). Compare CPU figures: the machine
-is shared, wall time follows its load. The report's other files (events.jsonl,
+(recording / not; the requirement is <= 1.10 on ``laundry``) and the ratio of the best run of
+each (the least disturbed by other work). Compare CPU figures: the machine is shared, wall time
+follows its load. The report's other files (events.jsonl,
 trajectory.png) are not written in either case: only the recording differs.
 """
 
@@ -68,8 +69,10 @@ def main() -> int:
                       f"wall {wall:.2f} s  cpu {used:.2f} s  x{result.sim_s / used:.0f} (cpu)"
                       f"  run.mcap {size}")
     ratio = statistics.median(cpu[True]) / statistics.median(cpu[False])
-    print(f"recording overhead on {opts.scenario}: cpu x{ratio:.3f} "
-          f"({(ratio - 1) * 100:+.1f} %; requirement <= +10 %)")
+    best = min(cpu[True]) / min(cpu[False])  # the least disturbed run of each
+    print(f"recording overhead on {opts.scenario}: cpu x{ratio:.3f} median "
+          f"({(ratio - 1) * 100:+.1f} %), x{best:.3f} best of each "
+          f"({(best - 1) * 100:+.1f} %); requirement <= +10 %")
     return 0
 
 

@@ -1,7 +1,7 @@
 """What only the simulator knows, for the live view: the world and each robot's true pose.
 
 The world (its walls as a grid, the painted lines, the beacons and the dock) goes on shared
-``/world/...`` topics; each robot's true pose on ``truth`` (with the ``truth`` frame), beside
+``/world/...`` topics; each robot's true pose on ``truth`` (a pose in ``map``), beside
 the estimate its own localisation publishes. A ``SimFeed`` only reads the world and the bodies:
 it never changes what the robots do (events.jsonl is the same with and without it).
 """
@@ -23,8 +23,8 @@ from robotd.viz.telemetry import FoxgloveTelemetry
 
 log = structlog.get_logger(__name__)
 
-TRUTH_PERIOD_S = 0.1
-_WORLD_EVERY = 50  # truth ticks: the world every 5 s, for viewers that join late
+TRUTH_PERIOD_S = 0.2
+_WORLD_EVERY = 25  # truth ticks: the world every 5 s, for viewers that join late
 _GRID_RESOLUTION_M = 0.05
 RECORDING = "run.mcap"
 
@@ -54,7 +54,7 @@ def open_sim_viz(args: argparse.Namespace, name: str, robots: int,
 
 
 class SimFeed:
-    """Publishes the world every few seconds and the bodies' true poses at 10 Hz."""
+    """Publishes the world every few seconds and the bodies' true poses at 5 Hz."""
 
     def __init__(self, session: VizSession, world: World,
                  bodies: Mapping[str, DiffDriveBody]) -> None:
@@ -77,8 +77,7 @@ class SimFeed:
     def tick(self) -> None:
         for name, body in self.bodies.items():
             p = body.pose
-            self.session.telemetry(name).pose("truth", (p.x_m, p.y_m, p.heading_rad),
-                                              child_frame="truth")
+            self.session.telemetry(name).pose("truth", (p.x_m, p.y_m, p.heading_rad))
         if self._ticks % _WORLD_EVERY == 0:
             self.publish_world()
         self._ticks += 1

@@ -15,11 +15,12 @@ from robotd.sim.scenario import builtin_names, load_scenario
 pytestmark = pytest.mark.slow
 
 EVERY_ROBOT = {"state": "robotd.state", "events": "robotd.events",
-               "truth": "foxglove.PoseInFrame", "tf": "foxglove.FrameTransform"}
+               "truth": "foxglove.PoseInFrame"}
 BY_PROFILE = {
     "patrol": {"map": "foxglove.Grid", "scan": "foxglove.LaserScan",
                "particles": "foxglove.PosesInFrame", "path": "foxglove.SceneUpdate",
                "pose": "foxglove.PoseInFrame", "odom": "foxglove.PoseInFrame",
+               "tf": "foxglove.FrameTransform",
                "localisation": "robotd.localisation"},
     "laundry": {"camera": "foxglove.CompressedImage", "line": "robotd.line",
                 "beacons": "robotd.beacons"},

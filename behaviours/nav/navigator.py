@@ -113,16 +113,15 @@ class NavStack:
         self.poses_published += 1
 
     def _show(self, pose: LocalisedPose) -> None:
-        """The live view at the pose rate: estimate, odometry, particles, plan and map (the
-        heavy ones are decimated by the telemetry adapter)."""
+        """The live view at the pose rate: estimate, the odom frame, particles, plan and map
+        (the heavy ones are decimated by the telemetry adapter; odometry itself is
+        ``OdometryTracker``'s)."""
         t = self.telemetry
         t.pose("pose", (pose.x_m, pose.y_m, pose.theta_rad), child_frame="base_link")
         t.values("localisation", status=pose.status, spread_m=round(pose.spread_m, 4),
                  match_fraction=round(pose.match_fraction, 3), particles=pose.particles)
         c = self.localiser.correction  # map <- odom: the odom frame in the map
         t.pose("odom_in_map", (float(c[0]), float(c[1]), float(c[2])), child_frame="odom")
-        odom = self._odom()
-        t.pose("odom", (odom[0], odom[1], odom[2]), frame="odom")
         t.poses("particles", self.localiser.particles.poses)
         plan = self.follower.plan
         t.path("path", plan.points if plan is not None else [])

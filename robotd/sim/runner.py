@@ -256,10 +256,8 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
     people = [asyncio.create_task(coro, name=name) for a in actors for name, coro in a.people()]
     tasks += [asyncio.create_task(coro, name=name)
               for a in actors for name, coro in a.background()]
-    if viz is not None:
-        feed = SimFeed(viz, scenario.world, {n: r.body for n, r in robots.items()})
-        tasks += [asyncio.create_task(viz.run(), name="viz"),
-                  asyncio.create_task(feed.run(), name="viz.sim")]
+    # The live view rides on the watch's ticks: a timer of its own would change the run.
+    feed = SimFeed(viz, scenario.world, recorder.tracks) if viz is not None else None
 
     start = loop.time()
     limit = scenario.success.time_limit_s
@@ -290,6 +288,8 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
 
     def tick() -> float | None:
         recorder.sample(loop.time())  # the paths are sampled at the watch's rate
+        if feed is not None:
+            feed.tick()
         return None if watch() else _WATCH_PERIOD_S
 
     recorder.sample(start)

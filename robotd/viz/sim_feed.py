@@ -2,29 +2,42 @@
 
 The world (its walls as a grid, the painted lines, the beacons and the dock) goes on shared
 ``/world/...`` topics; each robot's true pose on ``truth`` (a pose in ``map``), beside
-the estimate its own localisation publishes. A ``SimFeed`` only reads the world and the bodies:
-it never changes what the robots do (events.jsonl is the same with and without it).
+the estimate its own localisation publishes. A ``SimFeed`` never touches a body: reading a
+body's pose integrates its physics up to the loop's time (``DiffDriveBody.sync``), so reads at
+other instants than the runner's would change the run. It takes the poses the runner's path
+recorder sampled (``robotd.sim.tracks``), so events.jsonl is the same with and without it.
 """
 
 from __future__ import annotations
 
 import argparse
-import asyncio
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from typing import Protocol
 
 import structlog
 
 from behaviours.nav.grid import Grid
-from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import World
 from robotd.viz.session import VizSession
 from robotd.viz.telemetry import FoxgloveTelemetry
 
 log = structlog.get_logger(__name__)
 
-TRUTH_PERIOD_S = 0.2
-_WORLD_EVERY = 25  # truth ticks: the world every 5 s, for viewers that join late
+
+class Sample(Protocol):
+    """A sampled pose (``robotd.sim.tracks.TrackPoint``; not imported: the runner imports us)."""
+
+    @property
+    def x_m(self) -> float: ...
+    @property
+    def y_m(self) -> float: ...
+    @property
+    def heading_rad(self) -> float: ...
+
+_TRUTH_EVERY = 2  # the runner's 10 Hz watch ticks: the true pose at 5 Hz
+_SESSION_EVERY = 10  # the session's state for late viewers every second
+_WORLD_EVERY = 50  # the world every 5 s, for viewers that join late
 _GRID_RESOLUTION_M = 0.05
 RECORDING = "run.mcap"
 
@@ -54,13 +67,14 @@ def open_sim_viz(args: argparse.Namespace, name: str, robots: int,
 
 
 class SimFeed:
-    """Publishes the world every few seconds and the bodies' true poses at 5 Hz."""
+    """Publishes the world every few seconds and the robots' true poses at 5 Hz (the latest
+    of ``tracks``, the path recorder's samples, by robot)."""
 
     def __init__(self, session: VizSession, world: World,
-                 bodies: Mapping[str, DiffDriveBody]) -> None:
+                 tracks: Mapping[str, Sequence[Sample]]) -> None:
         self.session = session
         self.world = world
-        self.bodies = bodies
+        self.tracks = tracks
         self.world_feed = FoxgloveTelemetry(session.context)
         self._ticks = 0
         self._grid: Grid | None = None
@@ -69,18 +83,20 @@ class SimFeed:
         except ValueError:
             log.info("viz.world_without_walls")
 
-    async def run(self) -> None:
-        while True:
-            self.tick()
-            await asyncio.sleep(TRUTH_PERIOD_S)
-
     def tick(self) -> None:
-        for name, body in self.bodies.items():
-            p = body.pose
-            self.session.telemetry(name).pose("truth", (p.x_m, p.y_m, p.heading_rad))
-        if self._ticks % _WORLD_EVERY == 0:
-            self.publish_world()
+        """Called on each of the runner's watch ticks (10 Hz), after the path recorder's
+        sample: no timer of its own, which would wake the virtual loop at other instants."""
+        n = self._ticks
         self._ticks += 1
+        if n % _TRUTH_EVERY == 0:
+            for name, track in self.tracks.items():
+                if track:
+                    p = track[-1]
+                    self.session.telemetry(name).pose("truth", (p.x_m, p.y_m, p.heading_rad))
+        if n % _SESSION_EVERY == 0:
+            self.session.tick()
+        if n % _WORLD_EVERY == 0:
+            self.publish_world()
 
     def publish_world(self) -> None:
         """The walls as a grid, the painted lines, the beacons' and the dock's places."""

@@ -104,7 +104,9 @@ class PatrolProfile(BaseProfile):
             await asyncio.Event().wait()
 
         return [
-            TaskService("odometry", OdometryTracker(d.encoders, odometry).run, critical=True),
+            TaskService("odometry", OdometryTracker(d.encoders, odometry,
+                                                    telemetry=ctx.telemetry).run,
+                        critical=True),
             _Localisation(nav),
             TaskService("patrol.poses", lambda: self._pose_events(ctx),
                         depends_on=("localisation",)),

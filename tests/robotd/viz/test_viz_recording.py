@@ -24,7 +24,8 @@ BY_PROFILE = {
                "localisation": "robotd.localisation"},
     "laundry": {"camera": "foxglove.CompressedImage", "line": "robotd.line",
                 "beacons": "robotd.beacons"},
-    "vacuum": {"dock": "robotd.dock"},
+    "vacuum": {"dock": "robotd.dock", "odom": "foxglove.PoseInFrame"},
+    "square": {"odom": "foxglove.PoseInFrame"},
 }
 _WALL_EPOCH_NS = 10**18  # 2001-09-09: any wall-clock time is past it, virtual times are not
 
@@ -59,3 +60,29 @@ def test_run_mcap_has_every_channel_on_virtual_time(name: str, tmp_path: Path) -
     assert 0 <= start <= end < _WALL_EPOCH_NS
     last = json.loads((tmp_path / "events.jsonl").read_text().splitlines()[-1])
     assert end <= (float(last["t"]) + 1.0) * 1e9, "no message after the run's virtual end"
+
+
+@pytest.mark.parametrize(("name", "seed"), [("square", 3), ("nav", 1), ("docking", 1)])
+def test_recording_does_not_change_the_run(name: str, seed: int, tmp_path: Path) -> None:
+    """The same run with and without run.mcap: the same events, field for field."""
+    import argparse
+
+    from hal.sim import vclock
+    from robotd.sim import runner
+    from robotd.sim.console import SimConsole
+
+    scenario = load_scenario(name)
+    runs = []
+    for report in (None, tmp_path / "report"):
+        if report is not None:
+            report.mkdir()
+        work = tmp_path / f"work-{len(runs)}"
+        work.mkdir()
+        args = argparse.Namespace(scenario=name, seed=seed, realtime=False, speed=None,
+                                  report=str(report) if report else None, quiet=True,
+                                  socket=None, config=None, mcu="fake", viz=False)
+        result = vclock.run(runner._run(args, scenario, SimConsole(quiet=True), work))
+        assert not isinstance(result, int)
+        runs.append(result.events)
+    assert (tmp_path / "report" / "run.mcap").stat().st_size > 0
+    assert runs[0] == runs[1]

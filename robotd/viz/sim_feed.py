@@ -35,6 +35,7 @@ class Sample(Protocol):
     @property
     def heading_rad(self) -> float: ...
 
+
 _TRUTH_EVERY = 2  # the runner's 10 Hz watch ticks: the true pose at 5 Hz
 _SESSION_EVERY = 10  # the session's state for late viewers every second
 _WORLD_EVERY = 50  # the world every 5 s, for viewers that join late

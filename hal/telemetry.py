@@ -75,7 +75,12 @@ class Telemetry(Protocol):
         ...
 
     def values(self, topic: str, /, **fields: Any) -> None:
-        """Plain data as JSON (a state, RSSI per beacon, IR codes, a box's state)."""
+        """Plain data as JSON, every call delivered (a state, an event, a box's state)."""
+        ...
+
+    def sample(self, topic: str, /, **fields: Any) -> None:
+        """A periodic reading as JSON (the line error each frame, IR beams): the viewer may
+        get only some of them (at most 10 a second)."""
         ...
 
 
@@ -116,6 +121,9 @@ class NullTelemetry:
         return None
 
     def values(self, topic: str, /, **fields: Any) -> None:
+        return None
+
+    def sample(self, topic: str, /, **fields: Any) -> None:
         return None
 
 

@@ -175,7 +175,7 @@ def show_dock(telemetry: Telemetry, senses: DockSenses) -> None:
     """The live view's ``dock``: each receiver's beams and codes, the front strengths."""
     reading = senses.dock_ir.latest() or EMPTY
     signal = senses.signal()
-    telemetry.values(
+    telemetry.sample(
         "dock", beams={r: sorted(b) for r, b in reading.beams.items()},
         codes={r: sorted(c) for r, c in reading.codes.items()},
         front_left=None if signal is None else signal.front_left,

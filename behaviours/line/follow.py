@@ -317,7 +317,7 @@ class LineFollower:
     def _show(self, frame: Frame, reading: LineReading) -> None:
         marks = [] if reading.x_px is None else [(int(reading.x_px), int(reading.row_px))]
         self.telemetry.image("camera", frame.image, marks=marks)
-        self.telemetry.values("line", error_px=round(reading.error_px, 1), lost=reading.lost,
+        self.telemetry.sample("line", error_px=round(reading.error_px, 1), lost=reading.lost,
                               confidence=round(reading.confidence, 3), colour=reading.colour)
 
     async def _fresh_frame(self, deadline: float) -> Frame | None:

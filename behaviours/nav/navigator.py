@@ -105,20 +105,25 @@ class NavStack:
         self.service.poses.listen(self._count)
         self._stop_scans: Callable[[], None] | None = None
         self.telemetry = telemetry
+        self._shown_scan_s = -1.0
         if telemetry.enabled:  # the live view: nothing is even listened to while it is off
             self.service.poses.listen(self._show)
-            lidar.listen(lambda scan: telemetry.scan("scan", scan))
 
     def _count(self, _pose: object) -> None:
         self.poses_published += 1
 
     def _show(self, pose: LocalisedPose) -> None:
-        """The live view at the pose rate: estimate, the odom frame, particles, plan and map
-        (the heavy ones are decimated by the telemetry adapter; odometry itself is
-        ``OdometryTracker``'s)."""
+        """The live view at the pose rate: estimate, the odom frame, the newest scan,
+        particles, plan and map (the heavy ones are decimated by the telemetry adapter;
+        odometry itself is ``OdometryTracker``'s). No listener on the LiDAR: the device
+        outlives a daemon the simulator restarts, the service's poses do not."""
         t = self.telemetry
+        scan = self.lidar.latest()
+        if scan is not None and scan.t_s != self._shown_scan_s:
+            self._shown_scan_s = scan.t_s
+            t.scan("scan", scan)
         t.pose("pose", (pose.x_m, pose.y_m, pose.theta_rad), child_frame="base_link")
-        t.values("localisation", status=pose.status, spread_m=round(pose.spread_m, 4),
+        t.sample("localisation", status=pose.status, spread_m=round(pose.spread_m, 4),
                  match_fraction=round(pose.match_fraction, 3), particles=pose.particles)
         c = self.localiser.correction  # map <- odom: the odom frame in the map
         t.pose("odom_in_map", (float(c[0]), float(c[1]), float(c[2])), child_frame="odom")

@@ -37,7 +37,8 @@ from robotd.viz import messages as fm
 
 log = structlog.get_logger(__name__)
 
-_PERIOD_S = {"image": 0.5, "poses": 0.5, "grid": 5.0, "graph": 5.0, "path": 0.5}
+_PERIOD_S = {"image": 0.5, "poses": 0.5, "grid": 5.0, "graph": 5.0, "path": 0.5,
+             "sample": 0.1}
 """The shortest interval between two messages of a kind on one topic (virtual seconds)."""
 _MAX_PARTICLES = 500
 _SHARED_FRAMES = ("map",)
@@ -123,6 +124,10 @@ class FoxgloveTelemetry:
         if self._due(topic, "image", t_ns):
             self._log(topic, CompressedImageChannel, t_ns,
                       lambda: fm.jpeg_image(t_ns, image, marks, self.frame("camera")))
+
+    def sample(self, topic: str, /, **fields: Any) -> None:
+        if self._due(topic, "sample", self.clock_ns()):
+            self.values(topic, **fields)
 
     def values(self, topic: str, /, **fields: Any) -> None:
         t_ns = self.clock_ns()

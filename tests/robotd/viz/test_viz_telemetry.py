@@ -69,7 +69,8 @@ async def test_nothing_is_built_without_a_sink() -> None:
 
 
 def test_recording_is_on_the_given_clock_and_decimated(tmp_path: Path) -> None:
-    """Log times are the clock's; images at most every 0.5 s, scans every call."""
+    """Log times are the clock's; images at most every 0.5 s, samples every 0.1 s, scans
+    and values every call."""
     session = VizSession()
     clock = FakeClock()
     feed = FoxgloveTelemetry(session.context, clock_ns=clock)
@@ -80,12 +81,18 @@ def test_recording_is_on_the_given_clock_and_decimated(tmp_path: Path) -> None:
         feed.image("camera", image, marks=[(5, 5)])
         feed.scan("scan", _scan())
         feed.pose("pose", (1.0, 2.0, 0.5), child_frame="base_link")
+        feed.values("state", state="idle")
+        feed.sample("line", error_px=1.0)
+        clock.t_ns += 50_000_000  # a second sample 50 ms later: too soon, dropped
+        feed.sample("line", error_px=2.0)
     session.close()
     topics = _read(tmp_path / "run.mcap")
     assert len(topics["/scan"]) == 20
     assert len(topics["/camera"]) == 4
     assert topics["/pose"][0] == 1_000_000_000
     assert len(topics["/tf"]) == 20
+    assert len(topics["/state"]) == 20  # values: every one
+    assert len(topics["/line"]) == 20  # sample: at most one per 0.1 s
 
 
 def test_several_robots_have_their_own_topics_and_frames(tmp_path: Path) -> None:

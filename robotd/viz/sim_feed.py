@@ -2,10 +2,11 @@
 
 The world (its walls as a grid, the painted lines, the beacons and the dock) goes on shared
 ``/world/...`` topics; each robot's true pose on ``truth`` (a pose in ``map``), beside
-the estimate its own localisation publishes. A ``SimFeed`` never touches a body: reading a
-body's pose integrates its physics up to the loop's time (``DiffDriveBody.sync``), so reads at
-other instants than the runner's would change the run. It takes the poses the runner's path
-recorder sampled (``robotd.sim.tracks``), so events.jsonl is the same with and without it.
+the estimate its own localisation publishes. A ``SimFeed`` changes nothing in the run: it has
+no timer (the runner calls ``tick`` on its watch ticks: a timer of its own woke the virtual loop
+at other instants, and that alone changed the nav run's estimates), and it never touches a body
+(a read integrates its physics up to that instant, ``DiffDriveBody.sync``): it takes the poses
+the runner's path recorder sampled (``robotd.sim.tracks``).
 """
 
 from __future__ import annotations

@@ -18,7 +18,13 @@ import structlog
 
 from behaviours.docking import approach, contact, search, station
 from behaviours.docking.align import run_align
-from behaviours.docking.senses import DOCKED_RECORD, DockingRun, DockingUnavailable, DockSenses
+from behaviours.docking.senses import (
+    DOCKED_RECORD,
+    DockingRun,
+    DockingUnavailable,
+    DockSenses,
+    show_dock,
+)
 from behaviours.motion.odometry import Odometry
 from behaviours.persistence import Persisted
 from behaviours.profile import StateTask
@@ -103,6 +109,8 @@ class Docking:
                 await ctx.trigger("dock_ir_lost", reason=trouble)
                 return
             state = ctx.state
+            if ctx.telemetry.enabled:
+                show_dock(ctx.telemetry, senses)
             if senses.view().dock_seen() or senses.contact_mv() > 0 \
                     or not state.startswith(WATCHED):
                 last_seen = loop.time()

@@ -46,6 +46,7 @@ from hal.devices import Lidar, Motors, RangeSensor
 from hal.readings import LidarScan
 from hal.settings import SettingsView
 from hal.tasks import cancel_and_wait
+from hal.telemetry import NULL_TELEMETRY, Telemetry
 
 log = structlog.get_logger(__name__)
 
@@ -80,7 +81,8 @@ class NavStack:
     def __init__(self, settings: SettingsView, motors: Motors, lidar: Lidar,
                  odometry: Odometry, *, front_range: RangeSensor | None = None,
                  stored_pose: tuple[float, float, float] | None = None,
-                 emit: Callable[..., None] | None = None, grid: Grid | None = None) -> None:
+                 emit: Callable[..., None] | None = None, grid: Grid | None = None,
+                 telemetry: Telemetry = NULL_TELEMETRY) -> None:
         self.settings = settings
         self.lidar = lidar
         self.odometry = odometry
@@ -107,9 +109,34 @@ class NavStack:
         self.poses_published = 0
         self.service.poses.listen(self._count)
         self._stop_scans: Callable[[], None] | None = None
+        self.telemetry = telemetry
+        self._shown_scan_s = -1.0
+        if telemetry.enabled:  # the live view: nothing is even listened to while it is off
+            self.service.poses.listen(self._show)
 
     def _count(self, _pose: object) -> None:
         self.poses_published += 1
+
+    def _show(self, pose: LocalisedPose) -> None:
+        """The live view at the pose rate: estimate, the odom frame, the newest scan,
+        particles, plan and map (the heavy ones are decimated by the telemetry adapter;
+        odometry itself is ``OdometryTracker``'s). No listener on the LiDAR: the device
+        outlives a daemon the simulator restarts, the service's poses do not."""
+        t = self.telemetry
+        scan = self.lidar.latest()
+        if scan is not None and scan.t_s != self._shown_scan_s:
+            self._shown_scan_s = scan.t_s
+            t.scan("scan", scan)
+        t.pose("pose", (pose.x_m, pose.y_m, pose.theta_rad), child_frame="base_link")
+        t.sample("localisation", status=pose.status, spread_m=round(pose.spread_m, 4),
+                 match_fraction=round(pose.match_fraction, 3), particles=pose.particles)
+        c = self.localiser.correction  # map <- odom: the odom frame in the map
+        t.pose("odom_in_map", (float(c[0]), float(c[1]), float(c[2])), child_frame="odom")
+        t.poses("particles", self.localiser.particles.poses)
+        plan = self.follower.plan
+        t.path("path", plan.points if plan is not None else [])
+        grid = self.planner.grid
+        t.grid("map", grid.occupied, grid.resolution_m, (grid.origin_x_m, grid.origin_y_m))
 
     def pose(self) -> OdometryPose:
         """The fused map pose now (correction x live odometry)."""

@@ -22,6 +22,7 @@ from drivers.dock_ir.config import IR_OPTIONS, IR_ORDERS
 from drivers.lidar.config import LIDAR, LIDAR_ORDERS
 from hal.options import Option, Order, Section
 from robotd.profiles import PROFILES, ProfileRegistry
+from robotd.viz.config import VIZ
 
 opt = Option
 
@@ -203,6 +204,7 @@ _CORE: tuple[Section, ...] = (
         opt("seed", "int", 1, "Random seed for sensor noise.", min=0),
         opt("scenario", "str", "", "Scenario file or built-in name the world comes from."),
     )),
+    VIZ,
 )
 
 # Limits that only make sense in order: check-config and `robotctl tune set` refuse a value

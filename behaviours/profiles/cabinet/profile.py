@@ -36,7 +36,7 @@ from behaviours.profiles.cabinet.states import (
 from behaviours.profiles.cabinet.steps.action import CabinetAction
 from behaviours.profiles.cabinet.steps.drive_control import DriveController
 from behaviours.profiles.cabinet.steps.fitting import Fitting
-from behaviours.profiles.cabinet.steps.mission import Mission
+from behaviours.profiles.cabinet.steps.mission import Mission, show_graph
 from behaviours.profiles.cabinet.steps.relocate import Relocate
 from behaviours.profiles.cabinet.task_list import parse_task_list
 from behaviours.service import Service, TaskService
@@ -149,7 +149,8 @@ class CabinetProfile(BaseProfile):
             d = ctx.devices
             assert d.motors is not None and d.lidar is not None
             m.nav = NavStack(ctx.settings, d.motors, d.lidar, m.odometry,
-                             front_range=d.front_range, emit=ctx.emit, grid=site.grid)
+                             front_range=d.front_range, emit=ctx.emit, grid=site.grid,
+                             telemetry=ctx.telemetry)
             m.matcher = ScanMatcher(site.field, site.site_map.wall_array(),
                                     MatchConfig(min_score=c.fit_min_score, margin=c.fit_margin))
         m.block_status["perceptor"] = "ready"
@@ -165,6 +166,7 @@ class CabinetProfile(BaseProfile):
         graph = m.site.graph
         graph.broken.clear()
         m.block_status["path_planner"] = "ready"
+        show_graph(ctx.telemetry, m)
         links = sorted({tuple(sorted((a, b))) for a, out in graph.links.items() for b in out})
         ctx.emit("graph.built", nodes=[[n.name, round(n.x_m, 3), round(n.y_m, 3)]
                                        for n in graph.nodes.values()],

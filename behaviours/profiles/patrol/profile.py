@@ -90,7 +90,7 @@ class PatrolProfile(BaseProfile):
                            float(stored["heading_rad"]))
         nav = self.nav = NavStack(ctx.settings, d.motors, d.lidar, odometry,
                                   front_range=d.front_range, stored_pose=stored_pose,
-                                  emit=ctx.emit)
+                                  emit=ctx.emit, telemetry=ctx.telemetry)
         ctx.emit("nav.start", initial_pose=nav.started_from, particles=len(
             nav.localiser.particles), map_resolution_m=nav.planner.grid.resolution_m)
         progress = ctx.persisted(PATROL_MISSION)
@@ -105,7 +105,9 @@ class PatrolProfile(BaseProfile):
             await asyncio.Event().wait()
 
         return [
-            TaskService("odometry", OdometryTracker(d.encoders, odometry).run, critical=True),
+            TaskService("odometry", OdometryTracker(d.encoders, odometry,
+                                                    telemetry=ctx.telemetry).run,
+                        critical=True),
             _Localisation(nav),
             TaskService("patrol.poses", lambda: self._pose_events(ctx),
                         depends_on=("localisation",)),

@@ -26,6 +26,7 @@ from behaviours.profiles.cabinet.site import Site
 from behaviours.profiles.cabinet.steps.drive_control import DriveController
 from behaviours.profiles.cabinet.task_list import Task, TaskList
 from hal.readings import LidarScan
+from hal.telemetry import Telemetry
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -128,3 +129,15 @@ class Mission:
             "broken_links": [list(k) for k in graph.broken_links()] if graph else [],
             "link_resets": graph.resets_this_task if graph else 0,
         }
+
+
+def show_graph(telemetry: Telemetry, m: Mission) -> None:
+    """The node graph for the live view: open links, broken links and the path in hand."""
+    if not telemetry.enabled or m.site is None:
+        return
+    graph = m.site.graph
+    nodes = {n.name: (n.x_m, n.y_m) for n in graph.nodes.values()}
+    links = sorted({(min(a, b), max(a, b)) for a, out in graph.links.items() for b in out})
+    telemetry.graph("cabinet/links_open", nodes, [k for k in links if graph.is_open(*k)])
+    telemetry.graph("cabinet/links_broken", nodes, [k for k in links if not graph.is_open(*k)])
+    telemetry.path("cabinet/path", [nodes[name] for name in m.path if name in nodes])

@@ -24,7 +24,7 @@ import numpy as np
 
 from behaviours.nav.localisation.filter import DIVERGED, LIDAR_LOST
 from behaviours.profiles.cabinet.node_graph import NoPath, line_clear
-from behaviours.profiles.cabinet.steps.mission import Mission
+from behaviours.profiles.cabinet.steps.mission import Mission, show_graph
 
 if TYPE_CHECKING:
     from behaviours.context import RobotContext
@@ -121,6 +121,7 @@ class Relocate:
             m.path, m.path_pos = path, 0
             ctx.emit("path.planned", cabinet=cabinet, nodes=path,
                      length_m=round(_length(m, path), 3), broken=len(graph.broken))
+            show_graph(ctx.telemetry, m)
             await ctx.trigger("path_found")
             return
 
@@ -222,6 +223,7 @@ class Relocate:
                      b_xy=[round(nb.x_m, 3), round(nb.y_m, 3)],
                      broken=[list(k) for k in graph.broken_links()])
         m.next_node = None
+        show_graph(ctx.telemetry, m)
         await ctx.trigger("link_broken")
 
     async def reset_links(self, ctx: RobotContext) -> None:
@@ -241,6 +243,7 @@ class Relocate:
         ctx.emit("links.reset", opened=opened, resets=graph.resets_this_task,
                  max_resets=graph.max_resets,
                  cabinet=m.current.cabinet if m.current else None)
+        show_graph(ctx.telemetry, m)
         await ctx.trigger("links_reset")
 
 

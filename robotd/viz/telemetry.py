@@ -37,7 +37,8 @@ from robotd.viz import messages as fm
 
 log = structlog.get_logger(__name__)
 
-_PERIOD_S = {"image": 0.5, "poses": 0.5, "grid": 5.0, "graph": 5.0, "path": 0.5,
+# A node graph changes rarely and each change (a broken link) matters: every one is sent.
+_PERIOD_S = {"image": 0.5, "poses": 0.5, "grid": 5.0, "graph": 0.0, "path": 0.5,
              "sample": 0.1}
 """The shortest interval between two messages of a kind on one topic (virtual seconds)."""
 _MAX_PARTICLES = 500

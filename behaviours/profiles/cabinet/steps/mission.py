@@ -131,8 +131,8 @@ class Mission:
         }
 
 
-def show_graph(telemetry: Telemetry, m: Mission) -> None:
-    """The node graph for the live view: open links, broken links and the path in hand."""
+def show_graph(telemetry: Telemetry, m: Mission, *, with_path: bool = False) -> None:
+    """The node graph for the live view: open links, broken links (and the path just made)."""
     if not telemetry.enabled or m.site is None:
         return
     graph = m.site.graph
@@ -140,4 +140,5 @@ def show_graph(telemetry: Telemetry, m: Mission) -> None:
     links = sorted({(min(a, b), max(a, b)) for a, out in graph.links.items() for b in out})
     telemetry.graph("cabinet/links_open", nodes, [k for k in links if graph.is_open(*k)])
     telemetry.graph("cabinet/links_broken", nodes, [k for k in links if not graph.is_open(*k)])
-    telemetry.path("cabinet/path", [nodes[name] for name in m.path if name in nodes])
+    if with_path:
+        telemetry.path("cabinet/path", [nodes[name] for name in m.path if name in nodes])

@@ -121,7 +121,7 @@ class Relocate:
             m.path, m.path_pos = path, 0
             ctx.emit("path.planned", cabinet=cabinet, nodes=path,
                      length_m=round(_length(m, path), 3), broken=len(graph.broken))
-            show_graph(ctx.telemetry, m)
+            show_graph(ctx.telemetry, m, with_path=True)
             await ctx.trigger("path_found")
             return
 

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 from behaviours.persistence import EStopLatch, KeyValueStore, MissionRecord, Persisted
 from hal.backend import Devices
 from hal.ports import WallClock
+from hal.telemetry import NULL_TELEMETRY, Telemetry
 
 if TYPE_CHECKING:
     from hal.settings import SettingsView
@@ -37,15 +38,18 @@ class RobotContext:
         store: crash-safe key/value store for mission state.
         wall_clock: the one source of wall-clock timestamps.
         emit: records an event (``emit("beacon.arrived", room="A")``).
+        telemetry: what behaviours show the live view (``hal.telemetry``; a no-op when off).
     """
 
     def __init__(self, devices: Devices, settings: SettingsView, store: KeyValueStore,
-                 wall_clock: WallClock, emit: EventSink) -> None:
+                 wall_clock: WallClock, emit: EventSink, *,
+                 telemetry: Telemetry = NULL_TELEMETRY) -> None:
         self.devices = devices
         self.settings = settings
         self.store = store
         self.wall_clock = wall_clock
         self._emit = emit
+        self.telemetry = telemetry
         self._machine: MachineHandle | None = None
         self.estop_latch = EStopLatch(store, wall_clock)
         self._persisted: dict[str, Persisted] = {}

@@ -158,6 +158,7 @@ class Trial:
     cpu_s: float
     sim_s: float
     reasons: list[str]
+    phases_s: dict[str, float]
 
 
 def run_trial(pose: tuple[float, float, float], seed: int, workdir: Path) -> Trial:
@@ -182,10 +183,29 @@ def run_trial(pose: tuple[float, float, float], seed: int, workdir: Path) -> Tri
                    and not e.get("success"))
     fig = next(iter(result.figures.values()), {})
     ok = bool(result.ok)
+    end_s = done["t"] if done is not None else result.sim_s
     return Trial(pose, ok, None if done is None or start is None else done["t"] - start,
                  fig.get("dock_lateral_cm") if ok else None,
                  fig.get("dock_heading_deg") if ok else None, failures, cpu_s,
-                 result.sim_s, list(result.reasons))
+                 result.sim_s, list(result.reasons), phase_times(events, end_s))
+
+
+def phase_times(events: list[dict[str, Any]], end_s: float) -> dict[str, float]:
+    """Virtual seconds spent in each docking phase (``docking.<phase>``) up to ``end_s``."""
+    spent: dict[str, float] = {}
+    phase, since = "", 0.0
+    for event in events:
+        if event.get("kind") != "transition" or event["t"] > end_s:
+            continue
+        if phase:
+            spent[phase] = spent.get(phase, 0.0) + event["t"] - since
+        dst = str(event.get("dst", ""))
+        parts = dst.split(".")
+        phase = parts[1] if parts[0] == "docking" and len(parts) > 1 else ""
+        since = event["t"]
+    if phase:
+        spent[phase] = spent.get(phase, 0.0) + end_s - since
+    return spent
 
 
 def speed_factor(scenario: str = "docking") -> tuple[float, float]:
@@ -225,7 +245,8 @@ def main() -> int:
                 print(f"  #{i} start ({pose[0]:.2f}, {pose[1]:.2f}, {pose[2]:.0f} deg): "
                       f"{'ok' if trial.ok else 'FAILED'} time {trial.time_s} s, lateral "
                       f"{trial.lateral_cm} cm, heading {trial.heading_deg} deg, "
-                      f"{trial.failures} failed attempt(s), cpu {trial.cpu_s:.1f} s"
+                      f"{trial.failures} failed attempt(s), cpu {trial.cpu_s:.1f} s; "
+                      + ", ".join(f"{k} {v:.1f}" for k, v in trial.phases_s.items())
                       + ("" if trial.ok else f": {'; '.join(trial.reasons)[:200]}"),
                       flush=True)
     ok = [t for t in trials if t.ok and t.time_s is not None]
@@ -244,6 +265,10 @@ def main() -> int:
         print(f"  final heading error: median {statistics.median(heading):.2f} deg, "
               f"p95 {_pct(heading, 0.95):.2f} deg, max {max(heading):.2f} deg")
         print(f"  trials with a failed attempt first: {sum(1 for t in ok if t.failures)}")
+        phases = sorted({k for t in ok for k in t.phases_s})
+        print("  median time per phase: " + ", ".join(
+            f"{k} {statistics.median([t.phases_s.get(k, 0.0) for t in ok]):.1f} s"
+            for k in phases))
     cpu = sum(t.cpu_s for t in trials)
     sim = sum(t.sim_s for t in trials)
     print(f"  simulated {sim:.0f} s in {cpu:.0f} s CPU (x{sim / max(cpu, 1e-9):.0f})")

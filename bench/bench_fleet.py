@@ -9,8 +9,8 @@ without the database).
 
 Every call carries a bearer token, as on a real site: each robot its own, the set-up calls
 the admin's (seeded through the site file; stored hashed). ``--storm`` also times a reconnect
-storm: every robot offline, then all report at once; it prints how long until the last one
-is answered (restored), and checks that all are online.
+storm (bench/fleet_storm.py): every robot offline, then all report at once; it prints how long
+until the last one is answered (restored), and checks that all are online.
 
 The site has 40 customer rooms with a beacon each (every reply lists all 41 beacons). Half of
 the robots serve a request (they get customer-room targets), half idle. Each robot
@@ -288,71 +288,6 @@ async def run_one(db_url: str, robots: int, seconds: float, port: int,
             proc.wait()
 
 
-async def run_storm(db_url: str, robots: int, port: int,
-                    extra: tuple[str, ...] = ()) -> dict[str, float]:
-    """A reconnect storm: every robot reports, goes offline (OfflineAfterS 2 s, checked every
-    second), then all report at once on connections opened beforehand. Returns the seconds
-    from the first send to the last answer, and how many robots are online after."""
-    workdir = Path(tempfile.mkdtemp(prefix="bench-fleet-storm-"))
-    site = workdir / "site.toml"
-    site.write_text(site_toml(robots, "OfflineAfterS = 2\nOfflineCheckPeriodS = 1\n"))
-    proc = subprocess.Popen(  # noqa: ASYNC220 - started once, before the measurement
-        [str(ROOT / ".venv/bin/robotd-fleet"), "serve", "--db", db_url, "--site", str(site),
-         "--port", str(port), "--log-level", "warning", *extra],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    try:
-        await wait_ready(port, proc)
-        admin = Conn(port)
-        for c in range(1, robots // 2 + 1):
-            await admin.call("POST", "/api/requests", json.dumps({"CustomerId": c}).encode())
-        for i in range(robots):
-            await admin.call("POST", f"/api/Robot/robot-{i}/data-exchange",
-                             exchange_body(f"robot-{i}", i), robot_token(i))
-        # Another process's state, seen only through its API: poll it.
-        while sum(r["IsOffline"] for r in await _robots(admin)) < robots:  # noqa: ASYNC110
-            await asyncio.sleep(0.5)
-        # Keep them online once back (the storm, not the monitor, is measured).
-        await admin.call("PUT", "/api/settings", json.dumps({"OfflineAfterS": 3600}).encode())
-        conns = [Conn(port) for _ in range(robots)]  # opened now: idle ones time out
-        for conn in conns:
-            await conn.connect()
-        started = time.perf_counter()
-        answers = await asyncio.gather(*(
-            conn.call("POST", f"/api/Robot/robot-{i}/data-exchange",
-                      exchange_body(f"robot-{i}", i), robot_token(i))
-            for i, conn in enumerate(conns)))
-        elapsed_s = time.perf_counter() - started
-        bad = [status for status, _ in answers if status != 200]
-        if bad:
-            msg = f"{len(bad)} storm answers were not 200, e.g. {bad[0]}"
-            raise RuntimeError(msg)
-        online = sum(not r["IsOffline"] for r in await _robots(admin))
-        for conn in conns:
-            conn.close()
-        admin.close()
-        return {"restore_s": elapsed_s, "online": online}
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-
-
-async def _robots(admin: Conn) -> list[dict[str, object]]:
-    status, body = await admin.call("GET", "/api/robots")
-    assert status == 200, body
-    robots: list[dict[str, object]] = json.loads(body)
-    return robots
-
-
-def report_storm(backend: str, robots: int, r: dict[str, float]) -> None:
-    print(f"{backend:10s} robots={robots:4d}  reconnect storm restored in "
-          f"{r['restore_s'] * 1000:.0f} ms; online after: {int(r['online'])}/{robots}",
-          flush=True)
-
-
 def report(backend: str, robots: int, r: dict[str, float]) -> None:
     print(f"{backend:10s} robots={robots:4d}  {r['rps']:7.1f} req/s  p50={r['p50']:6.1f} ms  "
           f"p99={r['p99']:6.1f} ms  max={r['max']:6.1f} ms  server CPU {r['cpu_ms']:.2f} ms/req\n"
@@ -373,6 +308,10 @@ async def main() -> int:
     parser.add_argument("--storm", action="store_true",
                         help="also time a reconnect storm of every robot (target: 500 <= 1 s)")
     args = parser.parse_args()
+    # bench/fleet_storm.py uses this module's robots and connections: imported here, not at the
+    # top, so the two modules do not import each other while loading.
+    from fleet_storm import report_storm, run_storm
+
     counts = [int(n) for n in args.robots.split(",")]
     print(f"bench_fleet: {os.cpu_count()} CPUs, load average "
           f"{os.getloadavg()[0]:.1f}; target: 500 robots p99 <= 50 ms on SQLite")

@@ -63,7 +63,8 @@ def main() -> int:
         shown = []
         for robot, values in sorted(result["figures"].items()):
             for key, value in sorted(values.items()):
-                if key.startswith("arrival_") or key in ("mean_cross_track_cm", "distance_m"):
+                if key.startswith("arrival_") or key in ("mean_cross_track_cm", "distance_m",
+                                                             "max_arrival_error_cm", "fits_tried"):
                     figures[key].append(float(value))
                     shown.append(f"{robot} {key} {value}")
         print(f"seed {seed:3d}: {'ok    ' if result['ok'] else 'FAILED'}  {', '.join(shown)}")

@@ -1,11 +1,15 @@
 """Simulator speed: virtual seconds per wall/CPU second on a scenario, and peak memory.
 
     .venv/bin/python bench/bench_sim.py [SCENARIO] [--runs N] [--turns] [--profile FILE]
+                                        [--no-reference]
 
 Prints, per run, the virtual time simulated and the wall and CPU time the run itself took
 (imports and start-up excluded, reported separately), the speed factor (virtual / wall and
-virtual / CPU; target >= 200x on square), and the process's peak RSS. Compare CPU figures: the
-machine is shared, wall time follows its load.
+virtual / CPU; targets: >= 200x on square, >= 60x on laundry with recording), and the
+process's peak RSS. A scenario other than ``square`` is followed by ``square`` in the same
+process (unless ``--no-reference`` or ``--profile``), and both medians are printed together:
+compare them, and CPU figures rather than wall ones; the machine is shared, wall time follows
+its load.
 
 ``--turns`` also prints the event loop's turns and callbacks per virtual second by origin (task
 coroutine or callback): in virtual time every wake-up costs a loop turn, so this says which
@@ -42,61 +46,89 @@ def main() -> int:
     parser.add_argument("--turns", action="store_true",
                         help="count loop turns and callbacks per virtual second")
     parser.add_argument("--profile", metavar="FILE", help="cProfile the runs into FILE")
+    parser.add_argument("--no-reference", action="store_true",
+                        help=f"do not also run {REFERENCE!r} for comparison")
     opts = parser.parse_args()
 
+    names = [opts.scenario]
+    if opts.scenario != REFERENCE and not opts.no_reference and not opts.profile:
+        names.append(REFERENCE)  # same process, same load: the two factors compare
     t0_wall, t0_cpu = time.perf_counter(), time.process_time()
-    from robotd.profiles import PROFILES
-    from robotd.sim import runner as sim_runner
-    from robotd.sim.actors import actors_factory
-    from robotd.sim.console import SimConsole
-    from robotd.sim.scenario import load_scenario
-
-    scenario = load_scenario(opts.scenario)
-    # What the runner loads lazily on its first run (the daemon with its state machine and
-    # control server, the profile, the fleet's modules): imports, not part of any run.
-    importlib.import_module("robotd.daemon")
-    if "fleet" in scenario.raw:
-        actors_factory(PROFILES.get(scenario.profile))
-    PROFILES.build(scenario.profile)
-
+    for name in names:
+        _load(name)
     import_wall = time.perf_counter() - t0_wall
     import_cpu = time.process_time() - t0_cpu
     print(f"imports: wall {import_wall * 1000:.0f} ms, cpu {import_cpu * 1000:.0f} ms")
 
-    from hal.sim import vclock
-
     profiler = cProfile.Profile() if opts.profile else None
-    wall_factors, cpu_factors = [], []
-    for i in range(opts.runs):
-        args = argparse.Namespace(scenario=opts.scenario, seed=i + 1, realtime=False, speed=None,
-                                  report=None, quiet=True, socket=None, config=None, mcu="fake")
-        console = SimConsole(quiet=True)
-        gc.collect()  # the previous run's garbage is not this run's work
-        w0, c0 = time.perf_counter(), time.process_time()
-        with tempfile.TemporaryDirectory(prefix="bench-sim-") as workdir, \
-                _counting(opts.turns) as counts:
-            main = sim_runner._run(args, scenario, console, Path(workdir))
-            result = profiler.runcall(vclock.run, main) if profiler else vclock.run(main)
-        wall, cpu = time.perf_counter() - w0, time.process_time() - c0
-        if isinstance(result, int):
-            print(f"run {i + 1}: could not run (exit {result})")
+    medians: dict[str, tuple[float, float]] = {}
+    for name in names:
+        factors = _bench(name, opts.runs, opts.turns, profiler)
+        if factors is None:
             return 1
-        wall_factors.append(result.sim_s / wall)
-        cpu_factors.append(result.sim_s / cpu)
-        print(f"run {i + 1}: {'ok' if result.ok else 'FAILED'}  virtual {result.sim_s:.1f} s  "
-              f"wall {wall:.3f} s  cpu {cpu:.3f} s  speed x{result.sim_s / wall:.0f} (wall) "
-              f"x{result.sim_s / cpu:.0f} (cpu)")
-        if opts.turns:
-            for origin, n in counts.most_common(16):
-                print(f"    {n / result.sim_s:8.1f}/s  {origin}")
+        medians[name] = factors
     rss_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    print(f"speed factor median: x{statistics.median(wall_factors):.0f} wall, "
-          f"x{statistics.median(cpu_factors):.0f} cpu (target >= 200x)")
+    for name, (wall_x, cpu_x) in medians.items():
+        print(f"speed factor median {name:>14}: x{wall_x:.0f} wall, x{cpu_x:.0f} cpu "
+              f"(target {TARGETS.get(name, '-')})")
     print(f"peak RSS: {rss_mib:.0f} MiB")
     if profiler is not None:
         profiler.dump_stats(opts.profile)
         pstats.Stats(opts.profile).sort_stats("tottime").print_stats(25)
     return 0
+
+
+REFERENCE = "square"
+TARGETS = {"square": ">= x200", "laundry": ">= x60 with recording, x70 without"}
+
+
+def _load(name: str) -> None:
+    """Import what the runner loads lazily on its first run of ``name``: not part of a run."""
+    from robotd.profiles import PROFILES
+    from robotd.sim.actors import actors_factory
+    from robotd.sim.scenario import load_scenario
+
+    scenario = load_scenario(name)
+    # The daemon with its state machine and control server, the profile, the fleet's modules.
+    importlib.import_module("robotd.daemon")
+    if "fleet" in scenario.raw:
+        actors_factory(PROFILES.get(scenario.profile))
+    PROFILES.build(scenario.profile)
+
+
+def _bench(name: str, runs: int, turns: bool,
+           profiler: cProfile.Profile | None) -> tuple[float, float] | None:
+    """Run scenario ``name`` ``runs`` times (seeds 1..runs); median (wall, cpu) speed factors."""
+    from hal.sim import vclock
+    from robotd.sim import runner as sim_runner
+    from robotd.sim.console import SimConsole
+    from robotd.sim.scenario import load_scenario
+
+    scenario = load_scenario(name)
+    wall_factors, cpu_factors = [], []
+    for i in range(runs):
+        args = argparse.Namespace(scenario=name, seed=i + 1, realtime=False, speed=None,
+                                  report=None, quiet=True, socket=None, config=None, mcu="fake")
+        console = SimConsole(quiet=True)
+        gc.collect()  # the previous run's garbage is not this run's work
+        w0, c0 = time.perf_counter(), time.process_time()
+        with tempfile.TemporaryDirectory(prefix="bench-sim-") as workdir, \
+                _counting(turns) as counts:
+            main = sim_runner._run(args, scenario, console, Path(workdir))
+            result = profiler.runcall(vclock.run, main) if profiler else vclock.run(main)
+        wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+        if isinstance(result, int):
+            print(f"{name} run {i + 1}: could not run (exit {result})")
+            return None
+        wall_factors.append(result.sim_s / wall)
+        cpu_factors.append(result.sim_s / cpu)
+        print(f"{name} run {i + 1}: {'ok' if result.ok else 'FAILED'}  virtual "
+              f"{result.sim_s:.1f} s  wall {wall:.3f} s  cpu {cpu:.3f} s  speed "
+              f"x{result.sim_s / wall:.0f} (wall) x{result.sim_s / cpu:.0f} (cpu)")
+        if turns:
+            for origin, n in counts.most_common(16):
+                print(f"    {n / result.sim_s:8.1f}/s  {origin}")
+    return statistics.median(wall_factors), statistics.median(cpu_factors)
 
 
 @contextmanager

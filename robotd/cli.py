@@ -60,7 +60,14 @@ def build_parser() -> argparse.ArgumentParser:
     pace.add_argument("--speed", type=_positive_float, metavar="X",
                       help="X times faster than real time")
     sim.add_argument("--socket", help="control socket path (for robotctl)")
-    sim.add_argument("--report", metavar="DIR", help="write events.jsonl and trajectory.png")
+    sim.add_argument("--report", metavar="DIR",
+                     help="write events.jsonl, trajectory.png and run.mcap (virtual time)")
+    sim.add_argument("--viz", action="store_true",
+                     help="serve the Foxglove live view (docs/live-view.md)")
+    sim.add_argument("--viz-host", default="127.0.0.1", metavar="HOST",
+                     help="address the live view listens on (default: %(default)s)")
+    sim.add_argument("--viz-port", type=int, default=8765, metavar="PORT",
+                     help="the live view's port, 0 for any free one (default: %(default)s)")
     sim.add_argument("--quiet", action="store_true", help="print only the result")
     sim.add_argument("--mcu", choices=("fake", "simavr"), default="fake",
                      help="motor board: the Python fake MCU or the firmware in simavr")
@@ -144,6 +151,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from robotd.daemon import Daemon
     from robotd.hardware import HardwareMissing, build_devices
     from robotd.logs import configure_logging
+    from robotd.viz.runtime import open_daemon_viz, run_daemon, telemetry_of
 
     config_path = Path(args.config or os.environ.get("ROBOTD_CONFIG") or DEFAULT_CONFIG)
     try:
@@ -178,15 +186,19 @@ def cmd_run(args: argparse.Namespace) -> int:
         for missing in exc.problems:
             print(f"robotd: missing device: {missing}", file=sys.stderr)
         return 1
+    viz = open_daemon_viz(settings, state_dir, system_wall_clock)  # None while [viz] is off
     try:
         daemon = Daemon(settings, devices, profile, state_dir=state_dir,
                         socket_path=settings.get("control.socket"),
-                        wall_clock=system_wall_clock, config_path=config_path, freeze_gc=True)
+                        wall_clock=system_wall_clock, config_path=config_path, freeze_gc=True,
+                        telemetry=telemetry_of(viz, settings.get("robot.name")))
     except (OSError, sqlite3.Error) as exc:
+        if viz is not None:
+            viz.close()
         print(f"robotd: cannot open the state store in {state_dir}: {exc} (check "
               "robot.state_dir; under systemd StateDirectory= provides it)", file=sys.stderr)
         return 1
-    code = asyncio.run(daemon.run())
+    code = asyncio.run(run_daemon(daemon, viz))
     for failure in daemon.start_problems:
         print(f"robotd: could not start: {failure}", file=sys.stderr)
     return code

@@ -20,6 +20,7 @@ from behaviours.profile import Profile
 from behaviours.service import Service
 from hal.backend import Devices
 from hal.ports import WallClock
+from hal.telemetry import NULL_TELEMETRY, Telemetry
 from robotd import __version__
 from robotd.config import ConfigError, Settings, load_config
 from robotd.config.overrides import overrides_path
@@ -55,12 +56,14 @@ class Daemon:
         handle_signals: SIGTERM/SIGINT stop, SIGHUP reloads (off inside tests and the sim).
         freeze_gc: once started, collect and freeze what start-up made (``robotd run``; not in
             processes that run many daemons, where frozen garbage would never be freed).
+        telemetry: what the behaviours publish to the live view (``robotd.viz``), or nothing.
     """
 
     def __init__(self, settings: Settings, devices: Devices, profile: Profile, *,
                  state_dir: Path, socket_path: str | None, wall_clock: WallClock,
                  config_path: Path | None = None, notify: bool = True,
-                 handle_signals: bool = True, freeze_gc: bool = False) -> None:
+                 handle_signals: bool = True, freeze_gc: bool = False,
+                 telemetry: Telemetry = NULL_TELEMETRY) -> None:
         self.settings = settings
         self.devices = devices
         self.profile = profile
@@ -79,7 +82,8 @@ class Daemon:
         self._crashed = False
         self.start_problems: list[str] = []
         self.store = StateStore(self.state_dir / STATE_FILE)
-        self.context = RobotContext(devices, settings, self.store, wall_clock, self.emit)
+        self.context = RobotContext(devices, settings, self.store, wall_clock, self.emit,
+                                    telemetry=telemetry)
         self.machine = RobotMachine(profile, self.context, on_transition=self._on_transition,
                                     stop_motors=self.stop_motors)
         self.monitor = LoopMonitor(lambda: float(settings.get("supervisor.lag_warn_ms")))

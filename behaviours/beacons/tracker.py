@@ -20,6 +20,7 @@ import structlog
 from hal.devices import BeaconScanner
 from hal.readings import BeaconSighting
 from hal.settings import SettingsView
+from hal.telemetry import NULL_TELEMETRY, Telemetry
 
 log = structlog.get_logger(__name__)
 
@@ -31,6 +32,8 @@ def distance_m(tx_power_dbm: float, rssi_dbm: float, path_loss_exponent: float) 
     except OverflowError:
         return math.inf
 
+
+_SHOW_PERIOD_S = 0.5
 
 @dataclass(frozen=True, slots=True)
 class BeaconConfig:
@@ -111,6 +114,8 @@ class BeaconTracker:
         self._clock = clock or (lambda: asyncio.get_running_loop().time())
         self._configs: dict[str, BeaconConfig] = {}
         self.removed = 0
+        self.telemetry: Telemetry = NULL_TELEMETRY  # the live view: RSSI at 2 Hz
+        self._shown_s = -math.inf
         if scanner is not None:
             scanner.on_sighting(self.add_sighting)
 
@@ -158,6 +163,19 @@ class BeaconTracker:
             b.last_seen_s = max(b.last_seen_s, s.t_s)
             b.sightings += 1
         b.distance_m = distance_m(b.tx_power_dbm, b.smoothed_rssi_dbm, self.path_loss_exponent)
+        if self.telemetry.enabled and s.t_s >= self._shown_s + _SHOW_PERIOD_S:
+            self._shown_s = s.t_s
+            self._show()
+
+    def _show(self) -> None:
+        """The live view's ``beacons``: smoothed RSSI and distance per ``b<major>_<minor>``
+        (a plot's path: ``/beacons.rssi_dbm.b1_101``), and the navigation targets."""
+        tracked = self.tracked()
+        self.telemetry.values(
+            "beacons", rssi_dbm={f"b{b.major}_{b.minor}": round(b.smoothed_rssi_dbm, 1)
+                                 for b in tracked},
+            distance_m={f"b{b.major}_{b.minor}": round(b.distance_m, 2) for b in tracked},
+            targets=[f"b{b.major}_{b.minor}" for b in tracked if b.is_navigation_target])
 
     def prune(self, now_s: float | None = None) -> list[str]:
         """Forget beacons silent for longer than the removal timeout; returns their MACs."""

@@ -16,9 +16,10 @@ import asyncio
 import math
 from typing import TYPE_CHECKING
 
-from behaviours.docking.beams import front_case, signal_case
-from behaviours.docking.search import FINE_DPS, scan_dock_dir
+from behaviours.docking.beams import FRONT_RECEIVERS, BeamView, front_case, signal_case
+from behaviours.docking.search import FINE_DPS, PERIOD_S, scan_dock_dir
 from behaviours.docking.senses import DockSenses, run_phase
+from behaviours.motion.moves import wrap
 
 if TYPE_CHECKING:
     from behaviours.context import RobotContext
@@ -31,6 +32,14 @@ OMNI_FORWARD_M = 0.12
 """Where the omni receiver sits ahead of the robot's centre (a mounting fact: where the
 beam was lost is where the omni was, not the centre)."""
 MAX_COMPARES = 12
+FINE_ARC_DEG = 60.0
+"""How far a slow turn goes looking for an edge of the front pair's arc (+-25 deg)."""
+FINE_INSIDE_DEG = 12.0
+"""Where else to look for the arc when the pair does not see the dock facing the direction
+the centre beam search left (a coarse scan can be off by 15 deg)."""
+EDGE_SETTLE_S = 0.6
+"""After a turn, the longest wait for the pair to see the dock (the dock's beam cycle, the
+decoder's gap and the reading period: about 0.3 s)."""
 BACK_OUT_MAX_M = 0.8
 
 
@@ -39,16 +48,24 @@ async def _sweep(senses: DockSenses, direction: float, max_m: float) -> float | 
     is lost; the position along the sweep line where it went, or None."""
     mover, view = senses.mover, senses.view
     heading = mover.heading_rad
+    loop = asyncio.get_running_loop()
     seen = False
+    lost_at: float | None = None
 
     def done() -> bool:
-        nonlocal seen
+        # Lost for LOST_AFTER_S: one centre frame missed inside the beam (the window is
+        # only a little longer than the dock's beam cycle) is not the beam's edge.
+        nonlocal seen, lost_at
         here = view().sees("omni", "centre")
         seen = seen or here
-        return seen and not here
+        if here or not seen:
+            lost_at = None
+            return False
+        lost_at = loop.time() if lost_at is None else lost_at
+        return loop.time() - lost_at >= LOST_AFTER_S
 
     await mover.straight(max_m, direction * SWEEP_MPS, heading_rad=heading, until=done)
-    if not (seen and not view().sees("omni", "centre")):
+    if lost_at is None or loop.time() - lost_at < LOST_AFTER_S:
         return None
     x, y = mover.position()
     return x * math.cos(heading) + y * math.sin(heading)
@@ -86,14 +103,80 @@ async def center_beam_search(ctx: RobotContext, senses: DockSenses) -> None:
     await ctx.trigger("center_found", beam_width_m=round(abs(first - second), 3))
 
 
+def _both_front(view: BeamView) -> bool:
+    return all(view.sees_any(r) for r in FRONT_RECEIVERS)
+
+
+async def _pair_sees(senses: DockSenses) -> bool:
+    """Whether both front receivers see the dock, waiting a little after a turn."""
+    loop = asyncio.get_running_loop()
+    end = loop.time() + EDGE_SETTLE_S
+    while not _both_front(senses.view()):
+        if loop.time() >= end:
+            return False
+        await asyncio.sleep(PERIOD_S)
+    return True
+
+
+async def _turn_until_lost(senses: DockSenses, sign: float, limit_rad: float) -> float | None:
+    """Turn at ``FINE_DPS`` (``sign`` +1: left) until both front receivers, once seeing the
+    dock, no longer do; the heading where they stopped, or None within ``limit_rad``."""
+    mover, rate = senses.mover, math.radians(FINE_DPS)
+    seen = _both_front(senses.view())
+    last, turned = mover.heading_rad, 0.0
+    result = None
+    while turned < limit_rad:
+        await mover.send(0.0, sign * rate)
+        await asyncio.sleep(PERIOD_S)
+        heading = mover.heading_rad
+        turned += abs(wrap(heading - last))
+        last = heading
+        if _both_front(senses.view()):
+            seen = True
+        elif seen:
+            result = heading
+            break
+    await mover.send(0.0, 0.0)
+    return result
+
+
+async def _edges_dir(senses: DockSenses, around: float) -> float | None:
+    """The dock's direction from where the crossed front pair loses it turning left, then
+    turning right, from inside the arc where it sees the dock: each edge is late by the
+    decoder's window the way it turned, at the same rate, so their mean cancels it (the far
+    edges of a two-way scan, without the way in). None when the pair does not see the dock
+    facing ``around`` nor a little either side of it."""
+    step = math.radians(FINE_INSIDE_DEG)
+    for start in (around, around + step, around - step):
+        await senses.mover.turn_to(start)
+        if await _pair_sees(senses):
+            break
+    else:
+        return None
+    left = await _turn_until_lost(senses, 1.0, math.radians(FINE_ARC_DEG))
+    right = None if left is None else await _turn_until_lost(
+        senses, -1.0, math.radians(2 * FINE_ARC_DEG))
+    if left is None or right is None:
+        return None
+    return wrap(right + wrap(left - right) / 2)
+
+
 async def fine_align(ctx: RobotContext, senses: DockSenses) -> None:
-    """On the axis: the dock's direction by a slow scan across it, then face it."""
+    """On the axis: the dock's direction by a slow turn out of each side of the arc where the
+    front pair sees it (a whole slow scan across it when that fails), then face it."""
     run = senses.run
     run.align_checks = 0
     run.adjust_sign = 0.0
     run.adjust_rad = math.radians(senses.config.micro_turn_deg) / 4
-    direction = await scan_dock_dir(senses, dps=FINE_DPS, around=senses.dock_dir())
-    await senses.mover.turn_to(direction if direction is not None else senses.dock_dir())
+    before = senses.dock_dir()
+    direction = await _edges_dir(senses, before)
+    by = "edges"
+    if direction is None:
+        by = "scan"
+        direction = await scan_dock_dir(senses, dps=FINE_DPS, around=before)
+    ctx.emit("dock.fine_dir", by=by, off_deg=None if direction is None
+             else round(math.degrees(wrap(direction - before)), 2))
+    await senses.mover.turn_to(direction if direction is not None else before)
     await ctx.trigger("compare")
 
 

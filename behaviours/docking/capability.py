@@ -18,7 +18,13 @@ import structlog
 
 from behaviours.docking import approach, contact, search, station
 from behaviours.docking.align import run_align
-from behaviours.docking.senses import DOCKED_RECORD, DockingRun, DockingUnavailable, DockSenses
+from behaviours.docking.senses import (
+    DOCKED_RECORD,
+    DockingRun,
+    DockingUnavailable,
+    DockSenses,
+    show_dock,
+)
 from behaviours.motion.odometry import Odometry
 from behaviours.persistence import Persisted
 from behaviours.profile import StateTask
@@ -93,6 +99,7 @@ class Docking:
         loop = asyncio.get_running_loop()
         await asyncio.sleep(senses.config.ir_stale_s)  # the first readings after a start
         last_seen = loop.time()
+        edges_then = senses.ir_edges()
         while True:
             await asyncio.sleep(WATCH_PERIOD_S)
             trouble = senses.ir_trouble()
@@ -102,13 +109,22 @@ class Docking:
                 await ctx.trigger("dock_ir_lost", reason=trouble)
                 return
             state = ctx.state
+            if ctx.telemetry.enabled:
+                show_dock(ctx.telemetry, senses)
             if senses.view().dock_seen() or senses.contact_mv() > 0 \
                     or not state.startswith(WATCHED):
                 last_seen = loop.time()
+                edges_then = senses.ir_edges()
             elif loop.time() - last_seen > senses.config.signal_lost_s:
-                await ctx.trigger("signal_lost", reason=f"{state}: no dock beam for "
-                                  f"{loop.time() - last_seen:.1f} s")
+                reason = f"{state}: no dock beam for {loop.time() - last_seen:.1f} s"
+                if senses.ir_edges() == edges_then:
+                    # Not a pulse on any line, not even noise: the receivers' cable is out or
+                    # they are all covered. Nothing tells those from darkness: a lost signal.
+                    reason += " and no edge from any receiver (unplugged or covered?)"
+                    log.warning("dock.ir_silent", state=state)
+                await ctx.trigger("signal_lost", reason=reason)
                 last_seen = loop.time()
+                edges_then = senses.ir_edges()
 
     async def resume_if_docked(self, ctx: RobotContext) -> bool:
         """After a restart: a robot that was docked and still reads a good contact voltage

@@ -36,7 +36,7 @@ WALL_LEG_S = 10.0
 LEAVE_TURN_RAD = math.radians(150)
 CONFIRM_S = 0.4
 MOVE_ON_M = 0.8
-SCAN_DPS = 45.0
+SCAN_DPS = 90.0
 FINE_DPS = 20.0
 FINE_START_DEG = 40.0
 PERIOD_S = 0.05
@@ -125,7 +125,7 @@ async def scan_dock_dir(senses: DockSenses, *, dps: float = SCAN_DPS,
         await senses.mover.turn_to(around - math.radians(FINE_START_DEG))
         first_limit = math.radians(3 * FINE_START_DEG)
     for seen in (_both_front, _either_front):
-        first = 1.0
+        first = _first_way(senses.view()) if around is None else 1.0
         if seen(senses.view()):
             # Inside the arc: leave it to the left, then cross it rightwards and back.
             await _pass(senses, 1.0, math.pi, _negate(seen), dps)
@@ -143,6 +143,14 @@ async def scan_dock_dir(senses: DockSenses, *, dps: float = SCAN_DPS,
             senses.run.scanned_at = senses.mover.position()
             return direction
     return None
+
+
+def _first_way(view: BeamView) -> float:
+    """Which way to turn first looking for the dock: towards the side receiver that sees it
+    (-1: right), left when both or neither do (a real robot does not turn the long way)."""
+    if view.sees_any("side_right") and not view.sees_any("side_left"):
+        return -1.0
+    return 1.0
 
 
 def _negate(seen: Callable[[BeamView], bool]) -> Callable[[BeamView], bool]:

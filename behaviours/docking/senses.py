@@ -29,6 +29,7 @@ from hal.devices import (
     WallSensor,
 )
 from hal.readings import DockIrReading, DockSignal
+from hal.telemetry import Telemetry
 
 if TYPE_CHECKING:
     from behaviours.context import RobotContext
@@ -121,6 +122,11 @@ class DockSenses:
             return float("inf")
         return asyncio.get_running_loop().time() - reading.t_s
 
+    def ir_edges(self) -> int:
+        """Edges the receivers have given so far, on all lines (a silent harness gives none)."""
+        total = self.dock_ir.status().get("total", {})
+        return int(total.get("edges", 0) or 0) if isinstance(total, dict) else 0
+
     def ir_trouble(self) -> str | None:
         """Why the dock IR device cannot be trusted now, or None."""
         status = self.dock_ir.status()
@@ -168,6 +174,18 @@ class DockSenses:
     def battery_pct(self) -> float | None:
         reading = None if self.battery is None else self.battery.latest()
         return None if reading is None else reading.percent
+
+
+def show_dock(telemetry: Telemetry, senses: DockSenses) -> None:
+    """The live view's ``dock``: each receiver's beams and codes, the front strengths."""
+    reading = senses.dock_ir.latest() or EMPTY
+    signal = senses.signal()
+    telemetry.sample(
+        "dock", beams={r: sorted(b) for r, b in reading.beams.items()},
+        codes={r: sorted(c) for r, c in reading.codes.items()},
+        front_left=None if signal is None else signal.front_left,
+        front_right=None if signal is None else signal.front_right,
+        contact_mv=senses.contact_mv())
 
 
 IDLE_S = 0.05

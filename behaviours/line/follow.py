@@ -26,6 +26,7 @@ from hal.devices import Camera, DeviceUnavailable, LinkDown, Motors
 from hal.looptime.deadline import DeadlineSleeper
 from hal.readings import Frame, MotorCommand
 from hal.settings import SettingsView
+from hal.telemetry import NULL_TELEMETRY, Telemetry
 
 log = structlog.get_logger(__name__)
 
@@ -77,11 +78,14 @@ class LineFollower:
         motors: the drive wheels; ``drive`` may raise LinkDown, the loop carries on.
         settings: the running config; ``line_follow.*`` is read live through ``watch``.
         tracker: the vision step (a fresh LineTracker by default).
+        telemetry: the live view gets each frame with the tracked line (decimated there).
     """
 
     def __init__(self, camera: Camera, motors: Motors, settings: SettingsView, *,
-                 tracker: LineTracker | None = None, name: str = "line_follow") -> None:
+                 tracker: LineTracker | None = None, name: str = "line_follow",
+                 telemetry: Telemetry = NULL_TELEMETRY) -> None:
         self.name = name
+        self.telemetry = telemetry
         self._camera = camera
         self._motors = motors
         self._settings = settings
@@ -300,6 +304,8 @@ class LineFollower:
                                       reason="bad frame")
             dt_s = self.period_s if self._prev_t is None else frame.t_s - self._prev_t
             self._prev_t = frame.t_s
+            if self.telemetry.enabled:
+                self._show(frame, reading)
         self._reading = reading
         try:
             self._command = self.decide(reading, width, dt_s)
@@ -307,6 +313,12 @@ class LineFollower:
             self._command = MotorCommand.stopped()
             raise
         return self._command
+
+    def _show(self, frame: Frame, reading: LineReading) -> None:
+        marks = [] if reading.x_px is None else [(int(reading.x_px), int(reading.row_px))]
+        self.telemetry.image("camera", frame.image, marks=marks)
+        self.telemetry.sample("line", error_px=round(reading.error_px, 1), lost=reading.lost,
+                              confidence=round(reading.confidence, 3), colour=reading.colour)
 
     async def _fresh_frame(self, deadline: float) -> Frame | None:
         frame = self._camera.latest()

@@ -18,8 +18,9 @@ import structlog
 from behaviours.motion.odometry import Odometry, OdometryPose
 from hal.devices import Encoders, LinkDown, ListenableEncoders, Motors
 from hal.looptime.timer_sleep import timer_sleep
-from hal.readings import MotorCommand
+from hal.readings import EncoderReading, MotorCommand
 from hal.settings import SettingsView
+from hal.telemetry import NULL_TELEMETRY, Telemetry
 
 log = structlog.get_logger(__name__)
 
@@ -69,20 +70,28 @@ def _pwm(speed: float, tuning: DriveTuning) -> int:
 
 
 class OdometryTracker:
-    """Keeps an Odometry up to date from the encoders, as a task."""
+    """Keeps an Odometry up to date from the encoders, as a task (and shows the live view
+    each new odometry pose, in the ``odom`` frame, when it is on)."""
 
-    def __init__(self, encoders: Encoders, odometry: Odometry) -> None:
+    def __init__(self, encoders: Encoders, odometry: Odometry, *,
+                 telemetry: Telemetry = NULL_TELEMETRY) -> None:
         self.encoders = encoders
         self.odometry = odometry
+        self.telemetry = telemetry
+
+    def _update_and_show(self, reading: EncoderReading) -> None:
+        p = self.odometry.update(reading)
+        self.telemetry.pose("odom", (p.x_m, p.y_m, p.theta_rad), frame="odom")
 
     async def run(self) -> None:
+        update = self._update_and_show if self.telemetry.enabled else self.odometry.update
         latest = self.encoders.latest()
         if latest is not None:
-            self.odometry.update(latest)
+            update(latest)
         if isinstance(self.encoders, ListenableEncoders):
             # Updated where each reading arrives: no task wake-up per reading. Without the
             # link no readings come; the first one after it returns carries the motion.
-            stop = self.encoders.listen(self.odometry.update)
+            stop = self.encoders.listen(update)
             try:
                 await asyncio.Event().wait()  # until cancelled
             finally:
@@ -96,7 +105,7 @@ class OdometryTracker:
                 # reading after the link returns carries the motion made meanwhile.
                 await asyncio.sleep(_PERIOD_S)
                 continue
-            self.odometry.update(reading)
+            update(reading)
 
 
 PoseSource = Callable[[], OdometryPose]

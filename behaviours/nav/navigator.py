@@ -25,11 +25,13 @@ from behaviours.motion.obstacle_guard import ObstacleGuard
 from behaviours.motion.odometry import Odometry, OdometryPose
 from behaviours.motion.waypoint_drive import WaypointDrive
 from behaviours.nav.config import MapConfig, PlannerConfig
+from behaviours.nav.grid import Grid
 from behaviours.nav.localisation.config import LocalisationConfig, PeopleConfig
 from behaviours.nav.localisation.filter import (
     DIVERGED,
     LIDAR_LOST,
     LOCALISED,
+    UNCERTAIN,
     LocalisedPose,
     Localiser,
 )
@@ -44,11 +46,14 @@ from hal.devices import Lidar, Motors, RangeSensor
 from hal.readings import LidarScan
 from hal.settings import SettingsView
 from hal.tasks import cancel_and_wait
+from hal.telemetry import NULL_TELEMETRY, Telemetry
 
 log = structlog.get_logger(__name__)
 
 FAILURES = ("no_path", "no_progress", "diverged", "lidar_lost")
 _WATCH_S = 0.1
+_LOCALISE_WAIT_S = 10.0
+"""How long a goal waits, standing, for the first localised pose."""
 _OBSTACLE_RANGE_M = 3.0
 
 
@@ -76,11 +81,13 @@ class NavStack:
     def __init__(self, settings: SettingsView, motors: Motors, lidar: Lidar,
                  odometry: Odometry, *, front_range: RangeSensor | None = None,
                  stored_pose: tuple[float, float, float] | None = None,
-                 emit: Callable[..., None] | None = None) -> None:
+                 emit: Callable[..., None] | None = None, grid: Grid | None = None,
+                 telemetry: Telemetry = NULL_TELEMETRY) -> None:
         self.settings = settings
         self.lidar = lidar
         self.odometry = odometry
-        grid = load_grid(MapConfig.from_settings(settings))
+        if grid is None:  # a profile with its own map format (cabinet) gives its grid
+            grid = load_grid(MapConfig.from_settings(settings))
         self.planner_config = PlannerConfig.from_settings(settings)
         self.planner = Planner(grid, self.planner_config)
         self.distance = DistanceGrid.from_field(self.planner.field)
@@ -102,9 +109,34 @@ class NavStack:
         self.poses_published = 0
         self.service.poses.listen(self._count)
         self._stop_scans: Callable[[], None] | None = None
+        self.telemetry = telemetry
+        self._shown_scan_s = -1.0
+        if telemetry.enabled:  # the live view: nothing is even listened to while it is off
+            self.service.poses.listen(self._show)
 
     def _count(self, _pose: object) -> None:
         self.poses_published += 1
+
+    def _show(self, pose: LocalisedPose) -> None:
+        """The live view at the pose rate: estimate, the odom frame, the newest scan,
+        particles, plan and map (the heavy ones are decimated by the telemetry adapter;
+        odometry itself is ``OdometryTracker``'s). No listener on the LiDAR: the device
+        outlives a daemon the simulator restarts, the service's poses do not."""
+        t = self.telemetry
+        scan = self.lidar.latest()
+        if scan is not None and scan.t_s != self._shown_scan_s:
+            self._shown_scan_s = scan.t_s
+            t.scan("scan", scan)
+        t.pose("pose", (pose.x_m, pose.y_m, pose.theta_rad), child_frame="base_link")
+        t.sample("localisation", status=pose.status, spread_m=round(pose.spread_m, 4),
+                 match_fraction=round(pose.match_fraction, 3), particles=pose.particles)
+        c = self.localiser.correction  # map <- odom: the odom frame in the map
+        t.pose("odom_in_map", (float(c[0]), float(c[1]), float(c[2])), child_frame="odom")
+        t.poses("particles", self.localiser.particles.poses)
+        plan = self.follower.plan
+        t.path("path", plan.points if plan is not None else [])
+        grid = self.planner.grid
+        t.grid("map", grid.occupied, grid.resolution_m, (grid.origin_x_m, grid.origin_y_m))
 
     def pose(self) -> OdometryPose:
         """The fused map pose now (correction x live odometry)."""
@@ -141,6 +173,20 @@ class NavStack:
         loop = asyncio.get_running_loop()
         started = loop.time()
         replans = self.follower.replans
+        # Not from an uncertain pose: after a global start the first scans must pick the
+        # pose out of the map before a path from it means anything.
+        while self.localiser.status == UNCERTAIN:  # the filter has no event: polled
+            if loop.time() - started >= _LOCALISE_WAIT_S:
+                break
+            await asyncio.sleep(_WATCH_S)
+        if self.localiser.status == UNCERTAIN:
+            pose = self.pose()
+            detail = f"not localised within {_LOCALISE_WAIT_S:g} s"
+            log.info("nav.outcome", reason="not_localised", goal_x_m=x_m, goal_y_m=y_m,
+                     detail=detail)
+            return NavOutcome("not_localised", (x_m, y_m), pose.x_m, pose.y_m,
+                              math.hypot(x_m - pose.x_m, y_m - pose.y_m), 0,
+                              loop.time() - started, detail)
         task = asyncio.create_task(self.follower.go_to(x_m, y_m))
         reason, detail = "reached", ""
         try:

@@ -65,6 +65,11 @@ class EdgeDecoder:
         self._nbits = 0  # bits read, counting the one whose mark just ended
         self._bit = -1  # the bit of the mark that just ended, its space still to come
 
+    @property
+    def last_edge_us(self) -> int | None:
+        """When the line last changed (None before its first edge since a reset)."""
+        return None if self._in_mark is None else self._last_t
+
     def reset(self) -> None:
         """Forget the line's state (a new capture, a reopened line)."""
         self._in_mark = None

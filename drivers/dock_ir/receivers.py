@@ -118,7 +118,19 @@ class DockIrReceivers:
                 "seen": seen, "total": total(list(self.stats.values())).as_dict(),
                 "receivers": {r: s.as_dict() for r, s in self.stats.items()},
                 "foreign_edges": self.foreign_edges, "line_errors": self.line_errors,
-                "last_error": self.last_error}
+                "last_error": self.last_error, "quiet_s": self.quiet_s()}
+
+    def quiet_s(self) -> dict[str, float | None]:
+        """Seconds since each receiver's last edge (None: none yet). A receiver whose cable is
+        out stays quiet, but so does one that sees no emitter: this shows it, it cannot tell."""
+        source = self._source
+        now_us = None if source is None else source.now_us()
+        out: dict[str, float | None] = {}
+        for receiver, decoder in self._decoders.items():
+            last = decoder.last_edge_us
+            out[receiver] = None if now_us is None or last is None \
+                else round(max(0, now_us - last) / 1e6, 2)
+        return out
 
     def apply_setting(self, dotted: str, value: Any) -> None:
         """A tuned ``docking.ir_window_s`` takes effect at once."""

@@ -79,11 +79,13 @@ class Ld19Lidar:
 
     async def close(self) -> None:
         """Close the port; safe to call twice."""
-        task, self._task = self._task, None
-        await cancel_and_wait(task)
+        # The stale timer first: closing takes loop time (the connection unwinds), and a
+        # scan due meanwhile is not stale, the LiDAR is being shut down.
         if self._stale_timer is not None:
             self._stale_timer.cancel()
             self._stale_timer = None
+        task, self._task = self._task, None
+        await cancel_and_wait(task)
 
     def status(self) -> dict[str, Any]:
         figures = snapshot(self.parser.counters, self.assembler.counters)

@@ -14,7 +14,6 @@ from typing import overload
 from behaviours.docking.config import DOCKING_OPTIONS, DOCKING_ORDERS
 from behaviours.nav.config import NAV_SECTIONS
 from behaviours.nav.localisation.config import NAV_LOCALISATION_ORDERS, NAV_LOCALISATION_SECTIONS
-from behaviours.profiles.cabinet.config import CABINET
 from drivers.arduino.config import SERIAL
 from drivers.audio.config import AUDIO
 from drivers.camera.qr_config import QR_CAMERA
@@ -22,6 +21,7 @@ from drivers.dock_ir.config import IR_OPTIONS, IR_ORDERS
 from drivers.lidar.config import LIDAR, LIDAR_ORDERS
 from hal.options import Option, Order, Section
 from robotd.profiles import PROFILES, ProfileRegistry
+from robotd.viz.config import VIZ
 
 opt = Option
 
@@ -197,12 +197,12 @@ _CORE: tuple[Section, ...] = (
     QR_CAMERA,
     *NAV_SECTIONS,
     *NAV_LOCALISATION_SECTIONS,
-    CABINET,
     Section("docking", "Returning to the dock (seed 001).", (*DOCKING_OPTIONS, *IR_OPTIONS)),
     Section("sim", "The simulated world (hal.backend = sim).", (
         opt("seed", "int", 1, "Random seed for sensor noise.", min=0),
         opt("scenario", "str", "", "Scenario file or built-in name the world comes from."),
     )),
+    VIZ,
 )
 
 # Limits that only make sense in order: check-config and `robotctl tune set` refuse a value

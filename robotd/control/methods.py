@@ -39,6 +39,13 @@ def control_handlers(daemon: Daemon) -> dict[str, Handler]:
     return {**core, **profile_handlers(daemon.profile, daemon.context, core)}
 
 
+def _mission(profile: object) -> dict[str, Any]:
+    """``mission``: what a profile says of its mission (the cabinet robot's task list, path
+    and broken links), when it says anything."""
+    figures = getattr(profile, "mission_status", None)
+    return {"mission": figures()} if callable(figures) else {}
+
+
 class _Methods:
     def __init__(self, daemon: Daemon) -> None:
         self.d = daemon
@@ -62,6 +69,7 @@ class _Methods:
             "clients": len(d.control.clients) if d.control else 0,
             "pid": os.getpid(),
             "version": __version__,
+            **_mission(d.profile),
         }
 
     async def sensors(self, _params: dict[str, Any], _client: Client) -> dict[str, Any]:

@@ -168,6 +168,7 @@ def _render_status(s: dict[str, Any]) -> str:
                      f"max {lag.get('max_ms', 0):.2f} ms"],
         ["triggers", ", ".join(s.get("triggers", []))], ["config", s.get("config")],
     ]
+    head += [[f"mission.{k}", _short(v)] for k, v in (s.get("mission") or {}).items()]
     services = [[v["name"], v["state"], "yes" if v["critical"] else "no", v["restarts"],
                  v.get("last_error") or ""] for v in s.get("services", [])]
     return (table(["key", "value"], head) + "\n"

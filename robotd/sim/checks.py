@@ -8,6 +8,7 @@ from typing import Any
 
 from hal.sim.world.body import DiffDriveBody
 from robotd.sim.delivery.checks import delivery_failures
+from robotd.sim.nav.cabinet_checks import cabinet_failures, cabinet_figures
 from robotd.sim.nav.checks import nav_failures, nav_figures
 from robotd.sim.scenario import Scenario
 
@@ -81,6 +82,7 @@ def failures(scenario: Scenario, robots: dict[str, RobotRecord], elapsed_s: floa
     goals = scenario.config.get("patrol", {}).get("goals", [])
     reasons += nav_failures(success.extra, events or [], goals)
     reasons += delivery_failures(success.extra, events or [])
+    reasons += cabinet_failures(success.extra, events or [], [r.body for r in robots.values()])
     for want in success.extra.get("final_rooms", []):
         record = robots.get(str(want.get("robot")))
         if record is None:
@@ -121,6 +123,7 @@ def summary_figures(robots: dict[str, RobotRecord], scenario: Scenario | None = 
                 else events
             fig.update(_arrival_figures(scenario, mine))
             fig.update(nav_figures(mine))
+            fig.update(cabinet_figures(mine))
         out[name] = fig
     return out
 

@@ -93,8 +93,7 @@ class SimRig:
                                rng=random.Random(f"{rng_key}:dock_ir"))
             self.dock_ir = source
             self.devices.dock_ir = dock_ir_from_settings(settings, lambda: source)
-            if hasattr(self.mcu, "evac_listeners"):  # the board's docking lines (mcu-dock)
-                self.wire_dock_inputs(self.mcu)
+            self.wire_dock_inputs(self.mcu)  # the board's docking lines (a DockInputs)
             self._fill_dock_slots()
         self.ld19: SimLd19 | None = None
         self.rays: LidarRays | None = None
@@ -104,6 +103,9 @@ class SimRig:
         if "qr" in needs or "audio" in needs:  # the delivery robot's forward camera, speaker
             fit_qr_and_audio(self.devices, world, body, settings, needs, seed * 1000 + index)
         self._deadman_seen = 0
+        for key in ("cabinet.map_file", "cabinet.task_file"):  # named beside the scenario
+            if not Path(settings.get(key)).expanduser().is_absolute():
+                settings.set(key, str(scenario_dir(str(settings.source)) / settings.get(key)))
 
     def _fill_dock_slots(self) -> None:
         """A docking robot's motor-board senses: the link's docking facets, the link itself
@@ -208,7 +210,7 @@ class SimRig:
         ``irs`` (front_left, front_right 0-1023), ``dock_mv``, ``bump`` (left, right),
         ``wall_cm``, ``bin_pct``. The fake MCU is wired to these when it reports them."""
         body = self.body
-        return {"irs": dock_signal(body), "dock_mv": body.contact_mv(),
+        return {"irs": self._irs(), "dock_mv": body.contact_mv(),
                 "bump": body.bumpers(), "wall_cm": body.wall_cm(), "bin_pct": body.bin_pct}
 
     def wire_dock_inputs(self, board: Any) -> None:
@@ -217,12 +219,18 @@ class SimRig:
         ``board`` has the sources of ``hal.sim.devices.motor_board.dock_inputs`` (each a
         value or a callable read when its line is due) and ``evac_listeners``."""
         body = self.body
-        board.dock_signal = lambda: dock_signal(body)
+        board.dock_signal = self._irs
         board.contact_mv = body.contact_mv
         board.bumpers = body.bumpers
         board.wall_cm = body.wall_cm
         board.bin_pct = lambda: body.bin_pct
         board.evac_listeners.append(self._evac)
+
+    def _irs(self) -> tuple[int, int]:
+        """The front receivers' strength; 0 from a receiver whose cable is out."""
+        left, right = dock_signal(self.body)
+        out = self.dock_ir.unplugged if self.dock_ir is not None else frozenset()
+        return (0 if "front_left" in out else left, 0 if "front_right" in out else right)
 
     def _evac(self, on: bool) -> None:
         """EVAC, signalled through the contacts: the station's suction follows it."""

@@ -27,6 +27,7 @@ from hal.looptime.timer_chain import timer_chain
 from hal.sim import vclock
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.geometry import Pose
+from hal.telemetry import NULL_TELEMETRY, Telemetry
 from robotd.config import ConfigError
 from robotd.config.settings import Settings
 from robotd.control.access import socket_problem
@@ -42,6 +43,8 @@ from robotd.sim.rig import SimRig, open_sim_rig
 from robotd.sim.scenario import RobotSpec, Scenario, ScenarioError, load_scenario
 from robotd.sim.script import ScriptPlayer
 from robotd.sim.tracks import PathRecorder, TrackPoint
+from robotd.viz.session import VizError, VizSession
+from robotd.viz.sim_feed import SimFeed, open_sim_viz
 
 log = structlog.get_logger(__name__)
 
@@ -144,18 +147,28 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
 
     rigs: list[SimRig] = []
     actors: list[SimActors] = []
+    viz: VizSession | None = None
 
     async def close_hardware() -> None:
         for rig in rigs:
             await rig.close()
         for a in actors:
             await a.close()
+        if viz is not None:  # the recording is finished, the live view's server stopped
+            viz.close()
+
+    def watched(name: str, daemon: Daemon) -> Daemon:
+        daemon.add_event_listener(functools.partial(on_event, name))
+        if viz is not None:
+            viz.watch_daemon(name, daemon)
+        return daemon
 
     def set_payload(robot: str, kg: float) -> None:
         if robot in robots:
             robots[robot].body.payload_kg = kg
 
     try:
+        viz = open_sim_viz(args, scenario.name, len(scenario.robots), console.line)
         settings_of = [robot_settings(scenario, spec, getattr(args, "config", None))
                        for spec in scenario.robots]
         context = ActorContext(scenario, workdir, origin, lambda ev: on_event("", ev),
@@ -188,25 +201,24 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
             if socket_why is not None:  # no robot runs without its socket: exit 2, say why
                 msg = f"--socket {socket_path}: {socket_why}"
                 raise ValueError(msg)
-            daemon = Daemon(settings, rig.devices, profile, state_dir=workdir / spec.name,
-                            socket_path=socket_path, wall_clock=wall_clock, notify=False,
-                            handle_signals=False)
-            daemon.add_event_listener(functools.partial(on_event, spec.name))
+            daemon = watched(spec.name, Daemon(
+                settings, rig.devices, profile, state_dir=workdir / spec.name,
+                socket_path=socket_path, wall_clock=wall_clock, notify=False,
+                handle_signals=False, telemetry=_telemetry(viz, spec.name)))
             robots[spec.name] = SimRobot(spec, settings, body, rig, daemon,
                                     RobotRecord(spec.name, body), socket_path)
-    except (ConfigError, ValueError, ScenarioError) as exc:  # fleet.site.SiteError too
+    except (ConfigError, ValueError, ScenarioError, VizError) as exc:  # SiteError too
         print(f"robotd sim: {exc}")
         await close_hardware()
         return 2
     def rebuild(name: str) -> Daemon:
         """A new daemon for ``robot.restart``: same settings, devices, state dir, socket."""
         r = robots[name]
-        daemon = Daemon(r.settings, r.rig.devices,
-                        PROFILES.build(r.settings.get("robot.profile")),
-                        state_dir=workdir / name, socket_path=r.socket_path,
-                        wall_clock=wall_clock, notify=False, handle_signals=False)
-        daemon.add_event_listener(functools.partial(on_event, name))
-        return daemon
+        return watched(name, Daemon(r.settings, r.rig.devices,
+                                    PROFILES.build(r.settings.get("robot.profile")),
+                                    state_dir=workdir / name, socket_path=r.socket_path,
+                                    wall_clock=wall_clock, notify=False, handle_signals=False,
+                                    telemetry=_telemetry(viz, name)))
 
     daemon_tasks: dict[str, asyncio.Task[Any]] = {}
     if scenario.world.robots_see_each_other:
@@ -244,6 +256,8 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
     people = [asyncio.create_task(coro, name=name) for a in actors for name, coro in a.people()]
     tasks += [asyncio.create_task(coro, name=name)
               for a in actors for name, coro in a.background()]
+    # The live view rides on the watch's ticks: a timer of its own would change the run.
+    feed = SimFeed(viz, scenario.world, recorder.tracks) if viz is not None else None
 
     start = loop.time()
     limit = scenario.success.time_limit_s
@@ -274,6 +288,8 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
 
     def tick() -> float | None:
         recorder.sample(loop.time())  # the paths are sampled at the watch's rate
+        if feed is not None:
+            feed.tick()
         return None if watch() else _WATCH_PERIOD_S
 
     recorder.sample(start)
@@ -355,6 +371,10 @@ def _observe(scenario: Scenario, r: SimRobot, seen_collisions: dict[str, int],
         record({"t": t_stop, "kind": "deadman", "last_command_t": last_cmd,
                 "x_m": pose.x_m, "y_m": pose.y_m})
         console.event(t_stop, f"{name}: motor board deadman stopped the motors")
+
+
+def _telemetry(viz: VizSession | None, name: str) -> Telemetry:
+    return viz.telemetry(name) if viz is not None else NULL_TELEMETRY
 
 
 def _socket_path(given: str | None, workdir: Path, name: str, index: int) -> str:

@@ -17,6 +17,8 @@ from typing import Any
 from hal.sim.world.body import BodyParams
 from hal.sim.world.floor_plan import World, WorldError
 from robotd.sim.delivery.checks import DELIVERY_SUCCESS_KEYS
+from robotd.sim.nav.cabinet_checks import CABINET_SUCCESS_KEYS
+from robotd.sim.nav.site_world import expand_site_map
 
 
 class ScenarioError(ValueError):
@@ -141,7 +143,7 @@ _SCENARIO = ("name", "description", "profile", "seed")
 _ROBOT = ("name", "x_m", "y_m", "heading_deg", "config", "body", "payload_kg")
 _SUCCESS = ("time_limit_s", "states_reached", "final_state", "final_poses", "no_estop",
             "no_collisions", "max_cross_track_m", "arrivals", "requests", "final_rooms",
-            *NAV_SUCCESS_KEYS, *DELIVERY_SUCCESS_KEYS)
+            *NAV_SUCCESS_KEYS, *DELIVERY_SUCCESS_KEYS, *CABINET_SUCCESS_KEYS)
 _STEP = ("at_s", "action", "robot", "duration_s", "pct", "kg", "name", "x_m", "y_m", "key",
          "value", "when_state", "delay_s", "points", "speed_mps", "loop", "heading_deg", "dx_m",
          "dy_m")
@@ -166,7 +168,8 @@ def _build(raw: dict[str, Any], source: str) -> Scenario:
         check_keys(_table(raw, "fleet"), _FLEET, "fleet")
     name = str(meta.get("name", Path(source).stem))
     profile = str(meta.get("profile", "square"))
-    world = World.from_table(_table(raw, "world"), base_dir=scenario_dir(source))
+    base_dir = scenario_dir(source)
+    world = World.from_table(expand_site_map(_table(raw, "world"), base_dir), base_dir=base_dir)
     config = _table(raw, "config", required=False)
     robots_raw = raw.get("robots")
     if robots_raw is None:

@@ -42,6 +42,21 @@ CABINET = Section("cabinet", "The cabinet robot: its map, tasks, node graph and 
     Option("max_link_resets", "int", 3,
            "Resets of the broken links allowed per task (against a permanent blockade).",
            min=0, max=100, tunable=True),
+    Option("fit_fov_deg", "float", 360.0,
+           "The scan's usable field of view for the fit, centred ahead (less where the "
+           "robot's body or mast hides the rear).", min=30.0, max=360.0),
+    Option("fit_min_view_deg", "float", 360.0,
+           "A fit counts only once the local map covers this much bearing (the view plus "
+           "the turns made): a partial view of a symmetric site fits in several places.",
+           min=30.0, max=360.0),
+    Option("heading_kp", "float", 1.5, "Drive controller: heading PID, proportional "
+           "(rad/s per rad).", min=0.0, max=50.0, tunable=True),
+    Option("heading_ki", "float", 0.0, "... integral (rad/s per rad s).", min=0.0, max=50.0,
+           tunable=True),
+    Option("heading_kd", "float", 0.05, "... derivative (rad/s per rad/s).", min=0.0,
+           max=50.0, tunable=True),
+    Option("distance_kp", "float", 1.2, "Drive controller: speed per metre still to go, "
+           "up to drive.cruise_mps.", min=0.01, max=50.0, tunable=True),
 ))
 
 
@@ -64,6 +79,12 @@ class CabinetConfig:
     change_orientation_deg: float = _default("change_orientation_deg")
     blocked_s: float = _default("blocked_s")
     max_link_resets: int = _default("max_link_resets")
+    fit_fov_deg: float = _default("fit_fov_deg")
+    fit_min_view_deg: float = _default("fit_min_view_deg")
+    heading_kp: float = _default("heading_kp")
+    heading_ki: float = _default("heading_ki")
+    heading_kd: float = _default("heading_kd")
+    distance_kp: float = _default("distance_kp")
 
     @property
     def clearance_m(self) -> float:

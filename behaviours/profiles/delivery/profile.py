@@ -137,7 +137,8 @@ class DeliveryProfile(BaseProfile):
             stored_pose = (float(stored["x_m"]), float(stored["y_m"]),
                            float(stored["heading_rad"]))
         nav = self.nav = NavStack(s, d.motors, d.lidar, odometry, front_range=d.front_range,
-                                  stored_pose=stored_pose, emit=ctx.emit)
+                                  stored_pose=stored_pose, emit=ctx.emit,
+                                  telemetry=ctx.telemetry)
         ctx.emit("nav.start", initial_pose=nav.started_from,
                  particles=len(nav.localiser.particles),
                  map_resolution_m=nav.planner.grid.resolution_m)
@@ -161,8 +162,8 @@ class DeliveryProfile(BaseProfile):
         self.mission = DeliveryMission(nav, OrderVerifier(orders), memory, places, mark)
         self.recovery = ErrorRecovery(nav, memory, home, self.mission.good)
         self.mission.good.watch()
-        box = BoxController(_SeenServo(d.servo, ctx.emit), ctx.emit) \
-            if d.servo is not None else None
+        box = BoxController(_SeenServo(d.servo, ctx.emit), ctx.emit,
+                            telemetry=ctx.telemetry) if d.servo is not None else None
         audio = _HeardAudio(d.audio, ctx.emit) if d.audio is not None else None
         outputs = self.outputs = StateOutputs(d.leds, box, audio)
 

@@ -72,12 +72,13 @@ class LaundryProfile(BaseProfile):
             msg = "the laundry profile needs a camera, the motor board and a BLE scanner"
             raise RuntimeError(msg)
         tracker = BeaconTracker.from_settings(d.beacons, ctx.settings)
+        tracker.telemetry = ctx.telemetry
         arrival = Arrival.from_settings(tracker, ctx.settings)
         load = LoadCheck.from_settings(d.load_cell, ctx.settings) if d.load_cell else None
         wheels: Motors = d.motors
         if d.front_range is not None:
             wheels = ObstacleGuard(d.motors, d.front_range, ctx.settings, ctx.emit)
-        self.follower = LineFollower(d.camera, wheels, ctx.settings)
+        self.follower = LineFollower(d.camera, wheels, ctx.settings, telemetry=ctx.telemetry)
         memory = LaundryMemory(ctx, str(ctx.settings.get("laundry.base_room")))
         self.memory = memory
         navigator = Navigator(ctx, tracker, arrival, self.follower.set_follow_colour, memory)

@@ -18,6 +18,7 @@ import structlog
 
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker
+from behaviours.nav.localisation.filter import LocalisedPose
 from behaviours.nav.navigator import NavOutcome, NavStack
 from behaviours.persistence import MissionRecord
 from behaviours.profile import BaseProfile, StateTask
@@ -89,7 +90,7 @@ class PatrolProfile(BaseProfile):
                            float(stored["heading_rad"]))
         nav = self.nav = NavStack(ctx.settings, d.motors, d.lidar, odometry,
                                   front_range=d.front_range, stored_pose=stored_pose,
-                                  emit=ctx.emit)
+                                  emit=ctx.emit, telemetry=ctx.telemetry)
         ctx.emit("nav.start", initial_pose=nav.started_from, particles=len(
             nav.localiser.particles), map_resolution_m=nav.planner.grid.resolution_m)
         progress = ctx.persisted(PATROL_MISSION)
@@ -104,7 +105,9 @@ class PatrolProfile(BaseProfile):
             await asyncio.Event().wait()
 
         return [
-            TaskService("odometry", OdometryTracker(d.encoders, odometry).run, critical=True),
+            TaskService("odometry", OdometryTracker(d.encoders, odometry,
+                                                    telemetry=ctx.telemetry).run,
+                        critical=True),
             _Localisation(nav),
             TaskService("patrol.poses", lambda: self._pose_events(ctx),
                         depends_on=("localisation",)),
@@ -121,6 +124,19 @@ class PatrolProfile(BaseProfile):
         cloud_s = ctx.settings.get("patrol.particles_event_s")
         self._particles(ctx, "start")
         clouds_s = loop.time()
+        try:
+            await self._pose_loop(ctx, period_s, cloud_s, clouds_s, stored_s)
+        finally:
+            # An orderly stop (a restart, an update) keeps where the robot stands, not where
+            # it was up to _STORE_POSE_S ago: initial_pose = "store" starts from there.
+            if nav.service.poses.latest() is not None:
+                self._store_pose(ctx, nav.live_pose())
+
+    async def _pose_loop(self, ctx: RobotContext, period_s: float, cloud_s: float,
+                         clouds_s: float, stored_s: float) -> None:
+        nav = self.nav
+        assert nav is not None
+        loop = asyncio.get_running_loop()
         status = ""
         while True:
             await asyncio.sleep(period_s)
@@ -139,8 +155,13 @@ class PatrolProfile(BaseProfile):
                      particles=pose.particles, poses_published=nav.poses_published)
             if loop.time() - stored_s >= _STORE_POSE_S and pose.status == "localised":
                 stored_s = loop.time()
-                ctx.persisted(POSE_RECORD).set(x_m=round(pose.x_m, 4), y_m=round(pose.y_m, 4),
-                                               heading_rad=round(pose.theta_rad, 5))
+                self._store_pose(ctx, pose)
+
+    @staticmethod
+    def _store_pose(ctx: RobotContext, pose: LocalisedPose) -> None:
+        if pose.status == "localised":
+            ctx.persisted(POSE_RECORD).set(x_m=round(pose.x_m, 4), y_m=round(pose.y_m, 4),
+                                           heading_rad=round(pose.theta_rad, 5))
 
     def _particles(self, ctx: RobotContext, why: str) -> None:
         """``nav.particles``: a sample of the filter's particles (for the report)."""
@@ -189,6 +210,9 @@ class PatrolProfile(BaseProfile):
         await ctx.trigger("fault", reason=outcome.reason)
 
     async def _at_goal(self, ctx: RobotContext) -> None:
+        nav = self.nav
+        if nav is not None and nav.service.poses.latest() is not None:
+            self._store_pose(ctx, nav.live_pose())  # standing: the pose a restart starts from
         await asyncio.sleep(ctx.settings.get("patrol.pause_s"))
         goals = ctx.settings.get("patrol.goals")
         self.goal_index += 1

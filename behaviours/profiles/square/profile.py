@@ -66,7 +66,9 @@ class SquareProfile(BaseProfile):
                 await ctx.trigger("start_mission")
             await _forever()
 
-        return [TaskService("odometry", OdometryTracker(encoders, odometry).run, critical=True),
+        return [TaskService("odometry", OdometryTracker(encoders, odometry,
+                                                        telemetry=ctx.telemetry).run,
+                            critical=True),
                 TaskService("square.autostart", autostart, depends_on=("odometry",))]
 
     def state_tasks(self) -> dict[str, StateTask]:

@@ -72,7 +72,9 @@ class VacuumProfile(BaseProfile):
                 await ctx.trigger("start_mission")
             await _forever()
 
-        return [TaskService("odometry", OdometryTracker(encoders, odometry).run, critical=True),
+        return [TaskService("odometry", OdometryTracker(encoders, odometry,
+                                                        telemetry=ctx.telemetry).run,
+                            critical=True),
                 TaskService("vacuum.autostart", autostart, depends_on=("odometry",))]
 
     def state_tasks(self) -> dict[str, StateTask]:

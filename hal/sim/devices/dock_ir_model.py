@@ -87,6 +87,17 @@ class SimDockIr(SimIrEdgeSource):
         self.frames = 0  # receiver-frames generated
         self.received: dict[str, set[str]] = {m.name: set() for m in self.mounts}
         """What each receiver caught in the last slot it caught anything (for tests)."""
+        self.unplugged: frozenset[str] = frozenset()
+        """Receivers whose cable is out: their lines stay idle (no edges, not even noise)."""
+
+    def unplug(self, receivers: tuple[str, ...] | None = None) -> None:
+        """Pull the cable of these receivers (all when None): their edges stop."""
+        names = {m.name for m in self.mounts}
+        self.unplugged = self.unplugged | (names if receivers is None else set(receivers))
+
+    def replug(self, receivers: tuple[str, ...] | None = None) -> None:
+        """Plug these receivers (all when None) back in."""
+        self.unplugged = frozenset() if receivers is None else self.unplugged - set(receivers)
 
     @property
     def dock(self) -> Dock | None:
@@ -142,6 +153,8 @@ class SimDockIr(SimIrEdgeSource):
         slot_us = round(dock.slot_s * 1e6)
         out: list[IrEdge] = []
         for mount in self.mounts:
+            if mount.name in self.unplugged:
+                continue
             x, y = self.position(pose, mount)
             beams = [b for b in dock.beams_reaching(slot, x, y, walls, blockers)
                      if _in_view(pose, mount, x, y, b.apex(dock.pose))]

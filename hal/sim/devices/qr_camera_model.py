@@ -11,7 +11,6 @@ a code from the customer the robot stands in front of).
 
 from __future__ import annotations
 
-import asyncio
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -20,12 +19,10 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from hal.looptime.timer_chain import on_a_grid
-from hal.readings import Frame
+from hal.sim.devices.frame_source import FrameSource
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import World
 from hal.sim.world.geometry import Pose, wrap_angle
-from hal.tasks import cancel_and_wait
 
 U8Image = npt.NDArray[Any]
 
@@ -85,15 +82,16 @@ def qr_image(payload: str) -> npt.NDArray[np.uint8]:
                       np.uint8)
 
 
-class SimQrCamera:
+class SimQrCamera(FrameSource[_Shot]):
     """A `hal.devices.Camera` looking forward from the robot's body at people's QR codes."""
 
     def __init__(self, world: World, body: DiffDriveBody, mount: ForwardMount | None = None,
                  *, seed: int = 1, name: str = "qr_camera") -> None:
+        self.mount = mount or ForwardMount()
+        super().__init__(self.mount.fps)
         self.name = name
         self.world = world
         self.body = body
-        self.mount = mount or ForwardMount()
         self.width_px = self.mount.width_px
         self.height_px = self.mount.height_px
         self._rng = np.random.default_rng(seed)
@@ -102,67 +100,25 @@ class SimQrCamera:
             -127, 127).astype(np.int8)
         self._codes: dict[str, npt.NDArray[np.uint8]] = {}
         self._tilts: dict[str, float] = {}
-        self._shot: _Shot | None = None
-        self._frame: Frame | None = None
-        self._waiters: list[asyncio.Future[Frame]] = []
-        self._task: asyncio.Task[None] | None = None
-        self.frames_captured = 0
-        self.frames_rendered = 0
-
-    async def start(self) -> None:
-        if self._task is None:
-            self._capture()
-            self._task = asyncio.get_running_loop().create_task(self._run(), name=self.name)
-
-    async def close(self) -> None:
-        task, self._task = self._task, None
-        await cancel_and_wait(task)
-
-    def status(self) -> dict[str, Any]:
-        return {"source": "sim", "width_px": self.width_px, "height_px": self.height_px,
-                "fps": self.mount.fps, "captured": self.frames_captured,
-                "rendered": self.frames_rendered}
-
-    def latest(self) -> Frame | None:
-        shot = self._shot
-        if shot is None:
-            return None
-        if self._frame is None or self._frame.seq != shot.seq:
-            self._frame = Frame(self._render(shot), shot.seq, shot.t_s)
-            self.frames_rendered += 1
-        return self._frame
-
-    async def next_reading(self) -> Frame:
-        fut: asyncio.Future[Frame] = asyncio.get_running_loop().create_future()
-        self._waiters.append(fut)
-        return await fut
 
     def render(self, pose: Pose) -> U8Image:
         """What the camera sees from ``pose`` now (fresh noise and shake), without the clock."""
-        return self._render(self._snapshot(0, 0.0, pose))
+        return self._render(self._shot_from(0, 0.0, pose))
 
     def code_px(self, distance_m: float) -> float:
         """Side of a held code in the image at ``distance_m`` (floor distance) from the lens."""
         dh = CODE_HEIGHT_M - self.mount.lens_height_m
         return self.mount.focal_px * self.mount.code_side_m / math.hypot(distance_m, dh)
 
+    # --- FrameSource ---------------------------------------------------------------------------
+    def _snapshot(self, seq: int, t_s: float) -> _Shot:
+        return self._shot_from(seq, t_s, self.body.pose)
+
+    def _draw(self, shot: _Shot) -> U8Image:
+        return self._render(shot)
+
     # --- internals ----------------------------------------------------------------------------
-    async def _run(self) -> None:
-        await on_a_grid(self._capture, 1.0 / self.mount.fps)
-
-    def _capture(self) -> None:
-        self.frames_captured += 1
-        t_s = asyncio.get_running_loop().time()
-        self._shot = self._snapshot(self.frames_captured, t_s, self.body.pose)
-        waiters, self._waiters = self._waiters, []
-        if waiters:
-            frame = self.latest()
-            assert frame is not None
-            for fut in waiters:
-                if not fut.done():
-                    fut.set_result(frame)
-
-    def _snapshot(self, seq: int, t_s: float, pose: Pose) -> _Shot:
+    def _shot_from(self, seq: int, t_s: float, pose: Pose) -> _Shot:
         held = []
         for person in self.world.people:
             payload = person.qr_payload

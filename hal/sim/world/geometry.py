@@ -119,6 +119,27 @@ def segment_distances(segments: FloatArray, x_m: float, y_m: float) -> FloatArra
     return out
 
 
+class SegmentSet:
+    """Segments (rows x1, y1, x2, y2) asked for their distances to many points: what
+    ``segment_distances`` derives from the segments alone is computed once."""
+
+    def __init__(self, ends: FloatArray) -> None:
+        self.ends = ends
+        x1, y1, x2, y2 = (np.ascontiguousarray(col) for col in ends.T)
+        self.x1, self.y1 = x1, y1
+        self.ex, self.ey = x2 - x1, y2 - y1
+        self.length2 = self.ex * self.ex + self.ey * self.ey
+
+    def distances(self, x_m: float, y_m: float) -> FloatArray:
+        """As ``segment_distances(ends, x_m, y_m)``, to the bit (the same float operations)."""
+        ex, ey, length2 = self.ex, self.ey, self.length2
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.clip(((x_m - self.x1) * ex + (y_m - self.y1) * ey) / length2, 0.0, 1.0)
+        t = np.where(length2 > 0, t, 0.0)
+        out: FloatArray = np.hypot(self.x1 + t * ex - x_m, self.y1 + t * ey - y_m)
+        return out
+
+
 def distance_to_segments(segments: FloatArray, x_m: float, y_m: float) -> float:
     """Shortest distance from a point to any segment (inf when there are none)."""
     if segments.shape[0] == 0:

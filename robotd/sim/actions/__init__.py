@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from robotd.sim.actions.delivery import DELIVERY_ACTIONS
 from robotd.sim.actions.dock import DOCK_ACTIONS
+from robotd.sim.actions.doors import DOOR_ACTIONS
 from robotd.sim.actions.lidar import LIDAR_ACTIONS
 from robotd.sim.actions.motor_board import MOTOR_BOARD_ACTIONS
 from robotd.sim.actions.people import PEOPLE_ACTIONS
@@ -24,6 +25,7 @@ ACTIONS: dict[str, Action] = {
     **LIDAR_ACTIONS,
     **PEOPLE_ACTIONS,
     **DELIVERY_ACTIONS,
+    **DOOR_ACTIONS,
 }
 """Action name (``script[i].action``) -> what it does."""
 

@@ -1,13 +1,15 @@
-"""Script actions on the dock and the battery: battery level, beams off, contacts fault, move.
+"""Script actions on the dock, the battery and the dock IR receivers: battery level, beams off,
+contacts fault, move; receivers unplugged and plugged back in.
 
-The dock belongs to the world (every robot sees the same one); ``battery.set`` acts on the
-step's robot.
+The dock belongs to the world (every robot sees the same one); ``battery.set`` and the
+receivers act on the step's robot.
 """
 
 from __future__ import annotations
 
 import math
 
+from hal.sim.devices.dock_ir_model import SimDockIr
 from hal.sim.world.dock import Dock
 from robotd.sim.actions.step import Action, Step
 from robotd.sim.scenario import ScenarioError
@@ -68,9 +70,46 @@ def _move(step: Step) -> None:
               math.radians(heading_deg))
 
 
+def _receivers(step: Step, action: str) -> tuple[SimDockIr, tuple[str, ...] | None]:
+    """The robot's simulated receivers and the ones named by ``receiver`` (a name or a list;
+    None: all of them)."""
+    source = step.rig.dock_ir
+    if source is None:
+        msg = f"{action}: {step.robot} has no dock IR receivers (its profile does not dock)"
+        raise ScenarioError(msg)
+    value = step.args.get("receiver")
+    if value is None:
+        return source, None
+    names = (value,) if isinstance(value, str) else value
+    fitted = {m.name for m in source.mounts}
+    if not isinstance(names, list | tuple) or not names \
+            or any(not isinstance(n, str) or n not in fitted for n in names):
+        msg = f"{action}.receiver: expected one of {sorted(fitted)} or a list of them, " \
+              f"got {value!r}"
+        raise ScenarioError(msg)
+    return source, tuple(names)
+
+
+def _ir_unplug(step: Step) -> None:
+    """The receivers' cable pulled: their lines go idle, no edges (``receiver``: which ones,
+    default all); ``duration_s``: plugged back in after that long."""
+    source, names = _receivers(step, "dock_ir.unplug")
+    source.unplug(names)
+    duration = step.duration_s()
+    if duration is not None:
+        step.later(duration, lambda: source.replug(names), "dock_ir.replug")
+
+
+def _ir_replug(step: Step) -> None:
+    source, names = _receivers(step, "dock_ir.replug")
+    source.replug(names)
+
+
 DOCK_ACTIONS: dict[str, Action] = {
     "battery.set": _battery_set,
     "dock.beams_off": _beams_off,
     "dock.contacts_fault": _contacts_fault,
     "dock.move": _move,
+    "dock_ir.unplug": _ir_unplug,
+    "dock_ir.replug": _ir_replug,
 }

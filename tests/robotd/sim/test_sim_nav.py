@@ -12,8 +12,10 @@ from robotd.cli import main
 from robotd.sim.scenario import load_scenario
 
 
-def _run(name: str, tmp_path: Path, seed: int = 1) -> tuple[int, list[dict[str, Any]]]:
-    code = main(["sim", name, "--quiet", "--seed", str(seed), "--report", str(tmp_path)])
+def _run(name: str, tmp_path: Path, seed: int = 1,
+         quiet: bool = True) -> tuple[int, list[dict[str, Any]]]:
+    code = main(["sim", name, *(["--quiet"] if quiet else []), "--seed", str(seed),
+                 "--report", str(tmp_path)])
     events = [json.loads(line) for line in
               (tmp_path / "events.jsonl").read_text().splitlines()]
     return code, events
@@ -21,12 +23,15 @@ def _run(name: str, tmp_path: Path, seed: int = 1) -> tuple[int, list[dict[str, 
 
 class TestNavScenarios:
     @pytest.mark.parametrize("name", ["nav", "nav-map", "nav-kidnap"])
-    def test_each_built_in_passes(self, name: str, tmp_path: Path) -> None:
-        """Each navigation built-in meets its success conditions, with no collision."""
-        code, events = _run(name, tmp_path)
+    def test_each_built_in_passes(self, name: str, tmp_path: Path,
+                                  capfd: pytest.CaptureFixture[str]) -> None:
+        """Each navigation built-in meets its success conditions, with no collision, and no
+        ``lidar.stale`` warning when the run ends (the LiDAR shut down is not stale)."""
+        code, events = _run(name, tmp_path, quiet=False)  # warnings are logged then
         result = events[-1]
         assert result["reasons"] == []
         assert code == 0
+        assert "lidar.stale" not in capfd.readouterr().err
         assert result["figures"]["sim-1"]["collisions"] == 0
         assert (tmp_path / "trajectory.png").stat().st_size > 0
 

@@ -1,0 +1,120 @@
+"""What only the simulator knows, for the live view: the world and each robot's true pose.
+
+The world (its walls as a grid, the painted lines, the beacons and the dock) goes on shared
+``/world/...`` topics; each robot's true pose on ``truth`` (a pose in ``map``), beside
+the estimate its own localisation publishes. A ``SimFeed`` changes nothing in the run: it has
+no timer (the runner calls ``tick`` on its watch ticks: a timer of its own woke the virtual loop
+at other instants, and that alone changed the nav run's estimates), and it never touches a body
+(a read integrates its physics up to that instant, ``DiffDriveBody.sync``): it takes the poses
+the runner's path recorder sampled (``robotd.sim.tracks``).
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Protocol
+
+import structlog
+
+from behaviours.nav.grid import Grid
+from hal.sim.world.floor_plan import World
+from robotd.viz.session import VizSession
+from robotd.viz.telemetry import FoxgloveTelemetry
+
+log = structlog.get_logger(__name__)
+
+
+class Sample(Protocol):
+    """A sampled pose (``robotd.sim.tracks.TrackPoint``; not imported: the runner imports us)."""
+
+    @property
+    def x_m(self) -> float: ...
+    @property
+    def y_m(self) -> float: ...
+    @property
+    def heading_rad(self) -> float: ...
+
+
+_TRUTH_EVERY = 2  # the runner's 10 Hz watch ticks: the true pose at 5 Hz
+_SESSION_EVERY = 10  # the session's state for late viewers every second
+_WORLD_EVERY = 50  # the world every 5 s, for viewers that join late
+_GRID_RESOLUTION_M = 0.05
+RECORDING = "run.mcap"
+
+
+def open_sim_viz(args: argparse.Namespace, name: str, robots: int,
+                 say: Callable[[str], None]) -> VizSession | None:
+    """The run's session when ``--viz`` serves or ``--report DIR`` records (DIR/run.mcap);
+    None otherwise. Raises ``VizError`` (the port is taken...): the run exits 2."""
+    report = getattr(args, "report", None)
+    serve = bool(getattr(args, "viz", False))
+    if not report and not serve:
+        return None
+    session = VizSession(f"robotd sim {name}", many=robots > 1)
+    try:
+        if report:
+            session.record(Path(report) / RECORDING)
+        if serve:
+            host = str(getattr(args, "viz_host", None) or "127.0.0.1")
+            port = session.serve(host, int(getattr(args, "viz_port", 8765)))
+            say(f"live view: ws://{host}:{port} (Foxglove: Open connection; "
+                f"layout viz/robotd-layout.json)")
+    except Exception:
+        session.close()
+        raise
+    session.capture_logs()
+    return session
+
+
+class SimFeed:
+    """Publishes the world every few seconds and the robots' true poses at 5 Hz (the latest
+    of ``tracks``, the path recorder's samples, by robot)."""
+
+    def __init__(self, session: VizSession, world: World,
+                 tracks: Mapping[str, Sequence[Sample]]) -> None:
+        self.session = session
+        self.world = world
+        self.tracks = tracks
+        self.world_feed = FoxgloveTelemetry(session.context)
+        self._ticks = 0
+        self._grid: Grid | None = None
+        try:
+            self._grid = Grid.from_segments(world.walls.tolist(), _GRID_RESOLUTION_M)
+        except ValueError:
+            log.info("viz.world_without_walls")
+
+    def tick(self) -> None:
+        """Called on each of the runner's watch ticks (10 Hz), after the path recorder's
+        sample: no timer of its own, which would wake the virtual loop at other instants."""
+        n = self._ticks
+        self._ticks += 1
+        if n % _TRUTH_EVERY == 0:
+            for name, track in self.tracks.items():
+                if track:
+                    p = track[-1]
+                    self.session.telemetry(name).pose("truth", (p.x_m, p.y_m, p.heading_rad))
+        if n % _SESSION_EVERY == 0:
+            self.session.tick()
+        if n % _WORLD_EVERY == 0:
+            self.publish_world()
+
+    def publish_world(self) -> None:
+        """The walls as a grid, the painted lines, the beacons' and the dock's places."""
+        feed = self.world_feed
+        grid = self._grid
+        if grid is not None:
+            feed.grid("world/map", grid.occupied, grid.resolution_m,
+                      (grid.origin_x_m, grid.origin_y_m))
+        for line in self.world.lines:
+            points = list(line.points)
+            if line.closed and points:
+                points.append(points[0])
+            feed.path(f"world/line/{line.name}", points)
+        nodes = {b.room or b.mac: (b.x_m, b.y_m) for b in self.world.beacons}
+        dock = self.world.dock
+        if dock is not None:
+            nodes["dock"] = (dock.x_m, dock.y_m)
+        if nodes:
+            feed.graph("world/places", nodes, [])

@@ -1,0 +1,167 @@
+"""The telemetry port and its Foxglove adapter: no-op when off, decimated, on the given clock,
+bad data counted (never raised), recordings that rotate and are pruned."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime, timedelta
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+
+from hal.readings import LidarScan
+from hal.telemetry import NULL_TELEMETRY, Telemetry
+from robotd.config.loader import defaults
+from robotd.config.settings import Settings
+from robotd.viz.recorder import RotatingRecorder
+from robotd.viz.runtime import open_daemon_viz
+from robotd.viz.session import VizSession
+from robotd.viz.telemetry import FoxgloveTelemetry
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.t_ns = 0
+
+    def __call__(self) -> int:
+        return self.t_ns
+
+
+def _scan() -> LidarScan:
+    angles = np.linspace(-np.pi, np.pi, 450, endpoint=False)
+    ranges = np.full(450, 2.0)
+    ranges[::7] = np.nan
+    return LidarScan(angles, ranges, np.full(450, 200, dtype=np.uint8), t_s=0.0)
+
+
+def _read(path: Path) -> dict[str, list[int]]:
+    """Log times (ns) per topic."""
+    out: dict[str, list[int]] = {}
+    with path.open("rb") as f:
+        for _schema, channel, message in make_reader(f).iter_messages():
+            out.setdefault(channel.topic, []).append(message.log_time)
+    return out
+
+
+def test_both_implementations_are_telemetry() -> None:
+    """The no-op and the adapter both satisfy the port; only the adapter is enabled."""
+    session = VizSession()
+    try:
+        assert isinstance(NULL_TELEMETRY, Telemetry) and not NULL_TELEMETRY.enabled
+        feed = session.telemetry("r")
+        assert isinstance(feed, Telemetry) and feed.enabled
+    finally:
+        session.close()
+
+
+async def test_nothing_is_built_without_a_sink() -> None:
+    """No server and no recording: every call returns without making a message."""
+    session = VizSession()
+    try:
+        feed = session.telemetry("r")
+        feed.scan("scan", _scan())
+        feed.values("state", state="idle")
+        feed.image("camera", np.zeros((24, 32), dtype=np.uint8))
+        assert feed.published == 0 and feed.failed == 0
+    finally:
+        session.close()
+
+
+def test_recording_is_on_the_given_clock_and_decimated(tmp_path: Path) -> None:
+    """Log times are the clock's; images at most every 0.5 s, samples every 0.1 s, scans
+    and values every call."""
+    session = VizSession()
+    clock = FakeClock()
+    feed = FoxgloveTelemetry(session.context, clock_ns=clock)
+    session.record(tmp_path / "run.mcap")
+    image = np.zeros((24, 32, 3), dtype=np.uint8)
+    for i in range(20):  # 2 s at 10 Hz
+        clock.t_ns = 1_000_000_000 + i * 100_000_000
+        feed.image("camera", image, marks=[(5, 5)])
+        feed.scan("scan", _scan())
+        feed.pose("pose", (1.0, 2.0, 0.5), child_frame="base_link")
+        feed.values("state", state="idle")
+        feed.sample("line", error_px=1.0)
+        clock.t_ns += 50_000_000  # a second sample 50 ms later: too soon, dropped
+        feed.sample("line", error_px=2.0)
+    session.close()
+    topics = _read(tmp_path / "run.mcap")
+    assert len(topics["/scan"]) == 20
+    assert len(topics["/camera"]) == 4
+    assert topics["/pose"][0] == 1_000_000_000
+    assert len(topics["/tf"]) == 20
+    assert len(topics["/state"]) == 20  # values: every one
+    assert len(topics["/line"]) == 20  # sample: at most one per 0.1 s
+
+
+def test_several_robots_have_their_own_topics_and_frames(tmp_path: Path) -> None:
+    """With many robots, topics sit under /<robot>/ and frames under <robot>/ (map shared)."""
+    session = VizSession(many=True)
+    session.record(tmp_path / "run.mcap")
+    a = session.telemetry("a")
+    assert a.topic("scan") == "/a/scan"
+    assert a.frame("base_link") == "a/base_link" and a.frame("map") == "map"
+    session.close()
+
+
+async def test_bad_data_is_counted_not_raised(tmp_path: Path) -> None:
+    """A frame OpenCV cannot read or one topic used with two kinds is counted, not raised."""
+    session = VizSession()
+    session.record(tmp_path / "run.mcap")
+    feed = session.telemetry("r")
+    feed.image("camera", np.zeros((2, 2, 7), dtype=np.uint8))
+    feed.values("scan", x=1)
+    feed.scan("scan", _scan())  # "scan" is a JSON channel now: the scan cannot go there
+    session.close()
+    assert feed.failed >= 1
+
+
+def test_recordings_rotate_and_the_oldest_are_deleted(tmp_path: Path) -> None:
+    """Past max_bytes a new file begins; only ``keep`` files stay."""
+    session = VizSession()
+    start = datetime(2026, 1, 1, tzinfo=UTC)
+    clock = FakeClock()
+    feed = FoxgloveTelemetry(session.context, clock_ns=clock)
+    recorder = RotatingRecorder(tmp_path / "viz", session.context, max_bytes=100_000, keep=2,
+                                wall_clock=lambda: start + timedelta(seconds=clock.t_ns / 1e9))
+    session.record_rotating(recorder)
+    noise = np.random.default_rng(1)
+    for i in range(40):
+        clock.t_ns = i * 1_000_000_000
+        feed.image("camera", noise.integers(0, 255, (120, 160, 3), dtype=np.uint8))
+        if recorder._writer is not None:
+            recorder._writer.flush()
+        session.tick()
+    session.close()
+    files = sorted((tmp_path / "viz").glob("robotd-*.mcap"))
+    assert recorder.files_started > 2
+    assert len(files) == 2
+    for f in files:
+        _read(f)  # each one a complete MCAP file
+
+
+def test_viz_off_is_no_session(tmp_path: Path) -> None:
+    """``[viz]`` as shipped (off, not recording): no session, nothing opened."""
+    settings = Settings(defaults())
+    assert open_daemon_viz(settings, tmp_path, lambda: datetime.now(UTC)) is None
+
+
+@pytest.mark.parametrize("record", [True, False])
+def test_a_taken_port_on_the_robot_is_logged_and_the_robot_runs(tmp_path: Path,
+                                                                record: bool) -> None:
+    """``robotd run``: a live view that cannot serve is no reason to stop the robot."""
+    import socket
+
+    with socket.socket() as other:
+        other.bind(("127.0.0.1", 0))
+        other.listen()
+        values = defaults()
+        values["viz"] |= {"enabled": True, "port": other.getsockname()[1], "record": record}
+        session = open_daemon_viz(Settings(values), tmp_path, lambda: datetime.now(UTC))
+    if record:
+        assert session is not None and session.server is None and session.rotating is not None
+        session.close()
+        assert list((tmp_path / "viz").glob("*.mcap"))
+    else:
+        assert session is None

@@ -10,7 +10,11 @@
 
     .venv/bin/python bench/bench_delivery.py --part qr [--frames 200] [--seconds 5]
 
-The whole-mission part (the ``delivery`` scenario's speed factor) waits for the navigation glue.
+``--part speed`` prints the whole mission's speed: virtual seconds of ``robotd sim delivery``
+(and the other delivery built-ins) per wall second and per CPU second of this process (its
+worker threads included: QR decoding, SQLite), median over ``--runs`` seeds, without the report.
+
+    .venv/bin/python bench/bench_delivery.py --part speed [--runs 3] [--scenarios delivery]
 """
 
 from __future__ import annotations
@@ -180,14 +184,56 @@ async def loop_lag(seconds: float, seed: int) -> None:
         await reader.close()
 
 
+def scenario_speed(name: str, runs: int) -> dict[str, Any]:
+    """Virtual s per wall s and per CPU s of ``robotd sim <name>`` (seeds 1..runs)."""
+    import gc
+    import statistics
+    import tempfile
+    from pathlib import Path
+
+    from hal.sim import vclock
+    from robotd.sim import runner as sim_runner
+    from robotd.sim.console import SimConsole
+    from robotd.sim.scenario import load_scenario
+
+    wall_x, cpu_x, sim_s, oks = [], [], [], []
+    for i in range(runs):
+        scenario = load_scenario(name)  # afresh: a run moves the world's people
+        args = argparse.Namespace(scenario=name, seed=i + 1, realtime=False, speed=None,
+                                  report=None, quiet=True, socket=None, config=None, mcu="fake")
+        gc.collect()
+        w0, c0 = time.perf_counter(), time.process_time()
+        with tempfile.TemporaryDirectory(prefix="bench-delivery-") as workdir:
+            result = vclock.run(sim_runner._run(args, scenario, SimConsole(quiet=True),
+                                                Path(workdir)))
+        wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+        if isinstance(result, int):
+            return {"scenario": name, "error": f"exit {result}"}
+        oks.append(result.ok)
+        sim_s.append(result.sim_s)
+        wall_x.append(result.sim_s / wall)
+        cpu_x.append(result.sim_s / cpu)
+    return {"scenario": name, "runs": runs, "ok": all(oks),
+            "virtual_s": round(statistics.median(sim_s), 1),
+            "speed_wall_x": round(statistics.median(wall_x), 1),
+            "speed_cpu_x": round(statistics.median(cpu_x), 1)}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--part", choices=["qr"], default="qr")
+    parser.add_argument("--part", choices=["qr", "speed"], default="qr")
+    parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--scenarios", default="delivery",
+                        help="comma-separated delivery built-ins for --part speed")
     parser.add_argument("--frames", type=int, default=200)
     parser.add_argument("--seconds", type=float, default=5.0)
     parser.add_argument("--seed", type=int, default=1)
     args = parser.parse_args()
     structlog.configure(wrapper_class=structlog.make_filtering_bound_logger(logging.WARNING))
+    if args.part == "speed":
+        for name in args.scenarios.split(","):
+            print(scenario_speed(name.strip(), args.runs))
+        return
     decode_times(args.frames, args.seed)
     decode_share(args.frames, args.seed)
     asyncio.run(loop_lag(args.seconds, args.seed))

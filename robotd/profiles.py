@@ -12,7 +12,7 @@ import contextlib
 from collections.abc import Iterator
 
 from behaviours.profile import Profile, ProfileSpec
-from behaviours.profiles import cabinet, idle, laundry, patrol, square, vacuum
+from behaviours.profiles import cabinet, delivery, idle, laundry, patrol, square, vacuum
 from hal.options import Order, Section
 
 
@@ -78,4 +78,5 @@ PROFILES.register(square.SPEC)
 PROFILES.register(laundry.SPEC)
 PROFILES.register(patrol.SPEC)
 PROFILES.register(vacuum.SPEC)
+PROFILES.register(delivery.SPEC)
 PROFILES.register(cabinet.SPEC)

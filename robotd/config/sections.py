@@ -14,7 +14,6 @@ from typing import overload
 from behaviours.docking.config import DOCKING_OPTIONS, DOCKING_ORDERS
 from behaviours.nav.config import NAV_SECTIONS
 from behaviours.nav.localisation.config import NAV_LOCALISATION_ORDERS, NAV_LOCALISATION_SECTIONS
-from behaviours.profiles.delivery.config import DELIVERY, DELIVERY_ORDERS
 from drivers.arduino.config import SERIAL
 from drivers.audio.config import AUDIO
 from drivers.camera.qr_config import QR_CAMERA
@@ -196,7 +195,6 @@ _CORE: tuple[Section, ...] = (
     LIDAR,
     AUDIO,
     QR_CAMERA,
-    DELIVERY,  # moves to the delivery profile's SPEC.sections once that is registered
     *NAV_SECTIONS,
     *NAV_LOCALISATION_SECTIONS,
     Section("docking", "Returning to the dock (seed 001).", (*DOCKING_OPTIONS, *IR_OPTIONS)),
@@ -219,7 +217,6 @@ _CORE_ORDERS: tuple[Order, ...] = (
     *LIDAR_ORDERS,
     *NAV_LOCALISATION_ORDERS,
     *IR_ORDERS,
-    *DELIVERY_ORDERS,
     *DOCKING_ORDERS,
 )
 

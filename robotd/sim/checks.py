@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from hal.sim.world.body import DiffDriveBody
+from robotd.sim.delivery.checks import delivery_failures
 from robotd.sim.nav.cabinet_checks import cabinet_failures, cabinet_figures
 from robotd.sim.nav.checks import nav_failures, nav_figures
 from robotd.sim.scenario import Scenario
@@ -80,6 +81,7 @@ def failures(scenario: Scenario, robots: dict[str, RobotRecord], elapsed_s: floa
     reasons += _arrival_failures(scenario, events or [])
     goals = scenario.config.get("patrol", {}).get("goals", [])
     reasons += nav_failures(success.extra, events or [], goals)
+    reasons += delivery_failures(success.extra, events or [])
     reasons += cabinet_failures(success.extra, events or [], [r.body for r in robots.values()])
     for want in success.extra.get("final_rooms", []):
         record = robots.get(str(want.get("robot")))

@@ -14,6 +14,7 @@ import numpy as np
 from hal.sim.world.dock import Dock
 from hal.sim.world.floor_plan import World
 from hal.sim.world.geometry import FloatArray, raycast
+from robotd.sim.delivery.report import draw_delivery
 from robotd.sim.nav.cabinet_report import draw_cabinet
 from robotd.sim.nav.report import draw_navigation
 from robotd.sim.tracks import TrackPoint
@@ -124,6 +125,7 @@ def draw_trajectory(
         _draw_dock(ax, world.dock, world.walls)
     draw_navigation(ax, world, events)
     draw_cabinet(ax, events)
+    draw_delivery(ax, events)
     for person in world.people:
         ax.plot(person.x_m, person.y_m, marker="o", color="purple", ms=9, zorder=3)
 

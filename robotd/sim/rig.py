@@ -34,6 +34,7 @@ from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import World
 from hal.sim.world.lidar_rays import LidarRays
 from robotd.config.settings import Settings
+from robotd.sim.delivery.devices import fit_qr_and_audio
 from robotd.sim.nav.map_writer import write_walls_map
 from robotd.sim.scenario import scenario_dir
 
@@ -99,6 +100,8 @@ class SimRig:
         self.map_dir: tempfile.TemporaryDirectory[str] | None = None
         if "lidar" in needs:
             self._fit_lidar(seed * 1000 + index)
+        if "qr" in needs or "audio" in needs:  # the delivery robot's forward camera, speaker
+            fit_qr_and_audio(self.devices, world, body, settings, needs, seed * 1000 + index)
         self._deadman_seen = 0
         for key in ("cabinet.map_file", "cabinet.task_file"):  # named beside the scenario
             if not Path(settings.get(key)).expanduser().is_absolute():

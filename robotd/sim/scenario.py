@@ -16,6 +16,7 @@ from typing import Any
 
 from hal.sim.world.body import BodyParams
 from hal.sim.world.floor_plan import World, WorldError
+from robotd.sim.delivery.checks import DELIVERY_SUCCESS_KEYS
 from robotd.sim.nav.cabinet_checks import CABINET_SUCCESS_KEYS
 from robotd.sim.nav.site_world import expand_site_map
 
@@ -136,12 +137,13 @@ def parse_scenario(text: str, source: str) -> Scenario:
 NAV_SUCCESS_KEYS = ("max_localisation_error_p95_m", "max_heading_error_p95_deg",
                     "min_pose_rate_hz", "goals_reached_within_m", "divergence_within_s")
 """Navigation conditions (``robotd.sim.nav.checks``)."""
-_TOP = ("scenario", "config", "world", "robot", "robots", "script", "success", "fleet")
+_TOP = ("scenario", "config", "world", "robot", "robots", "script", "success", "fleet",
+        "delivery")
 _SCENARIO = ("name", "description", "profile", "seed")
 _ROBOT = ("name", "x_m", "y_m", "heading_deg", "config", "body", "payload_kg")
 _SUCCESS = ("time_limit_s", "states_reached", "final_state", "final_poses", "no_estop",
             "no_collisions", "max_cross_track_m", "arrivals", "requests", "final_rooms",
-            *NAV_SUCCESS_KEYS, *CABINET_SUCCESS_KEYS)
+            *NAV_SUCCESS_KEYS, *DELIVERY_SUCCESS_KEYS, *CABINET_SUCCESS_KEYS)
 _STEP = ("at_s", "action", "robot", "duration_s", "pct", "kg", "name", "x_m", "y_m", "key",
          "value", "when_state", "delay_s", "points", "speed_mps", "loop", "heading_deg", "dx_m",
          "dy_m")

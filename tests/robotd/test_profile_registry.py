@@ -32,14 +32,14 @@ THROWAWAY = ProfileSpec(
 class TestUnknownProfiles:
     def test_check_config_refuses_a_profile_that_is_not_registered(
             self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-        """``robot.profile = "delivery"`` while no delivery profile exists: exit 2 and the
-        line names the known profiles (check-config once said ok, then robotd run failed)."""
+        """``robot.profile = "courier"`` while no such profile exists: exit 2 and the line
+        names the known profiles (check-config once said ok, then robotd run failed)."""
         path = tmp_path / "robotd.toml"
-        path.write_text('[robot]\nname = "r1"\nprofile = "delivery"\n')
+        path.write_text('[robot]\nname = "r1"\nprofile = "courier"\n')
         assert cli.main(["check-config", str(path)]) == 2
         known = ", ".join(PROFILES.names())
         assert capsys.readouterr().out.splitlines() == [
-            f"{path}:3: robot.profile: unknown profile 'delivery' (known: {known})"]
+            f"{path}:3: robot.profile: unknown profile 'courier' (known: {known})"]
 
     def test_robot_profile_allows_exactly_the_registered_names(self) -> None:
         """The option's choices are the registry's names, no list of its own."""

@@ -1,6 +1,16 @@
-"""RelayBot, the delivery robot (seed relaybot-delivery-design.md): its foundations.
+"""RelayBot, the delivery robot (seed relaybot-delivery-design.md, issue 17)."""
 
-Orders and QR verification (``qr_payload``, ``orders``), the box and LEDs (``box``), the seed's
-state table (``states``) and config (``config``). The mission's tasks need the navigation glue
-and are not here yet, so the profile is not registered (see docs/delivery.md).
-"""
+from __future__ import annotations
+
+from behaviours.profile import ProfileSpec
+from behaviours.profiles.delivery.config import DELIVERY, DELIVERY_ORDERS
+from behaviours.profiles.delivery.profile import DeliveryProfile
+
+SPEC = ProfileSpec(
+    DeliveryProfile,
+    "waits at home, drives up to a customer the LiDAR sees in its zone, checks the order's QR "
+    "code, fetches the parcel from the warehouse and hands it over from its servo box",
+    sections=(DELIVERY,),
+    orders=DELIVERY_ORDERS,
+    sim_actors="robotd.sim.actors.delivery:DeliveryActors.for_scenario",
+)

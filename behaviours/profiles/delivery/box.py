@@ -16,6 +16,7 @@ import structlog
 
 from behaviours.profiles.delivery.states import BOX_CLOSED_DEG, BOX_OPEN_DEG
 from hal.devices import ServoBox
+from hal.telemetry import NULL_TELEMETRY, Telemetry
 
 log = structlog.get_logger(__name__)
 
@@ -30,11 +31,14 @@ class BoxController:
         servo: the box servo (the motor board's ``SERVO`` command).
         emit: the robot's event sink; a move that failed 3 times is a ``delivery.servo_failed``
             event an operator sees.
+        telemetry: the live view (``delivery/box``: the angle acknowledged, open or not).
     """
 
     def __init__(self, servo: ServoBox, emit: Callable[..., None] | None = None, *,
-                 reach_s: float = SERVO_REACH_S, attempts: int = SERVO_ATTEMPTS) -> None:
+                 reach_s: float = SERVO_REACH_S, attempts: int = SERVO_ATTEMPTS,
+                 telemetry: Telemetry = NULL_TELEMETRY) -> None:
         self.servo = servo
+        self.telemetry = telemetry
         self.emit = emit
         self.reach_s = reach_s
         self.attempts = attempts
@@ -65,9 +69,11 @@ class BoxController:
                             error=errors[-1])
                 continue
             self.angle_deg = angle_deg
+            self.telemetry.values("delivery/box", angle_deg=angle_deg, open=self.is_open)
             return True
         self.angle_deg = None
         self.failed_moves += 1
+        self.telemetry.values("delivery/box", angle_deg=None, open=None, failed=angle_deg)
         log.error("delivery.servo_failed", angle_deg=angle_deg, attempts=self.attempts,
                   errors=errors, action="manual box opening required")
         if self.emit is not None:

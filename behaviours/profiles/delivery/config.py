@@ -33,14 +33,18 @@ DELIVERY = Section("delivery", "RelayBot, the delivery robot (seed relaybot-deli
            "Stop this close to the customer and ask for the QR code (< 50 cm).",
            min=0.2, max=3, tunable=True),
     Option("verifying_timeout_s", "float", states.VERIFYING_TIMEOUT_S,
-           "No valid QR code this long: back to waiting (QR_SCAN_TIMEOUT).", min=1, max=600),
+           "No valid QR code this long: back to waiting (QR_SCAN_TIMEOUT; at most the seed's).",
+           min=1, max=states.VERIFYING_TIMEOUT_S),
     Option("loading_timeout_s", "float", states.LOADING_TIMEOUT_S,
            "Nobody confirms the loading this long: error recovery "
-           "(LOADING_CONFIRMATION_TIMEOUT).", min=1, max=3600),
+           "(LOADING_CONFIRMATION_TIMEOUT; at most the seed's).", min=1,
+           max=states.LOADING_TIMEOUT_S),
     Option("delivery_duration_s", "float", states.DELIVERY_DURATION_S,
-           "The box stays open this long for the customer (DELIVERY_TIMEOUT).", min=1, max=300),
+           "The box stays open this long for the customer (DELIVERY_TIMEOUT).", min=1,
+           max=states.DELIVERING_TIMEOUT_S),
     Option("delivering_timeout_s", "float", states.DELIVERING_TIMEOUT_S,
-           "Hard limit on delivering (the error table's 15 s).", min=1, max=600),
+           "Hard limit on delivering (the error table's 15 s; the state table keeps the seed's "
+           "as its cap).", min=1, max=states.DELIVERING_TIMEOUT_S),
 ))
 
 DELIVERY_ORDERS = (Order(("delivery.delivery_duration_s", "delivery.delivering_timeout_s")),)

@@ -22,6 +22,8 @@ DELIVERY_MISSION = MissionRecord("delivery.mission", 1, {
     "order_id": None,           # the verified order being served
     "customer_x_m": None,       # where the customer stood when the code was verified
     "customer_y_m": None,
+    "stand_x_m": None,          # where the robot stood for the code: the hand-over spot
+    "stand_y_m": None,
     "parcel_in_box": False,     # from loading_confirmed until the hand-over ends
     "delivered_order_id": None,  # the last order handed over (not yet marked in the database?)
     "last_error": None,         # the error category error_recovery last recorded
@@ -66,7 +68,13 @@ class DeliveryMemory:
     async def handed_over(self) -> None:
         """The hand-over ended: the box is empty and the order done."""
         await self.persisted.update(parcel_in_box=False, delivered_order_id=self.order_id,
-                                    order_id=None, customer_x_m=None, customer_y_m=None)
+                                    order_id=None, customer_x_m=None, customer_y_m=None,
+                                    stand_x_m=None, stand_y_m=None)
+
+    async def abandoned(self) -> None:
+        """error_recovery dropped the order (a parcel left in the box stays reported)."""
+        await self.persisted.update(order_id=None, customer_x_m=None, customer_y_m=None,
+                                    stand_x_m=None, stand_y_m=None)
 
     async def error(self, category: str) -> None:
         await self.persisted.update(last_error=category)

@@ -186,8 +186,10 @@ class World:
         """
         r = _Reader(table, where)
         r.known("width_m", "height_m", "boundary", "walls", "rooms", "lines", "beacons", "dock",
-                "people", "zones", "floor_bgr", "robots_see_each_other", "map", "boxes")
-        x_min = y_min = 0.0
+                "people", "zones", "floor_bgr", "robots_see_each_other", "map", "boxes",
+                "x_min_m", "y_min_m")
+        # The floor's lower-left corner: a site whose origin (home) is inside the floor.
+        x_min, y_min = r.num("x_min_m", 0.0), r.num("y_min_m", 0.0)
         map_walls_: FloatArray | None = None
         source = ""
         if "map" in table:

@@ -7,6 +7,7 @@ brings its actions in a module here and adds them to ``ACTIONS``.
 
 from __future__ import annotations
 
+from robotd.sim.actions.delivery import DELIVERY_ACTIONS
 from robotd.sim.actions.dock import DOCK_ACTIONS
 from robotd.sim.actions.doors import DOOR_ACTIONS
 from robotd.sim.actions.lidar import LIDAR_ACTIONS
@@ -23,6 +24,7 @@ ACTIONS: dict[str, Action] = {
     **ROBOT_ACTIONS,
     **LIDAR_ACTIONS,
     **PEOPLE_ACTIONS,
+    **DELIVERY_ACTIONS,
     **DOOR_ACTIONS,
 }
 """Action name (``script[i].action``) -> what it does."""

@@ -26,11 +26,15 @@ BY_PROFILE = {
                 "beacons": "robotd.beacons"},
     "vacuum": {"dock": "robotd.dock", "odom": "foxglove.PoseInFrame"},
     "square": {"odom": "foxglove.PoseInFrame"},
+    "delivery": {"map": "foxglove.Grid", "scan": "foxglove.LaserScan",
+                 "particles": "foxglove.PosesInFrame", "pose": "foxglove.PoseInFrame",
+                 "path": "foxglove.SceneUpdate"},
     "cabinet": {"map": "foxglove.Grid", "scan": "foxglove.LaserScan",
                 "particles": "foxglove.PosesInFrame", "pose": "foxglove.PoseInFrame",
                 "cabinet/links_open": "foxglove.SceneUpdate",
                 "cabinet/path": "foxglove.SceneUpdate"},
 }
+BY_SCENARIO = {"delivery": {"delivery/box": "robotd.delivery.box"}}  # the box opens there
 _WALL_EPOCH_NS = 10**18  # 2001-09-09: any wall-clock time is past it, virtual times are not
 
 
@@ -40,7 +44,8 @@ def _expected(name: str) -> dict[str, str]:
     topics = {"/world/map": "foxglove.Grid"}
     for spec in scenario.robots:
         prefix = f"/{spec.name}/" if many else "/"
-        own = {**EVERY_ROBOT, **BY_PROFILE.get(scenario.profile, {})}
+        own = {**EVERY_ROBOT, **BY_PROFILE.get(scenario.profile, {}),
+               **BY_SCENARIO.get(name, {})}
         topics |= {prefix + short: schema for short, schema in own.items()}
     return topics
 

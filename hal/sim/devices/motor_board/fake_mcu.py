@@ -66,10 +66,8 @@ class FakeMcu(DockInputs):
         self.firmware = firmware
         self.protocol = protocol
         self.deadman_s = deadman_s
-        self.periods_s = {"ENCODER": encoder_period_s, "IR": ir_period_s,
-                          "BAT": battery_period_s}
-        self.announce_boot = announce_boot
-        self.reset_on_open = reset_on_open
+        self.periods_s = {"ENCODER": encoder_period_s, "IR": ir_period_s, "BAT": battery_period_s}
+        self.announce_boot, self.reset_on_open = announce_boot, reset_on_open
         self.boot_s = boot_s
         self.uart = McuUart(self._handle_line, seed=seed)
         self.executed: collections.deque[Executed] = collections.deque(maxlen=history)
@@ -77,6 +75,7 @@ class FakeMcu(DockInputs):
         self.naks: list[tuple[int | None, str]] = []
         self.dropped_frames = 0
         self.leds: list[str] = []
+        self.servo_fault = False  # a jammed box servo: SERVO refused (NAK:RANGE)
         self.deadman_stops: list[float] = []
         self.boots = 0
         self.last_drive_s: float | None = None
@@ -250,7 +249,7 @@ class FakeMcu(DockInputs):
             self._reply(seq, self._hello() if word == "HELLO" else "ACK")
             return
         reply = self._execute(seq, word, args, payload)
-        self._last = (seq, crc)
+        self._last = self._last if reply.startswith("NAK") else (seq, crc)  # NAK: not done
         self._reply(seq, reply)
 
     def _handle_plain_line(self, line: bytes) -> None:
@@ -288,6 +287,8 @@ class FakeMcu(DockInputs):
             self._feed_deadman()
         elif word == "STOP":
             self._motors_off()
+        elif word == "SERVO" and self.servo_fault:
+            return "NAK:RANGE"
         elif word == "SERVO":
             self.plant.servo(args[0])
         elif word == "HELLO":

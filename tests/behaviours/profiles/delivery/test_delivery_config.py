@@ -23,17 +23,22 @@ def test_defaults_are_the_seeds() -> None:
 
 
 def test_the_timers_reach_the_state_table() -> None:
-    """A configured verifying timeout is the verifying state's timeout."""
-    values = load_config_text("[delivery]\nverifying_timeout_s = 45\n", "d.toml")
-    table = mission_states(timers_from(Settings(values)))
+    """A configured (shorter) verifying timeout reaches the timers; longer than the seed's,
+    which stays the state table's cap, is refused."""
+    values = load_config_text("[delivery]\nverifying_timeout_s = 20\n", "d.toml")
+    timers = timers_from(Settings(values))
+    assert timers.verifying_timeout_s == 20.0
+    table = mission_states(timers)
     verifying = next(s for s in table if isinstance(s, dict) and s["name"] == "verifying")
-    assert verifying["timeout"] == 45.0
+    assert verifying["timeout"] == 20.0
+    with pytest.raises(ConfigError, match="must be <= 30"):
+        load_config_text("[delivery]\nverifying_timeout_s = 45\n", "d.toml")
 
 
 @pytest.mark.parametrize(("text", "problem"), [
     ('database_url = "postgresql://h/orders"', "delivery.database_url: expected sqlite:///PATH"),
     ('zone_radius_m = "3"', "delivery.zone_radius_m: expected a number"),
-    ("delivery_duration_s = 20", "delivery.delivering_timeout_s: must be above"),
+    ("delivery_duration_s = 15", "delivery.delivering_timeout_s: must be above"),
     ("approach_distance_m = 0.05", "delivery.approach_distance_m"),
     ("colour = 1", "delivery.colour"),
 ])

@@ -1,0 +1,1 @@
+"""The simulator's parts for the delivery robot: its success conditions."""

@@ -139,6 +139,17 @@ class TestLiveView:
         assert info["schemas"]["/camera"] == "foxglove.CompressedImage"
 
 
+    @pytest.mark.parametrize(("scenario", "wanted"), [
+        ("delivery", {"/map", "/scan", "/particles", "/path", "/pose", "/state"}),
+        ("cabinet", {"/map", "/scan", "/pose", "/state", "/cabinet/links_open"}),
+        ("docking", {"/dock", "/odom", "/state"}),
+    ])
+    async def test_every_robot_shows_what_it_has(self, scenario: str, wanted: set[str]) -> None:
+        """The delivery, cabinet and docking robots each show their own channels live."""
+        counts, _info = await _watch(scenario, wanted, "--seed", "1")
+        assert wanted <= set(counts), f"missing {wanted - set(counts)}; got {dict(counts)}"
+
+
 async def test_a_taken_port_is_exit_2() -> None:
     """A live view whose port is taken: ``robotd sim`` says so and exits 2."""
     import socket

@@ -65,8 +65,10 @@ class Telemetry(Protocol):
         ...
 
     def graph(self, topic: str, nodes: Mapping[str, tuple[float, float]],
-              edges: Sequence[tuple[str, str]], *, frame: str = "map") -> None:
-        """A node graph (a cabinet robot's stops and the ways between them)."""
+              edges: Sequence[tuple[str, str]], *, frame: str = "map",
+              warn: bool = False) -> None:
+        """A node graph (a cabinet robot's stops and the ways between them); ``warn``: its
+        edges drawn in red (e.g. broken links)."""
         ...
 
     def image(self, topic: str, image: npt.NDArray[np.uint8], *,
@@ -113,7 +115,8 @@ class NullTelemetry:
         return None
 
     def graph(self, topic: str, nodes: Mapping[str, tuple[float, float]],
-              edges: Sequence[tuple[str, str]], *, frame: str = "map") -> None:
+              edges: Sequence[tuple[str, str]], *, frame: str = "map",
+              warn: bool = False) -> None:
         return None
 
     def image(self, topic: str, image: npt.NDArray[np.uint8], *,

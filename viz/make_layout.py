@@ -34,6 +34,9 @@ def layout() -> fl.Layout:
         "/pose": fl.BaseRendererPoseTopicSettings(visible=True, type="arrow"),
         "/truth": fl.BaseRendererPoseTopicSettings(visible=True, type="axis"),
         "/world/places": fl.BaseRendererSceneUpdateTopicSettings(visible=True),
+        "/cabinet/links_open": fl.BaseRendererSceneUpdateTopicSettings(visible=True),
+        "/cabinet/links_broken": fl.BaseRendererSceneUpdateTopicSettings(visible=True),
+        "/cabinet/path": fl.BaseRendererSceneUpdateTopicSettings(visible=True),
     }
     three_d = fl.ThreeDeePanel(title="map", config=fl.ThreeDeeConfig(
         follow_tf="map", follow_mode="follow-none", topics=topics))

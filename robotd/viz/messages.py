@@ -45,6 +45,7 @@ _OCCUPIED = 100
 _FREE = 0
 _PATH_COLOUR = Color(r=0.1, g=0.8, b=0.2, a=1.0)
 _GRAPH_COLOUR = Color(r=0.2, g=0.5, b=1.0, a=1.0)
+_WARN_COLOUR = Color(r=1.0, g=0.15, b=0.1, a=1.0)
 _MARK_BGR = (0, 0, 255)
 _HALVE_ABOVE_PX = 200
 
@@ -115,8 +116,9 @@ def path_scene(t_ns: int, entity: str, points: Sequence[tuple[float, float]],
 
 
 def graph_scene(t_ns: int, entity: str, nodes: Mapping[str, tuple[float, float]],
-                edges: Sequence[tuple[str, str]], frame: str) -> SceneUpdate:
-    """Nodes as spheres with their names, edges as line segments."""
+                edges: Sequence[tuple[str, str]], frame: str, *,
+                warn: bool = False) -> SceneUpdate:
+    """Nodes as spheres with their names, edges as line segments (red when ``warn``)."""
     segments: list[Point3] = []
     for a, b in edges:
         if a in nodes and b in nodes:
@@ -127,7 +129,8 @@ def graph_scene(t_ns: int, entity: str, nodes: Mapping[str, tuple[float, float]]
     texts = [TextPrimitive(pose=pose_of(x, y + 0.12, 0.0), billboard=True, font_size=12.0,
                            scale_invariant=True, color=_GRAPH_COLOUR, text=name)
              for name, (x, y) in nodes.items()]
-    lines = [LinePrimitive(type=LinePrimitiveLineType.LineList, thickness=0.02, color=_GRAPH_COLOUR,
+    lines = [LinePrimitive(type=LinePrimitiveLineType.LineList, thickness=0.04 if warn else 0.02,
+                           color=_WARN_COLOUR if warn else _GRAPH_COLOUR,
                            points=segments)] if segments else []
     return SceneUpdate(entities=[SceneEntity(timestamp=stamp(t_ns), frame_id=frame, id=entity,
                                              spheres=spheres, texts=texts, lines=lines)])

@@ -113,11 +113,13 @@ class FoxgloveTelemetry:
                 t_ns, occupied, resolution_m, origin_xy_m, self.frame(frame)))
 
     def graph(self, topic: str, nodes: Mapping[str, tuple[float, float]],
-              edges: Sequence[tuple[str, str]], *, frame: str = "map") -> None:
+              edges: Sequence[tuple[str, str]], *, frame: str = "map",
+              warn: bool = False) -> None:
         t_ns = self.clock_ns()
         if self._due(topic, "graph", t_ns):
             self._log(topic, SceneUpdateChannel, t_ns,
-                      lambda: fm.graph_scene(t_ns, topic, nodes, edges, self.frame(frame)))
+                      lambda: fm.graph_scene(t_ns, topic, nodes, edges, self.frame(frame),
+                                                     warn=warn))
 
     def image(self, topic: str, image: npt.NDArray[np.uint8], *,
               marks: Sequence[tuple[int, int]] = ()) -> None:

@@ -139,6 +139,7 @@ def show_graph(telemetry: Telemetry, m: Mission, *, with_path: bool = False) -> 
     nodes = {n.name: (n.x_m, n.y_m) for n in graph.nodes.values()}
     links = sorted({(min(a, b), max(a, b)) for a, out in graph.links.items() for b in out})
     telemetry.graph("cabinet/links_open", nodes, [k for k in links if graph.is_open(*k)])
-    telemetry.graph("cabinet/links_broken", nodes, [k for k in links if not graph.is_open(*k)])
+    telemetry.graph("cabinet/links_broken", nodes, [k for k in links if not graph.is_open(*k)],
+                    warn=True)
     if with_path:
         telemetry.path("cabinet/path", [nodes[name] for name in m.path if name in nodes])

@@ -159,11 +159,7 @@ class World:
         """All painted lines' segments (read-only; rebuilt when ``lines`` changes)."""
         key = tuple(self.lines)
         cached = self._segments_cache
-        # The same line objects (each watch tick) are the same lines: compared field by field
-        # only when one was replaced.
-        if cached is None or ((len(key) != len(cached[0])
-                              or any(a is not b for a, b in zip(key, cached[0], strict=True))) \
-                and cached[0] != key):
+        if cached is None or cached[0] != key:  # the same line objects compare by identity
             parts = [line.segments() for line in self.lines]
             segments = np.concatenate(parts) if parts else segments_array([])
             segments.flags.writeable = False

@@ -29,23 +29,35 @@ class StateOutputs:
         self.leds = leds
         self.box = box
         self.audio = audio
-        self._queue: asyncio.Queue[Outputs] = asyncio.Queue()
+        self._queue: asyncio.Queue[tuple[int, Outputs]] = asyncio.Queue()
         self.skipped_sounds = 0
+        self._posted = 0
+        """How many transitions' outputs were posted (each one's number: its generation)."""
+        self._playing: int | None = None
+        """The generation whose sound is playing now (None: silence)."""
 
     def post(self, outputs: Outputs) -> None:
         """Queue a transition's outputs (called from a state hook: returns at once)."""
-        self._queue.put_nowait(outputs)
-        if self.audio is not None and outputs.sounds:
+        self._posted += 1
+        self._queue.put_nowait((self._posted, outputs))
+        if self.audio is not None and outputs.sounds and self._playing is not None:
             # Cut what is playing now: it belongs to a state that was left.
-            asyncio.get_running_loop().create_task(self.audio.stop())
+            asyncio.get_running_loop().create_task(self._cut(self._playing))
+
+    async def _cut(self, generation: int) -> None:
+        # Only the sound of that older transition: by the time this runs it may have ended
+        # and the new transition's own sound started, which must be heard whole.
+        if self.audio is not None and self._playing == generation:
+            await self.audio.stop()
 
     async def run(self) -> None:
         while True:
-            outputs = await self._queue.get()
-            await self.apply(outputs, overtaken=lambda: not self._queue.empty())
+            generation, outputs = await self._queue.get()
+            await self.apply(outputs, overtaken=lambda: not self._queue.empty(),
+                             generation=generation)
 
-    async def apply(self, outputs: Outputs, overtaken: Callable[[], bool] | None = None
-                    ) -> None:
+    async def apply(self, outputs: Outputs, overtaken: Callable[[], bool] | None = None,
+                    generation: int = 0) -> None:
         """Do ``outputs`` now; sounds are skipped once ``overtaken()`` says a newer one waits."""
         for mode in outputs.leds:
             if self.leds is not None:
@@ -61,4 +73,8 @@ class StateOutputs:
                 self.skipped_sounds += 1
                 continue
             if self.audio is not None:
-                await self.audio.play(sound)
+                self._playing = generation
+                try:
+                    await self.audio.play(sound)
+                finally:
+                    self._playing = None

@@ -116,3 +116,27 @@ def test_overtaken_sounds_are_skipped(tmp_path: Path) -> None:
     assert audio.played[0].sound == "request_qr" and audio.played[0].cut
     assert "failureScan" not in audio.sounds()  # overtaken by the move to waiting
     assert leds.shown == [LedMode.WAITING, LedMode.FAILURE_SCAN, LedMode.IDLE]
+
+
+def test_a_transitions_own_sound_is_heard_whole(tmp_path: Path) -> None:
+    """Posted one after another with silence between: each sound plays for its whole file,
+    the cut meant for a sound still playing never reaches the next state's own sound."""
+    write_tone_wav(tmp_path / "request_qr.wav", 1.5)
+    write_tone_wav(tmp_path / "successScan.wav", 0.5)
+    write_tone_wav(tmp_path / "order_accepted.wav", 1.5)
+    leds, audio = Leds(), SimAudio(tmp_path)
+    outputs = StateOutputs(leds, None, audio)
+
+    async def main() -> None:
+        task = asyncio.create_task(outputs.run())
+        outputs.post(outputs_for("approaching", "reached_customer", "verifying"))
+        await asyncio.sleep(3.0)
+        outputs.post(outputs_for("verifying", "order_valid", "navigating_to_warehouse", 7))
+        await asyncio.sleep(5.0)
+        task.cancel()
+        await asyncio.gather(task, return_exceptions=True)
+
+    vclock.run(main())
+    assert audio.sounds()[0] == "request_qr"
+    assert [p.cut for p in audio.played] == [False] * len(audio.played)
+    assert [round(p.duration_s, 3) for p in audio.played][0] == 1.5

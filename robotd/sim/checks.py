@@ -49,8 +49,9 @@ def finished(scenario: Scenario, robots: dict[str, RobotRecord]) -> bool:
 
 def failures(scenario: Scenario, robots: dict[str, RobotRecord], elapsed_s: float,
              extra: list[str] | None = None,
-             events: list[dict[str, Any]] | None = None) -> list[str]:
-    """Every success condition that does not hold, as a sentence; empty when all hold."""
+             events: list[dict[str, Any]] | None = None, *, paced: bool = False) -> list[str]:
+    """Every success condition that does not hold, as a sentence; empty when all hold
+    (``paced``: the run followed the wall clock, so its timers may be a little late)."""
     success = scenario.success
     reasons: list[str] = list(extra or [])
     many = len(robots) > 1
@@ -81,7 +82,7 @@ def failures(scenario: Scenario, robots: dict[str, RobotRecord], elapsed_s: floa
     reasons += _arrival_failures(scenario, events or [])
     goals = scenario.config.get("patrol", {}).get("goals", [])
     reasons += nav_failures(success.extra, events or [], goals)
-    reasons += delivery_failures(success.extra, events or [])
+    reasons += delivery_failures(success.extra, events or [], paced=paced)
     reasons += cabinet_failures(success.extra, events or [], [r.body for r in robots.values()])
     for want in success.extra.get("final_rooms", []):
         record = robots.get(str(want.get("robot")))

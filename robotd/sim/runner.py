@@ -317,7 +317,9 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
 
     # Interrupted by hand: the unmet conditions say nothing, only that it was stopped.
     reasons = ["interrupted"] if interrupted.is_set() else \
-        failures(scenario, records, elapsed, extra, events)
+        failures(scenario, records, elapsed, extra, events,
+                 paced=bool(getattr(args, "realtime", False)) or getattr(args, "speed", None)
+                 is not None)
     ok = not reasons
     figures = summary_figures(records, scenario, events)
     events.append({"t": loop.time(), "kind": "result", "ok": ok, "reasons": reasons,

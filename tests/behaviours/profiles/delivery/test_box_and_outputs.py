@@ -139,4 +139,4 @@ def test_a_transitions_own_sound_is_heard_whole(tmp_path: Path) -> None:
     vclock.run(main())
     assert audio.sounds()[0] == "request_qr"
     assert [p.cut for p in audio.played] == [False] * len(audio.played)
-    assert [round(p.duration_s, 3) for p in audio.played][0] == 1.5
+    assert round(audio.played[0].duration_s, 3) == 1.5

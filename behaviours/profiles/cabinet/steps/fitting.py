@@ -13,6 +13,7 @@ a pose as the middle of what the local map sees; the local map starts again ther
 
 from __future__ import annotations
 
+import asyncio
 import math
 from typing import TYPE_CHECKING
 
@@ -86,7 +87,9 @@ class Fitting:
         walls = m.site.site_map.wall_array()
         area = (float(walls[:, [0, 2]].min()), float(walls[:, [1, 3]].min()),
                 float(walls[:, [0, 2]].max()), float(walls[:, [1, 3]].max()))
-        fit = m.matcher.fit_global(points, area)
+        # A global fit takes 0.15-1 s of CPU: in a worker thread (numpy releases the GIL for
+        # most of it), so the loop keeps the heartbeat, the LiDAR and the watchdog running.
+        fit = await asyncio.to_thread(m.matcher.fit_global, points, area)
         m.fits += 1
         m.best_score = max(m.best_score, fit.score)
         x, y, theta = fit.pose

@@ -130,8 +130,10 @@ def draw_trajectory(
         ax.plot(person.x_m, person.y_m, marker="o", color="purple", ms=9, zorder=3)
 
     states = sorted({p.state for points in tracks.values() for p in points})
-    cmap = plt.get_cmap("tab10")
-    colour = {s: cmap(i % 10) for i, s in enumerate(states)}
+    # Up to 10 states in tab10's strong colours; more (the vacuum has 21) in tab20's 20.
+    cmap, hues = (plt.get_cmap("tab10"), 10) if len(states) <= 10 else (plt.get_cmap("tab20"), 20)
+    colour = {s: cmap(i % hues) for i, s in enumerate(states)}
+    dashed = {s for i, s in enumerate(states) if i >= hues}  # past the colours: dashed too
     styles = ["-", "--", ":", "-."]
     labelled: set[str] = set()
     halo = plt.get_cmap("Set2")
@@ -153,7 +155,8 @@ def draw_trajectory(
             if px:
                 label = None if state in labelled else (state or "-")
                 labelled.add(state)
-                ax.plot(px, py, color=colour[state], lw=1.8, ls=style, zorder=4, label=label)
+                ax.plot(px, py, color=colour[state], lw=1.8, zorder=4, label=label,
+                        ls="--" if state in dashed and len(tracks) == 1 else style)
         if points:
             ax.plot(points[0].x_m, points[0].y_m, marker="o", mfc="white", mec="black", ms=7,
                     zorder=5)
@@ -197,7 +200,9 @@ def draw_trajectory(
     ax.set_ylabel("y (m)")
     ax.set_title(title, fontsize=10)
     ax.grid(True, color="#eee", lw=0.5)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, framealpha=0.85)
+    handles, _labels = ax.get_legend_handles_labels()
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, framealpha=0.85,
+              ncol=2 if len(handles) > 28 else 1)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")  # a long legend is kept whole
     plt.close(fig)

@@ -109,8 +109,12 @@ def draw_trajectory(
                                zone.y_max_m - zone.y_min_m, facecolor="#e4f0ff",
                                edgecolor="#88a", lw=0.8, ls="--", zorder=0))
         ax.text(zone.x_min_m + 0.05, zone.y_min_m + 0.05, name, fontsize=8, color="#557")
-    for x1, y1, x2, y2 in world.walls:
-        ax.plot([x1, x2], [y1, y2], color="#333", lw=2.5, solid_capstyle="round", zorder=2)
+    mapped = world.walls.shape[0] - world.unmapped_walls
+    for i, (x1, y1, x2, y2) in enumerate(world.walls):
+        # Walls the robot's map lacks (furniture, a door shut by the script) in brown.
+        ax.plot([x1, x2], [y1, y2], color="#333" if i < mapped else "#8e5b2a", lw=2.5,
+                solid_capstyle="round", zorder=2,
+                label="not on the robot's map (furniture, shut doors)" if i == mapped else None)
     for line in world.lines:
         b, g, r = line.bgr
         xs = [p[0] for p in line.points] + ([line.points[0][0]] if line.closed else [])

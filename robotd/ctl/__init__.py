@@ -20,6 +20,7 @@ from robotd.ctl.connection import (
     Connection,
     DaemonError,
 )
+from robotd.ctl.links import LINKS_METHOD, RESET_METHOD, render_links, render_reset
 
 __all__ = ["DEFAULT_SOCKET", "CannotConnect", "Connection", "DaemonError", "main", "render"]
 
@@ -58,6 +59,9 @@ def build_parser() -> argparse.ArgumentParser:
     loaded = sub.add_parser("confirm-loaded",
                             help="delivery robot: the parcel is in the box (warehouse staff)")
     loaded.add_argument("--by", default="robotctl", help="who confirms (kept in the event)")
+    sub.add_parser("links", help="cabinet robot: its node graph's links, the broken ones first")
+    sub.add_parser("reset-links", help="cabinet robot: open every broken link (a technician's "
+                   "reset, not counted against the task's max_link_resets)")
     return parser
 
 
@@ -111,6 +115,10 @@ def _request(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
         return "trigger", {"name": args.name}
     if args.command == "confirm-loaded":
         return "delivery.confirm_loaded", {"by": args.by}
+    if args.command == "links":
+        return LINKS_METHOD, {}
+    if args.command == "reset-links":
+        return RESET_METHOD, {}
     return args.command, {}
 
 
@@ -131,6 +139,10 @@ def render(command: str, result: Any) -> str:
         return _render_status(result)
     if command == "sensors":
         return _render_sensors(result)
+    if command == "links":
+        return render_links(result, table)
+    if command == "reset-links":
+        return render_reset(result)
     if command == "events":
         rows = [[f"{e.get('t', 0):.3f}", str(e.get("kind", "")),
                  " ".join(f"{k}={_short(v)}" for k, v in e.items() if k not in ("t", "kind"))]
@@ -168,7 +180,8 @@ def _render_status(s: dict[str, Any]) -> str:
                      f"max {lag.get('max_ms', 0):.2f} ms"],
         ["triggers", ", ".join(s.get("triggers", []))], ["config", s.get("config")],
     ]
-    head += [[f"mission.{k}", _short(v)] for k, v in (s.get("mission") or {}).items()]
+    head += [[f"mission.{k}", "-" if v is None else _short(v)]
+             for k, v in (s.get("mission") or {}).items()]
     services = [[v["name"], v["state"], "yes" if v["critical"] else "no", v["restarts"],
                  v.get("last_error") or ""] for v in s.get("services", [])]
     return (table(["key", "value"], head) + "\n"

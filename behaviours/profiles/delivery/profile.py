@@ -105,6 +105,7 @@ class DeliveryProfile(BaseProfile):
         self.recovery: ErrorRecovery | None = None
         self.outputs: StateOutputs | None = None
         self.memory: DeliveryMemory | None = None
+        self.box: BoxController | None = None
         self._previous = "boot"
 
     # -- tables --------------------------------------------------------------------------------
@@ -162,7 +163,7 @@ class DeliveryProfile(BaseProfile):
         self.mission = DeliveryMission(nav, OrderVerifier(orders), memory, places, mark)
         self.recovery = ErrorRecovery(nav, memory, home, self.mission.good)
         self.mission.good.watch()
-        box = BoxController(_SeenServo(d.servo, ctx.emit), ctx.emit,
+        box = self.box = BoxController(_SeenServo(d.servo, ctx.emit), ctx.emit,
                             telemetry=ctx.telemetry) if d.servo is not None else None
         audio = _HeardAudio(d.audio, ctx.emit) if d.audio is not None else None
         outputs = self.outputs = StateOutputs(d.leds, box, audio)
@@ -240,6 +241,19 @@ class DeliveryProfile(BaseProfile):
             return
         order_id = self.memory.order_id if self.memory is not None else None
         self.outputs.post(states.outputs_for(_relative(src), trigger, dst, order_id))
+
+    def mission_status(self) -> dict[str, Any]:
+        """The order in hand for ``robotctl status`` (``mission.*`` rows): order, customer
+        position, parcel in the box, box angle, the last error category."""
+        if self.memory is None:
+            return {}
+        m = self.memory.values()
+        customer = self.memory.customer_position()
+        return {"order_id": m["order_id"],
+                "customer": None if customer is None else [round(v, 3) for v in customer],
+                "parcel_in_box": self.memory.parcel_in_box,
+                "box_angle_deg": None if self.box is None else self.box.angle_deg,
+                "last_error": m["last_error"]}
 
     def status(self) -> dict[str, Any]:
         """Navigation figures and the order in hand, for ``robotctl status``."""

@@ -3,7 +3,8 @@
 ``cabinets_in_order``: the ``cabinet.arrived`` events name these cabinets in this order.
 ``max_arrival_error_m``: each arrival's true position (the runner adds it) within this of the
 planned standoff pose. ``min_change_orientation``, ``min_links_closed``, ``min_links_reset``:
-at least that many ``fit.change_orientation``, ``link.closed``, ``links.reset`` events.
+at least that many ``fit.change_orientation``, ``link.closed``, ``links.reset`` events (the
+robot's own resets: a technician's ``cabinet.reset_links`` is figure ``links_reset_by_hand``).
 ``mission_failed_naming``: the expected outcome is ``mission.failed`` naming that cabinet, with
 the wheels stopped: the run then exits 1 (the robot's mission failed, as the scenario says it
 must) with ``mission.failed as expected: <reason>`` as its reason; anything else is named.
@@ -21,6 +22,12 @@ CABINET_SUCCESS_KEYS = ("cabinets_in_order", "max_arrival_error_m", "min_change_
 
 _COUNTED = {"min_change_orientation": "fit.change_orientation",
             "min_links_closed": "link.closed", "min_links_reset": "links.reset"}
+
+
+def by_hand(event: dict[str, Any]) -> bool:
+    """A technician's reset (``cabinet.reset_links`` on the control socket, ``by="control"``):
+    not the robot's own ``reset_links`` case, so counted apart (docs/daemon.md)."""
+    return event.get("by") == "control"
 
 
 def _arrivals(events: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -52,7 +59,7 @@ def cabinet_failures(extra: dict[str, Any], events: list[dict[str, Any]],
                                f"from its standoff pose, more than {limit * 100:.1f} cm")
     for key, kind in _COUNTED.items():
         if key in extra:
-            count = sum(1 for e in events if e.get("kind") == kind)
+            count = sum(1 for e in events if e.get("kind") == kind and not by_hand(e))
             if count < int(extra[key]):
                 reasons.append(f"{count} {kind} event(s), expected at least {extra[key]}")
     if "mission_failed_naming" in extra:
@@ -85,7 +92,10 @@ def cabinet_figures(events: list[dict[str, Any]]) -> dict[str, Any]:
         "cabinets_arrived": len(arrivals),
         "fits_tried": sum(1 for e in events if e.get("kind") == "fit.tried"),
         "links_closed": sum(1 for e in events if e.get("kind") == "link.closed"),
-        "links_reset": sum(1 for e in events if e.get("kind") == "links.reset"),
+        "links_reset": sum(1 for e in events
+                           if e.get("kind") == "links.reset" and not by_hand(e)),
+        "links_reset_by_hand": sum(1 for e in events
+                                   if e.get("kind") == "links.reset" and by_hand(e)),
     }
     if arrivals:
         out["max_arrival_error_cm"] = round(max(arrival_error_m(e) for e in arrivals) * 100, 2)

@@ -15,6 +15,7 @@ from typing import Any
 
 from behaviours.nav.map_file import map_problem
 from hal.options import Order, Section
+from robotd.config.delivery_files import delivery_file_problems
 from robotd.config.errors import ConfigError, ConfigProblem
 from robotd.config.screen import check_option, clip
 from robotd.config.sections import ORDERS, SECTIONS
@@ -198,6 +199,7 @@ def _system_problems(values: Values, path: str, where: dict[tuple[str, str], int
         if why is not None:
             problems.append(ConfigProblem(path, where.get(("map", "file")), "map.file", why))
     problems += cabinet_file_problems(values, path, where)
+    problems += delivery_file_problems(values, path, where)
     socket_path = values.get("control", {}).get("socket")
     if not isinstance(socket_path, str):
         return problems

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-import re
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -57,24 +56,39 @@ def read_json(path: Path, shown: str) -> Any:
     except (OSError, UnicodeDecodeError) as exc:
         raise SiteFileError([f"{shown}: file: cannot read: {exc}"]) from None
     try:
-        return json.loads(text, parse_constant=_reject_constant)
+        doc = json.loads(text, parse_constant=_Constant)
     except json.JSONDecodeError as exc:
         raise SiteFileError([f"{shown}: line {exc.lineno}: not JSON: {exc.msg}"]) from None
-    except ValueError as exc:
-        line = _line_of_constant(text)
-        raise SiteFileError([f"{shown}: {line}: {exc}"]) from None
     except RecursionError:
         raise SiteFileError([f"{shown}: file: nested too deeply to read"]) from None
+    constants = [f"{shown}: {where or 'file'}: {value.name} is not a number (JSON has no NaN "
+                 "or Infinity)" for where, value in _constants(doc, "")]
+    if constants:
+        raise SiteFileError(constants)
+    return doc
 
 
-def _line_of_constant(text: str) -> str:
-    match = re.search(r"\b(NaN|Infinity)\b", text)
-    return "file" if match is None else f"line {text.count(chr(10), 0, match.start()) + 1}"
+class _Constant:
+    """Where the decoder met ``NaN``/``Infinity``: a marker, reported at its JSON path."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
 
 
-def _reject_constant(name: str) -> Any:
-    msg = f"{name} is not a number (JSON has no NaN or Infinity)"
-    raise ValueError(msg)
+def _constants(value: Any, where: str) -> list[tuple[str, _Constant]]:
+    """(JSON path, marker) of every NaN/Infinity in a parsed document (iterative: the
+    decoder has already bounded the depth)."""
+    found: list[tuple[str, _Constant]] = []
+    stack: list[tuple[str, Any]] = [(where, value)]
+    while stack:
+        at, item = stack.pop()
+        if isinstance(item, _Constant):
+            found.append((at, item))
+        elif isinstance(item, dict):
+            stack += [(f"{at}.{k}" if at else str(k), v) for k, v in reversed(item.items())]
+        elif isinstance(item, list):
+            stack += [(f"{at}[{i}]", v) for i, v in reversed(list(enumerate(item)))]
+    return found
 
 
 def number(value: Any, where: str, problems: Problems) -> float | None:

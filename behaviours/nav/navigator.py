@@ -35,6 +35,7 @@ from behaviours.nav.localisation.filter import (
     LocalisedPose,
     Localiser,
 )
+from behaviours.nav.localisation.lidar_only import set_lidar_only
 from behaviours.nav.localisation.likelihood_field import DistanceGrid
 from behaviours.nav.localisation.motion_model import compose, inverse
 from behaviours.nav.localisation.people import PeopleTracker, unexplained_points
@@ -137,6 +138,12 @@ class NavStack:
         t.path("path", plan.points if plan is not None else [])
         grid = self.planner.grid
         t.grid("map", grid.occupied, grid.resolution_m, (grid.origin_x_m, grid.origin_y_m))
+
+    def encoders_failed(self, failed: bool) -> None:
+        """The seed's encoder failure: LiDAR-only localisation and half the speed while the
+        encoders are frozen (``True``); back to normal when they return (``False``)."""
+        set_lidar_only(self.localiser, failed, self._odom())
+        self.drive.speed_scale = 0.5 if failed else 1.0
 
     def pose(self) -> OdometryPose:
         """The fused map pose now (correction x live odometry)."""

@@ -35,7 +35,6 @@ from behaviours.nav.localisation.filter import (
     LocalisedPose,
     Localiser,
 )
-from behaviours.nav.localisation.lidar_only import set_lidar_only
 from behaviours.nav.localisation.likelihood_field import DistanceGrid
 from behaviours.nav.localisation.motion_model import compose, inverse
 from behaviours.nav.localisation.people import PeopleTracker, unexplained_points
@@ -142,7 +141,7 @@ class NavStack:
     def encoders_failed(self, failed: bool) -> None:
         """The seed's encoder failure: LiDAR-only localisation and half the speed while the
         encoders are frozen (``True``); back to normal when they return (``False``)."""
-        set_lidar_only(self.localiser, failed, self._odom())
+        self.localiser.set_lidar_only(failed, self._odom())
         self.drive.speed_scale = 0.5 if failed else 1.0
 
     def pose(self) -> OdometryPose:

@@ -192,6 +192,23 @@ class Localiser:
         self._odom_at_update = odom
         self.updates += 1
 
+    def set_lidar_only(self, on: bool, odom: OdomPose) -> None:
+        """LiDAR-only (the encoders failed: ``lidar_only.py``) or back on odometry."""
+        if on == (self.lidar_only is not None):
+            return
+        if on:
+            self.lidar_only = LidarOnlyMotion()
+            log.warning("localisation.lidar_only", on=True)
+            return
+        motion, self.lidar_only = self.lidar_only, None
+        anchor = self._odom_at_update  # the odometry pose the correction was last renewed on
+        if anchor is not None:  # the pose as it stands, now on the returned odometry
+            pose = self.pose_array(anchor)
+            self.correction = compose(pose, inverse(np.asarray(odom, dtype=np.float64)))
+        self._odom_at_update = odom
+        log.info("localisation.lidar_only", on=False,
+                 updates=motion.updates if motion is not None else 0)
+
     # --- the pose and its health ----------------------------------------------------------
 
     def pose_array(self, odom: OdomPose) -> FloatArray:

@@ -7,24 +7,17 @@ trusts no odometry at all: each particle is moved by the motion of the last LiDA
 (constant velocity, what the estimates themselves did, damped) and spread by Gaussian noise
 wide enough for the (halved) speed between two scans; the likelihood field then picks the
 particles that fit. The fused pose is the estimate itself (the correction is renewed against
-the frozen odometry pose). When the encoders return, the correction is re-anchored on the
-odometry pose of that moment, so a jump of the counters does not move the robot on the map.
+the frozen odometry pose). When the encoders return, ``Localiser.set_lidar_only`` re-anchors
+the correction on the odometry pose of that moment, so a jump of the counters does not move the
+robot on the map.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 import numpy.typing as npt
-import structlog
 
 from behaviours.nav.localisation.motion_model import compose, inverse, wrap
-
-if TYPE_CHECKING:
-    from behaviours.nav.localisation.filter import Localiser, OdomPose
-
-log = structlog.get_logger(__name__)
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -59,21 +52,3 @@ class LidarOnlyMotion:
         if self._last_estimate is not None:
             self.step = compose(inverse(self._last_estimate), estimate)
         self._last_estimate = np.array(estimate, dtype=np.float64)
-
-
-def set_lidar_only(localiser: Localiser, on: bool, odom: OdomPose) -> None:
-    """Switch the filter to LiDAR-only (encoders failed) or back to odometry (they returned)."""
-    if on == (localiser.lidar_only is not None):
-        return
-    if on:
-        localiser.lidar_only = LidarOnlyMotion()
-        log.warning("localisation.lidar_only", on=True)
-        return
-    motion, localiser.lidar_only = localiser.lidar_only, None
-    anchor = localiser._odom_at_update  # the odometry pose the correction was last renewed on
-    if anchor is not None:
-        pose = localiser.pose_array(anchor)
-        localiser.correction = compose(pose, inverse(np.asarray(odom, dtype=np.float64)))
-    localiser._odom_at_update = odom
-    log.info("localisation.lidar_only", on=False,
-             updates=motion.updates if motion is not None else 0)

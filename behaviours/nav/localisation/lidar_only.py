@@ -27,6 +27,10 @@ SIGMA_RAD = 0.035
 """Heading noise per scan (a halved in-place turn: ~0.03 rad between scans)."""
 VELOCITY_GAIN = 0.7
 """Share of the last step's motion carried into the next prediction (damped: no runaway)."""
+CATCH_UP_SCANS = 3
+CATCH_UP_FACTOR = 3.0
+"""The first scans after the switch spread the particles wider: the failure is seen only after
+``encoder_freeze_s`` of frozen ticks, and the robot drove on meanwhile (~10 cm at 0.2 m/s)."""
 
 
 class LidarOnlyMotion:
@@ -41,9 +45,10 @@ class LidarOnlyMotion:
         n = poses.shape[0]
         moved = compose(poses, self.step * VELOCITY_GAIN)
         noise = rng.standard_normal((n, 3))
-        moved[:, 0] += SIGMA_M * noise[:, 0]
-        moved[:, 1] += SIGMA_M * noise[:, 1]
-        moved[:, 2] = wrap(moved[:, 2] + SIGMA_RAD * noise[:, 2])
+        wide = CATCH_UP_FACTOR if self.updates < CATCH_UP_SCANS else 1.0
+        moved[:, 0] += SIGMA_M * wide * noise[:, 0]
+        moved[:, 1] += SIGMA_M * wide * noise[:, 1]
+        moved[:, 2] = wrap(moved[:, 2] + SIGMA_RAD * wide * noise[:, 2])
         self.updates += 1
         return moved
 

@@ -126,6 +126,7 @@ class WaypointDrive:
         self.settings = settings
         self.pose: PoseSource = pose_source if pose_source is not None else odometry.pose
         self.waits_for_link = 0
+        self.speed_scale = 1.0  # 0.5 while the encoders have failed (the seed's error table)
         self._link_up = asyncio.Event()
         self._up = motors.connected  # what _link_up says, read without a call each step
         if self._up:
@@ -176,7 +177,7 @@ class WaypointDrive:
             if abs(error) > _RETURN_TO_TURN_RAD:
                 await self._turn_towards(x_m, y_m, tuning)
                 continue
-            speed = max(tuning.min_mps, min(tuning.cruise_mps, 1.2 * along))
+            speed = max(tuning.min_mps, min(tuning.cruise_mps * self.speed_scale, 1.2 * along))
             omega = tuning.heading_gain * error
             half = omega * self.odometry.wheel_base_m / 2
             await self._send(wheel_command(speed - half, speed + half, tuning))
@@ -195,7 +196,7 @@ class WaypointDrive:
             error = _wrap(math.atan2(y_m - pose.y_m, x_m - pose.x_m) - pose.theta_rad)
             if abs(error) < _HEADING_TOLERANCE_RAD:
                 break
-            speed = max(tuning.min_mps, min(tuning.turn_mps, abs(error) * 0.25))
+            speed = max(tuning.min_mps, min(tuning.turn_mps * self.speed_scale, abs(error) * 0.25))
             sign = 1 if error > 0 else -1
             await self._send(wheel_command(-sign * speed, sign * speed, tuning))
             await timer_sleep(_PERIOD_S)

@@ -138,6 +138,12 @@ class NavStack:
         grid = self.planner.grid
         t.grid("map", grid.occupied, grid.resolution_m, (grid.origin_x_m, grid.origin_y_m))
 
+    def encoders_failed(self, failed: bool) -> None:
+        """The seed's encoder failure: LiDAR-only localisation and half the speed while the
+        encoders are frozen (``True``); back to normal when they return (``False``)."""
+        self.localiser.set_lidar_only(failed, self._odom())
+        self.drive.speed_scale = 0.5 if failed else 1.0
+
     def pose(self) -> OdometryPose:
         """The fused map pose now (correction x live odometry)."""
         p = self.localiser.pose_array(self._odom())

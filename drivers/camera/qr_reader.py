@@ -55,6 +55,7 @@ class QrCameraReader:
         self.camera_errors = 0
         self.last_decode_s = 0.0
         self.last_error: str | None = None
+        self.camera_failing = False  # the last frame read failed (unplugged, broken)
 
     async def start(self) -> None:
         if self._executor is None:
@@ -72,6 +73,7 @@ class QrCameraReader:
     def status(self) -> dict[str, Any]:
         return {"frames_decoded": self.frames_decoded, "codes_found": self.codes_found,
                 "camera_errors": self.camera_errors,
+                "camera_failing": self.camera_failing,
                 "last_decode_ms": round(self.last_decode_s * 1000, 1),
                 "last_error": self.last_error, "camera": self.camera.status()}
 
@@ -106,10 +108,12 @@ class QrCameraReader:
             frame = await self.camera.next_reading()
         except Exception as exc:  # a camera's failure is the camera's; QR just waits it out
             self.camera_errors += 1
+            self.camera_failing = True
             self.last_error = f"{type(exc).__name__}: {exc}"
             log.warning("qr.camera_error", error=self.last_error)
             await asyncio.sleep(_CAMERA_RETRY_S)
             return b""
+        self.camera_failing = False
         return await self.decode(frame.image)
 
     def _decode_blocking(self, image: Image) -> bytes:

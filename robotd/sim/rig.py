@@ -26,6 +26,7 @@ from hal.sim.devices.dock_ir_model import SimDockIr, dock_signal
 from hal.sim.devices.hx711_model import SimHx711Lines
 from hal.sim.devices.ld19 import SimLd19
 from hal.sim.devices.motor_board.dock_inputs import DockInputs
+from hal.sim.devices.motor_board.encoder_fault import freezable
 from hal.sim.devices.motor_board.fake_mcu import FakeMcu
 from hal.sim.devices.motor_board.simavr_bridge import SimavrBridge
 from hal.sim.devices.motor_board.simavr_mcu import SimavrMcu, SimavrUnavailable, missing_toolchain
@@ -36,7 +37,7 @@ from hal.sim.world.lidar_rays import LidarRays
 from robotd.config.settings import Settings
 from robotd.sim.delivery.devices import fit_qr_and_audio
 from robotd.sim.nav.map_writer import write_walls_map
-from robotd.sim.scenario import scenario_dir
+from robotd.sim.scenario import ScenarioError, scenario_dir
 
 log = structlog.get_logger(__name__)
 
@@ -250,6 +251,17 @@ class SimRig:
 
     def reset_mcu(self) -> None:
         self.board.reset()
+
+    def freeze_encoders(self, frozen: bool) -> None:
+        """The fake board's encoder counters stop (``True``) or run again: the wheels turn on."""
+        if self.simavr is not None:
+            msg = "encoders.fail: only the fake motor board (not --mcu simavr)"
+            raise ScenarioError(msg)
+        plant = self.mcu.plant = freezable(self.mcu.plant)
+        if frozen:
+            plant.freeze()
+        else:
+            plant.restore()
 
 
 async def open_sim_rig(world: World, body: DiffDriveBody, settings: Settings, *, seed: int,

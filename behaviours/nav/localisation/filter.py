@@ -21,6 +21,7 @@ import numpy.typing as npt
 import structlog
 
 from behaviours.nav.localisation.config import LocalisationConfig
+from behaviours.nav.localisation.lidar_only import LidarOnlyMotion
 from behaviours.nav.localisation.likelihood_field import (
     BeamModel,
     DistanceGrid,
@@ -91,6 +92,7 @@ class Localiser:
         self._stale_since_s: float | None = None
         self.status = UNCERTAIN
         self.divergences = 0
+        self.lidar_only: LidarOnlyMotion | None = None  # encoders failed: lidar_only.py
 
     # --- starting -------------------------------------------------------------------------
 
@@ -154,7 +156,7 @@ class Localiser:
         self._stale_since_s = None
         beams = select_beams(scan, self.config.max_beams, self.config.laser_max_range_m)
         updated = False
-        if len(self.particles) and self._moved_enough(odom):
+        if len(self.particles) and (self.lidar_only is not None or self._moved_enough(odom)):
             self._update(odom, beams)
             updated = True
         self.match_fraction = self.field.match_fraction(
@@ -173,18 +175,39 @@ class Localiser:
     def _update(self, odom: OdomPose, beams: FloatArray) -> None:
         c = self.config
         ps = self.particles
-        if self._odom_at_update is not None:
+        if self.lidar_only is not None:
+            ps.poses = self.lidar_only.predict(ps.poses, self.rng)
+        elif self._odom_at_update is not None:
             ps.poses = sample_odometry_motion(ps.poses, self._odom_at_update, odom, c.alphas,
                                               self.rng)
         factors, likelihoods = self.field.weights(ps.poses, beams)
         ps.weigh(factors, likelihoods, c.alpha_slow, c.alpha_fast)
         self.estimate = ps.estimate()
+        if self.lidar_only is not None:
+            self.lidar_only.estimated(self.estimate.as_array())
         self.correction = compose(self.estimate.as_array(), inverse(np.asarray(odom)))
         ps.resample(self.rng, self.sample_free, kld_err=c.kld_err, kld_z=c.kld_z,
                     min_particles=c.min_particles, max_particles=c.max_particles,
                     recover=c.alpha_slow > 0 and c.alpha_fast > 0)
         self._odom_at_update = odom
         self.updates += 1
+
+    def set_lidar_only(self, on: bool, odom: OdomPose) -> None:
+        """LiDAR-only (the encoders failed: ``lidar_only.py``) or back on odometry."""
+        if on == (self.lidar_only is not None):
+            return
+        if on:
+            self.lidar_only = LidarOnlyMotion()
+            log.warning("localisation.lidar_only", on=True)
+            return
+        motion, self.lidar_only = self.lidar_only, None
+        anchor = self._odom_at_update  # the odometry pose the correction was last renewed on
+        if anchor is not None:  # the pose as it stands, now on the returned odometry
+            pose = self.pose_array(anchor)
+            self.correction = compose(pose, inverse(np.asarray(odom, dtype=np.float64)))
+        self._odom_at_update = odom
+        log.info("localisation.lidar_only", on=False,
+                 updates=motion.updates if motion is not None else 0)
 
     # --- the pose and its health ----------------------------------------------------------
 

@@ -45,6 +45,12 @@ DELIVERY = Section("delivery", "RelayBot, the delivery robot (seed relaybot-deli
     Option("delivering_timeout_s", "float", states.DELIVERING_TIMEOUT_S,
            "Hard limit on delivering (the error table's 15 s; the state table keeps the seed's "
            "as its cap).", min=1, max=states.DELIVERING_TIMEOUT_S),
+    Option("encoder_freeze_s", "float", 0.5,
+           "Wheels driven this long with no encoder tick: encoder failure (LiDAR-only "
+           "localisation, half speed).", min=0.1, max=10, tunable=True),
+    Option("encoder_min_pwm", "int", 40,
+           "Wheel commands at or above this PWM must move the encoders.", min=1, max=255,
+           tunable=True),
 ))
 
 DELIVERY_ORDERS = (Order(("delivery.delivery_duration_s", "delivery.delivering_timeout_s")),)

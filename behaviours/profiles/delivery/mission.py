@@ -275,11 +275,12 @@ class DeliveryMission:
         loop = asyncio.get_running_loop()
         end = loop.time() + self.places.verifying_s
         while loop.time() < end:
-            if qr is None:
-                ctx.emit("delivery.camera_failure", detail="no QR camera")
-                await asyncio.sleep(end - loop.time())
-                break
-            code = await qr.next_code(min(QR_POLL_S, max(0.01, end - loop.time())))
+            code = None if qr is None else \
+                await qr.next_code(min(QR_POLL_S, max(0.01, end - loop.time())))
+            if code is None and (qr is None or getattr(qr, "camera_failing", False)):
+                await self._camera_failed(ctx, "no QR camera" if qr is None
+                                          else str(getattr(qr, "last_error", "")))
+                return
             if code is None:
                 continue
             verdict = await self.verifier.verify(code)
@@ -303,6 +304,15 @@ class DeliveryMission:
         if self.customer is not None:
             self._dismiss(self.customer.map_x_m, self.customer.map_y_m)
         await ctx.trigger("timeout")  # the configured limit; the table's 30 s is the cap
+
+    async def _camera_failed(self, ctx: RobotContext, detail: str) -> None:
+        """The error table's camera failure: a warning, the customer hears the failure sound
+        (``order_invalid``'s), and the robot goes back to waiting; it keeps operating."""
+        log.warning("delivery.camera_failure", detail=detail)
+        ctx.emit("delivery.camera_failure", category="camera_failure", detail=detail)
+        if self.customer is not None:
+            self._dismiss(self.customer.map_x_m, self.customer.map_y_m)
+        await ctx.trigger("order_invalid", reason="camera_failure")
 
     async def to_warehouse(self, ctx: RobotContext) -> None:
         outcome = await self.go(ctx, *self.places.warehouse, why="warehouse")

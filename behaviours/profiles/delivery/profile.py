@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 import structlog
 
+from behaviours.motion.encoder_watch import CommandedMotors, EncoderWatch, EncoderWatchConfig
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker
 from behaviours.nav.localisation.filter import LOCALISED
@@ -45,7 +46,7 @@ from behaviours.profiles.delivery.orders import OrderVerifier, SqliteOrders, sql
 from behaviours.profiles.delivery.outputs import StateOutputs
 from behaviours.profiles.delivery.recovery import ErrorRecovery
 from behaviours.service import Service, TaskService
-from hal.devices import Audio, ServoBox
+from hal.devices import Audio, Encoders, ServoBox
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -137,7 +138,8 @@ class DeliveryProfile(BaseProfile):
         if stored["x_m"] is not None:
             stored_pose = (float(stored["x_m"]), float(stored["y_m"]),
                            float(stored["heading_rad"]))
-        nav = self.nav = NavStack(s, d.motors, d.lidar, odometry, front_range=d.front_range,
+        motors = CommandedMotors(d.motors)  # under the guard: what reaches the board
+        nav = self.nav = NavStack(s, motors, d.lidar, odometry, front_range=d.front_range,
                                   stored_pose=stored_pose, emit=ctx.emit,
                                   telemetry=ctx.telemetry)
         ctx.emit("nav.start", initial_pose=nav.started_from,
@@ -176,6 +178,7 @@ class DeliveryProfile(BaseProfile):
 
         return [
             TaskService("odometry", OdometryTracker(d.encoders, odometry).run, critical=True),
+            TaskService("encoder_watch", _encoder_watch(ctx, nav, d.encoders, motors).run),
             _Localisation(nav),
             TaskService("delivery.outputs", outputs.run),
             TaskService("delivery.poses", lambda: _pose_events(ctx, nav),
@@ -263,6 +266,22 @@ class DeliveryProfile(BaseProfile):
         if self.memory is not None:
             out["delivery"] = self.memory.values()
         return out
+
+
+def _encoder_watch(ctx: RobotContext, nav: NavStack, encoders: Encoders,
+                   motors: CommandedMotors) -> EncoderWatch:
+    """The seed's encoder failure: an error event (category ``encoder``), LiDAR-only
+    localisation and half speed while the counters are frozen; the mission goes on."""
+
+    def changed(failed: bool, figures: dict[str, Any]) -> None:
+        nav.encoders_failed(failed)
+        ctx.emit("odometry.encoders_failed" if failed else "odometry.encoders_back",
+                 state=ctx.state, **figures)
+
+    s = ctx.settings
+    config = EncoderWatchConfig(freeze_s=float(s.get("delivery.encoder_freeze_s")),
+                                min_pwm=int(s.get("delivery.encoder_min_pwm")))
+    return EncoderWatch(encoders, motors.commanded_pwm, changed, config)
 
 
 async def _pose_events(ctx: RobotContext, nav: NavStack, period_s: float = 0.5) -> None:

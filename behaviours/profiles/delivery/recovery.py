@@ -8,7 +8,8 @@ Categories (``delivery.error`` events, ``last_error`` in the state store):
 | ``no_path`` | ``go_to`` → ``no_path`` (the planner's) | error_recovery |
 | ``stuck`` | ``go_to`` → ``no_progress`` (``planner.no_progress_s``) | error_recovery |
 | ``lidar_lost`` | ``lidar_lost``: 30 s on odometry alone | error_recovery |
-| ``camera_failure`` | no QR reader / frames | warning; verifying times out to waiting |
+| ``camera_failure`` | no QR reader / frame reads fail | warning, failure sound, to waiting |
+| ``encoder`` | ``EncoderWatch``: driven, ticks frozen 0.5 s | LiDAR-only, half speed; goes on |
 | ``serial_timeout`` / ``motor`` | the motor link down when a goal fails | error_recovery |
 | ``database`` | ``OrderVerifier`` (3 retries) | the order refused, the customer told |
 | ``servo`` | ``BoxController`` (3 tries of 2 s) | logged, the delivery goes on |
@@ -47,7 +48,7 @@ NAV_CATEGORY = {"diverged": "localisation_divergence", "no_path": "no_path",
                 "no_progress": "stuck", "lidar_lost": "lidar_lost"}
 """``NavOutcome.reason`` → the error table's category."""
 CATEGORIES = ("localisation_divergence", "no_path", "stuck", "lidar_lost", "camera_failure",
-              "encoder_failure", "serial_timeout", "database", "servo", "motor",
+              "encoder", "serial_timeout", "database", "servo", "motor",
               "loading_timeout", "delivering_timeout", "restart")
 LIDAR_WAIT_S = 30.0
 """error_recovery waits this long for a lost LiDAR's scans (the driver reconnects) per attempt."""

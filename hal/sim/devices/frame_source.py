@@ -51,6 +51,7 @@ class FrameSource(Generic[ShotT]):
         self._task: asyncio.Task[None] | None = None
         self.frames_captured = 0
         self.frames_rendered = 0
+        self.unplugged = False  # the bench's cable pulled: no frames, reads fail
 
     # --- Device -------------------------------------------------------------------------------
     async def start(self) -> None:
@@ -79,9 +80,23 @@ class FrameSource(Generic[ShotT]):
         return self._frame
 
     async def next_reading(self) -> Frame:
+        if self.unplugged:
+            msg = f"{self.name}: camera unplugged"
+            raise OSError(msg)
         fut: asyncio.Future[Frame] = asyncio.get_running_loop().create_future()
         self._waiters.append(fut)
         return await fut
+
+    def unplug(self) -> None:
+        """The camera is gone: reads waiting and to come fail (as a USB camera's do)."""
+        self.unplugged = True
+        waiters, self._waiters = self._waiters, []
+        for fut in waiters:
+            if not fut.done():
+                fut.set_exception(OSError(f"{self.name}: camera unplugged"))
+
+    def replug(self) -> None:
+        self.unplugged = False
 
     # --- for subclasses -----------------------------------------------------------------------
     def _snapshot(self, seq: int, t_s: float) -> ShotT:
@@ -102,6 +117,8 @@ class FrameSource(Generic[ShotT]):
         await on_a_grid(self._capture, 1.0 / self._fps)
 
     def _capture(self) -> None:
+        if self.unplugged:
+            return
         self.frames_captured += 1
         self._shot = self._snapshot(self.frames_captured, asyncio.get_running_loop().time())
         waiters, self._waiters = self._waiters, []

@@ -4,9 +4,11 @@ holds up a (different) QR code."""
 from __future__ import annotations
 
 from collections.abc import Awaitable
+from typing import Any
 
 import structlog
 
+from hal.sim.devices.frame_source import FrameSource
 from robotd.sim.actions.people import _person
 from robotd.sim.actions.step import Action, Step
 from robotd.sim.scenario import ScenarioError
@@ -80,7 +82,32 @@ def _servo_fail(step: Step) -> None:
         step.later(duration, lambda: setattr(board, "servo_fault", False), "servo.fixed")
 
 
+def _qr_camera(step: Step) -> FrameSource[Any]:
+    reader = step.rig.devices.qr
+    camera = getattr(reader, "camera", None)
+    if not isinstance(camera, FrameSource):
+        msg = "qr_camera.unplug/replug: this robot has no simulated QR camera"
+        raise ScenarioError(msg)
+    return camera
+
+
+def _qr_camera_unplug(step: Step) -> None:
+    """``qr_camera.unplug``: the forward camera's cable is pulled (reads fail);
+    ``duration_s``: plugged back after that long."""
+    camera = _qr_camera(step)
+    camera.unplug()
+    duration = step.duration_s()
+    if duration is not None:
+        step.later(duration, camera.replug, "qr_camera.replug")
+
+
+def _qr_camera_replug(step: Step) -> None:
+    _qr_camera(step).replug()
+
+
 DELIVERY_ACTIONS: dict[str, Action] = {
+    "qr_camera.unplug": _qr_camera_unplug,
+    "qr_camera.replug": _qr_camera_replug,
     "servo.fail": _servo_fail,
     "robotctl.trigger": _robotctl_trigger,
     "staff.confirm_loaded": _confirm_loaded,

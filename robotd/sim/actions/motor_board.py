@@ -1,4 +1,4 @@
-"""Script actions on a robot's motor board: unplug, replug, corrupt, reset."""
+"""Script actions on a robot's motor board: unplug, replug, corrupt, reset, frozen encoders."""
 
 from __future__ import annotations
 
@@ -28,7 +28,23 @@ def _reset(step: Step) -> None:
     step.rig.reset_mcu()
 
 
+def _encoders_fail(step: Step) -> None:
+    """``encoders.fail``: the board's encoder counters stop (the wheels still turn);
+    ``duration_s``: they run again after that long."""
+    rig = step.rig
+    rig.freeze_encoders(True)
+    duration = step.duration_s()
+    if duration is not None:
+        step.later(duration, lambda: rig.freeze_encoders(False), "encoders.restore")
+
+
+def _encoders_restore(step: Step) -> None:
+    step.rig.freeze_encoders(False)
+
+
 MOTOR_BOARD_ACTIONS: dict[str, Action] = {
+    "encoders.fail": _encoders_fail,
+    "encoders.restore": _encoders_restore,
     "mcu.unplug": _unplug,
     "mcu.replug": _replug,
     "mcu.corrupt": _corrupt,

@@ -240,3 +240,21 @@ class NavStack:
                            "replans": self.follower.replans}
         out["poses_published"] = self.poses_published
         return out
+
+
+class NavLocalisation:
+    """The localisation service of a profile on the navigation stack, with the stack's status
+    (pose, spread, scan rate, plan) for ``robotctl status``."""
+
+    name = "localisation"
+    critical = False
+    depends_on: tuple[str, ...] = ("odometry",)
+
+    def __init__(self, nav: NavStack) -> None:
+        self.nav = nav
+
+    async def run(self, ready: Any) -> None:
+        await self.nav.service.run(ready)
+
+    def status(self) -> dict[str, Any]:
+        return self.nav.status()

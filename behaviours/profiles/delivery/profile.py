@@ -33,7 +33,7 @@ from behaviours.motion.encoder_watch import CommandedMotors, EncoderWatch, Encod
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker
 from behaviours.nav.localisation.filter import LOCALISED
-from behaviours.nav.navigator import NavStack
+from behaviours.nav.navigator import NavLocalisation, NavStack
 from behaviours.persistence import MissionRecord
 from behaviours.profile import BaseProfile, ControlMethod, StateTask
 from behaviours.profiles.delivery import states
@@ -179,7 +179,7 @@ class DeliveryProfile(BaseProfile):
         return [
             TaskService("odometry", OdometryTracker(d.encoders, odometry).run, critical=True),
             TaskService("encoder_watch", _encoder_watch(ctx, nav, d.encoders, motors).run),
-            _Localisation(nav),
+            NavLocalisation(nav),
             TaskService("delivery.outputs", outputs.run),
             TaskService("delivery.poses", lambda: _pose_events(ctx, nav),
                         depends_on=("localisation",)),
@@ -306,20 +306,3 @@ async def _pose_events(ctx: RobotContext, nav: NavStack, period_s: float = 0.5) 
 
 def _relative(state: str) -> str:
     return state.removeprefix("mission.")
-
-
-class _Localisation:
-    """The localisation service, with the stack's status (pose, spread, scan rate, plan)."""
-
-    name = "localisation"
-    critical = False
-    depends_on: tuple[str, ...] = ("odometry",)
-
-    def __init__(self, nav: NavStack) -> None:
-        self.nav = nav
-
-    async def run(self, ready: Any) -> None:
-        await self.nav.service.run(ready)
-
-    def status(self) -> dict[str, Any]:
-        return self.nav.status()

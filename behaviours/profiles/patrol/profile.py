@@ -19,7 +19,7 @@ import structlog
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker
 from behaviours.nav.localisation.filter import LocalisedPose
-from behaviours.nav.navigator import NavOutcome, NavStack
+from behaviours.nav.navigator import NavLocalisation, NavOutcome, NavStack
 from behaviours.persistence import MissionRecord
 from behaviours.profile import BaseProfile, StateTask
 from behaviours.service import Service, TaskService
@@ -108,7 +108,7 @@ class PatrolProfile(BaseProfile):
             TaskService("odometry", OdometryTracker(d.encoders, odometry,
                                                     telemetry=ctx.telemetry).run,
                         critical=True),
-            _Localisation(nav),
+            NavLocalisation(nav),
             TaskService("patrol.poses", lambda: self._pose_events(ctx),
                         depends_on=("localisation",)),
             TaskService("patrol.autostart", autostart, depends_on=("localisation",)),
@@ -235,20 +235,3 @@ class PatrolProfile(BaseProfile):
         out["goal_index"] = self.goal_index
         out["loop"] = self.loop
         return out
-
-
-class _Localisation:
-    """The localisation service, with the stack's status (pose, spread, scan rate, plan)."""
-
-    name = "localisation"
-    critical = False
-    depends_on: tuple[str, ...] = ("odometry",)
-
-    def __init__(self, nav: NavStack) -> None:
-        self.nav = nav
-
-    async def run(self, ready: Any) -> None:
-        await self.nav.service.run(ready)
-
-    def status(self) -> dict[str, Any]:
-        return self.nav.status()

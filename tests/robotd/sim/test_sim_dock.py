@@ -9,78 +9,20 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from sim_dock_rig import DOCK_SCENARIO, dock_rig, reading_after, script_step
 
 from hal.readings import DockIrReading
 from hal.sim import vclock
-from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.dock import DEFAULT_BEAMS
 from hal.sim.world.geometry import Pose
-from robotd.sim.actions import ACTIONS, Step
-from robotd.sim.config import robot_settings
+from robotd.sim.actions import ACTIONS
 from robotd.sim.report import draw_trajectory
-from robotd.sim.rig import SimRig, open_sim_rig
+from robotd.sim.rig import SimRig
 from robotd.sim.scenario import Scenario, ScenarioError, parse_scenario
 
-SCENARIO = """
-[scenario]
-name = "dock-test"
-profile = "square"
 
-[config.docking]
-ir_combined = ["force_field", "front_left", "front_right"]
-
-[config.docking.ir_codes]
-force_field = 161
-front_left = 168
-front_right = 164
-far_left = 184
-far_right = 180
-centre = 176
-
-[world]
-width_m = 6.0
-height_m = 4.0
-dock = { x_m = 0.14, y_m = 2.0, heading_deg = 0 }
-
-[robot]
-name = "vac"
-x_m = 1.0
-y_m = 2.0
-heading_deg = 180
-
-[success]
-time_limit_s = 10
-"""
-
-
-def _scenario(text: str = SCENARIO) -> Scenario:
+def _scenario(text: str = DOCK_SCENARIO) -> Scenario:
     return parse_scenario(text, "<test>")
-
-
-async def _rig(scenario: Scenario, needs: tuple[str, ...] = ("dock_ir",)) -> SimRig:
-    spec = scenario.robots[0]
-    settings = robot_settings(scenario, spec, None)
-    body = DiffDriveBody(scenario.world, Pose(spec.x_m, spec.y_m, spec.heading_rad),
-                         clock=asyncio.get_running_loop().time)
-    return await open_sim_rig(scenario.world, body, settings, seed=1, index=0, needs=needs)
-
-
-def _step(scenario: Scenario, rig: SimRig, **args: Any) -> Step:
-    def later(delay_s: float, fn: Callable[[], None], _name: str) -> None:
-        asyncio.get_running_loop().call_later(delay_s, fn)
-
-    return Step(scenario, "vac", rig, args, later)
-
-
-async def _reading_after(rig: SimRig, seconds: float) -> DockIrReading:
-    device = rig.devices.dock_ir
-    assert device is not None
-    loop = asyncio.get_running_loop()
-    end = loop.time() + seconds
-    reading = await device.next_reading()
-    while loop.time() < end:
-        reading = await device.next_reading()
-    return reading
 
 
 class TestRig:
@@ -89,11 +31,11 @@ class TestRig:
         the centre beam."""
 
         async def main() -> DockIrReading:
-            rig = await _rig(_scenario())
+            rig = await dock_rig(_scenario())
             assert rig.devices.dock_ir is not None
             await rig.devices.dock_ir.start()
             try:
-                return await _reading_after(rig, 1.0)
+                return await reading_after(rig, 1.0)
             finally:
                 await rig.devices.dock_ir.close()
                 await rig.close()
@@ -105,7 +47,7 @@ class TestRig:
 
     def test_a_robot_without_dock_ir_gets_none(self) -> None:
         async def main() -> SimRig:
-            rig = await _rig(_scenario(), needs=())
+            rig = await dock_rig(_scenario(), needs=())
             await rig.close()
             return rig
 
@@ -114,7 +56,7 @@ class TestRig:
 
     def test_the_world_values_for_the_motor_board(self) -> None:
         async def main() -> dict[str, object]:
-            rig = await _rig(_scenario())
+            rig = await dock_rig(_scenario())
             values = rig.dock_values()
             await rig.close()
             return values
@@ -133,13 +75,13 @@ class TestActions:
     def test_beams_off_for_a_while_then_back(self) -> None:
         async def main() -> tuple[DockIrReading, DockIrReading]:
             scenario = _scenario()
-            rig = await _rig(scenario)
+            rig = await dock_rig(scenario)
             assert rig.devices.dock_ir is not None
             await rig.devices.dock_ir.start()
             try:
-                ACTIONS["dock.beams_off"](_step(scenario, rig, duration_s=1.0))
-                off = await _reading_after(rig, 0.8)
-                back = await _reading_after(rig, 0.7)
+                ACTIONS["dock.beams_off"](script_step(scenario, rig, duration_s=1.0))
+                off = await reading_after(rig, 0.8)
+                back = await reading_after(rig, 0.7)
             finally:
                 await rig.devices.dock_ir.close()
                 await rig.close()
@@ -152,11 +94,11 @@ class TestActions:
     def test_a_contacts_fault_gives_an_abnormal_voltage_then_mends(self) -> None:
         async def main() -> list[int]:
             scenario = _scenario()
-            rig = await _rig(scenario)
+            rig = await dock_rig(scenario)
             assert scenario.world.dock is not None
             rig.body.pose = scenario.world.dock.docked_pose(rig.body.params.radius_m)
             volts = [rig.body.contact_mv()]
-            ACTIONS["dock.contacts_fault"](_step(scenario, rig, duration_s=2.0))
+            ACTIONS["dock.contacts_fault"](script_step(scenario, rig, duration_s=2.0))
             volts.append(rig.body.contact_mv())
             await asyncio.sleep(2.5)
             volts.append(rig.body.contact_mv())
@@ -169,8 +111,8 @@ class TestActions:
     def test_move_puts_the_dock_elsewhere(self) -> None:
         async def main() -> tuple[float, float, float]:
             scenario = _scenario()
-            rig = await _rig(scenario)
-            ACTIONS["dock.move"](_step(scenario, rig, x_m=5.86, y_m=1.0, heading_deg=180))
+            rig = await dock_rig(scenario)
+            ACTIONS["dock.move"](script_step(scenario, rig, x_m=5.86, y_m=1.0, heading_deg=180))
             await rig.close()
             dock = scenario.world.dock
             assert dock is not None
@@ -181,8 +123,8 @@ class TestActions:
     def test_battery_set_sets_the_charge(self) -> None:
         async def main() -> float:
             scenario = _scenario()
-            rig = await _rig(scenario)
-            ACTIONS["battery.set"](_step(scenario, rig, pct=18))
+            rig = await dock_rig(scenario)
+            ACTIONS["battery.set"](script_step(scenario, rig, pct=18))
             await rig.close()
             return rig.body.charge_pct
 
@@ -197,9 +139,9 @@ class TestActions:
                                         message: str) -> None:
         async def main() -> None:
             scenario = _scenario()
-            rig = await _rig(scenario)
+            rig = await dock_rig(scenario)
             try:
-                ACTIONS[action](_step(scenario, rig, **args))
+                ACTIONS[action](script_step(scenario, rig, **args))
             finally:
                 await rig.close()
 
@@ -207,13 +149,13 @@ class TestActions:
             vclock.run(main())
 
     def test_dock_actions_in_a_world_without_a_dock_say_so(self) -> None:
-        text = SCENARIO.replace('dock = { x_m = 0.14, y_m = 2.0, heading_deg = 0 }\n', "")
+        text = DOCK_SCENARIO.replace('dock = { x_m = 0.14, y_m = 2.0, heading_deg = 0 }\n', "")
 
         async def main() -> None:
             scenario = _scenario(text)
-            rig = await _rig(scenario)
+            rig = await dock_rig(scenario)
             try:
-                ACTIONS["dock.beams_off"](_step(scenario, rig))
+                ACTIONS["dock.beams_off"](script_step(scenario, rig))
             finally:
                 await rig.close()
 
@@ -268,7 +210,7 @@ class TestMotorBoardWiring:
 
         async def main() -> tuple[list[object], bool, float]:
             scenario = _scenario()
-            rig = await _rig(scenario)
+            rig = await dock_rig(scenario)
             dock = scenario.world.dock
             assert dock is not None
             docked = dock.docked_pose(rig.body.params.radius_m)

@@ -4,83 +4,20 @@ it for a lost signal, searches again and docks once they are back."""
 
 from __future__ import annotations
 
-import asyncio
 import json
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import pytest
+from sim_dock_rig import DOCK_SCENARIO, dock_rig, reading_after, script_step
 
 from hal.readings import DockIrReading
 from hal.sim import vclock
-from hal.sim.world.body import DiffDriveBody
-from hal.sim.world.geometry import Pose
 from robotd.cli import main as cli_main
-from robotd.sim.actions import ACTIONS, Step
-from robotd.sim.config import robot_settings
-from robotd.sim.rig import SimRig, open_sim_rig
-from robotd.sim.scenario import Scenario, ScenarioError, parse_scenario
+from robotd.sim.actions import ACTIONS
+from robotd.sim.scenario import ScenarioError, parse_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[3] / "robotd" / "sim" / "scenarios"
-
-SCENARIO = """
-[scenario]
-name = "dock-ir-test"
-profile = "square"
-
-[config.docking]
-ir_combined = ["force_field", "front_left", "front_right"]
-
-[config.docking.ir_codes]
-force_field = 161
-front_left = 168
-front_right = 164
-far_left = 184
-far_right = 180
-centre = 176
-
-[world]
-width_m = 6.0
-height_m = 4.0
-dock = { x_m = 0.14, y_m = 2.0, heading_deg = 0 }
-
-[robot]
-name = "vac"
-x_m = 1.0
-y_m = 2.0
-heading_deg = 180
-
-[success]
-time_limit_s = 10
-"""
-
-
-async def _rig(scenario: Scenario) -> SimRig:
-    spec = scenario.robots[0]
-    settings = robot_settings(scenario, spec, None)
-    body = DiffDriveBody(scenario.world, Pose(spec.x_m, spec.y_m, spec.heading_rad),
-                         clock=asyncio.get_running_loop().time)
-    return await open_sim_rig(scenario.world, body, settings, seed=1, index=0,
-                              needs=("dock_ir",))
-
-
-def _step(scenario: Scenario, rig: SimRig, **args: Any) -> Step:
-    def later(delay_s: float, fn: Callable[[], None], _name: str) -> None:
-        asyncio.get_running_loop().call_later(delay_s, fn)
-
-    return Step(scenario, "vac", rig, args, later)
-
-
-async def _reading_after(rig: SimRig, seconds: float) -> DockIrReading:
-    device = rig.devices.dock_ir
-    assert device is not None
-    end = asyncio.get_running_loop().time() + seconds
-    reading = await device.next_reading()
-    while asyncio.get_running_loop().time() < end:
-        reading = await device.next_reading()
-    return reading
-
 
 Observed = tuple[DockIrReading, dict[str, Any], tuple[int, int], DockIrReading]
 
@@ -90,17 +27,17 @@ def _unplugged_then_back(**args: Any) -> Observed:
     after the receivers are back."""
 
     async def main() -> Observed:
-        scenario = parse_scenario(SCENARIO, "<test>")
-        rig = await _rig(scenario)
+        scenario = parse_scenario(DOCK_SCENARIO, "<test>")
+        rig = await dock_rig(scenario)
         device = rig.devices.dock_ir
         assert device is not None
         await device.start()
         try:
-            await _reading_after(rig, 0.5)
-            ACTIONS["dock_ir.unplug"](_step(scenario, rig, duration_s=2.0, **args))
-            off = await _reading_after(rig, 1.5)
+            await reading_after(rig, 0.5)
+            ACTIONS["dock_ir.unplug"](script_step(scenario, rig, duration_s=2.0, **args))
+            off = await reading_after(rig, 1.5)
             status, irs = device.status(), rig.dock_values()["irs"]
-            back = await _reading_after(rig, 1.0)
+            back = await reading_after(rig, 1.0)
         finally:
             await device.close()
             await rig.close()
@@ -132,10 +69,10 @@ class TestUnplug:
     @pytest.mark.parametrize("receiver", ["nose", ["omni", 3], []])
     def test_a_receiver_that_is_not_fitted_is_a_scenario_error(self, receiver: Any) -> None:
         async def main() -> None:
-            scenario = parse_scenario(SCENARIO, "<test>")
-            rig = await _rig(scenario)
+            scenario = parse_scenario(DOCK_SCENARIO, "<test>")
+            rig = await dock_rig(scenario)
             try:
-                ACTIONS["dock_ir.unplug"](_step(scenario, rig, receiver=receiver))
+                ACTIONS["dock_ir.unplug"](script_step(scenario, rig, receiver=receiver))
             finally:
                 await rig.close()
 

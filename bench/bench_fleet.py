@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import json
 import os
 import random
@@ -30,6 +31,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import AsyncIterator
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -252,9 +254,30 @@ def pct(values: list[float], q: float) -> float:
 
 async def run_one(db_url: str, robots: int, seconds: float, port: int,
                   extra: tuple[str, ...] = ()) -> dict[str, float]:
+    # The exchanges run before the /health baseline: a robot that has not reported for
+    # OfflineAfterS when the offline monitor looks (every 30 s) goes offline, and its next
+    # report takes the write path.
+    async with served_fleet(db_url, robots, port, extra) as (admin, pid):
+        admin.close()
+        latencies, cpu, own = await load(port, robots, seconds, pid, health=False)
+        base, health_cpu_s, _ = await load(port, robots, seconds, pid, health=True)
+        return {"rps": len(latencies) / seconds, "p50": pct(latencies, 0.5),
+                "cpu_ms": cpu / len(latencies) * 1000,
+                "client_cpu_ms": own / len(latencies) * 1000,
+                "health_cpu_ms": health_cpu_s / len(base) * 1000,
+                "p99": pct(latencies, 0.99), "max": max(latencies) * 1000,
+                "health_p50": pct(base, 0.5), "health_p99": pct(base, 0.99)}
+
+
+@contextlib.asynccontextmanager
+async def served_fleet(db_url: str, robots: int, port: int, extra: tuple[str, ...] = (),
+                       settings: str = "") -> AsyncIterator[tuple[Conn, int]]:
+    """A ``robotd-fleet serve`` of its own for a run: the site's ``robots``, a request from
+    half the customers and one report from every robot made. Yields an admin connection and
+    the server's pid; the server is stopped after."""
     workdir = Path(tempfile.mkdtemp(prefix="bench-fleet-"))
     site = workdir / "site.toml"
-    site.write_text(site_toml(robots))
+    site.write_text(site_toml(robots, settings))
     proc = subprocess.Popen(  # noqa: ASYNC220 - started once, before the measurement
         [str(ROOT / ".venv/bin/robotd-fleet"), "serve", "--db", db_url, "--site", str(site),
          "--port", str(port), "--log-level", "warning", *extra],
@@ -264,21 +287,10 @@ async def run_one(db_url: str, robots: int, seconds: float, port: int,
         admin = Conn(port)
         for c in range(1, robots // 2 + 1):
             await admin.call("POST", "/api/requests", json.dumps({"CustomerId": c}).encode())
-        # Every robot reports once before the timing, and the exchanges run before the
-        # /health baseline: a robot that has not reported for OfflineAfterS when the offline
-        # monitor looks (every 30 s) goes offline, and its next report takes the write path.
         for i in range(robots):
             await admin.call("POST", f"/api/Robot/robot-{i}/data-exchange",
                              exchange_body(f"robot-{i}", i), robot_token(i))
-        admin.close()
-        latencies, cpu, own = await load(port, robots, seconds, proc.pid, health=False)
-        base, health_cpu_s, _ = await load(port, robots, seconds, proc.pid, health=True)
-        return {"rps": len(latencies) / seconds, "p50": pct(latencies, 0.5),
-                "cpu_ms": cpu / len(latencies) * 1000,
-                "client_cpu_ms": own / len(latencies) * 1000,
-                "health_cpu_ms": health_cpu_s / len(base) * 1000,
-                "p99": pct(latencies, 0.99), "max": max(latencies) * 1000,
-                "health_p50": pct(base, 0.5), "health_p99": pct(base, 0.99)}
+        yield admin, proc.pid
     finally:
         proc.terminate()
         try:

@@ -9,12 +9,9 @@ from __future__ import annotations
 
 import asyncio
 import json
-import subprocess
-import tempfile
 import time
-from pathlib import Path
 
-from bench_fleet import ROOT, Conn, exchange_body, robot_token, site_toml, wait_ready
+from bench_fleet import Conn, exchange_body, robot_token, served_fleet
 
 
 async def run_storm(db_url: str, robots: int, port: int,
@@ -22,21 +19,8 @@ async def run_storm(db_url: str, robots: int, port: int,
     """A reconnect storm: every robot reports, goes offline (OfflineAfterS 2 s, checked every
     second), then all report at once on connections opened beforehand. Returns the seconds
     from the first send to the last answer, and how many robots are online after."""
-    workdir = Path(tempfile.mkdtemp(prefix="bench-fleet-storm-"))
-    site = workdir / "site.toml"
-    site.write_text(site_toml(robots, "OfflineAfterS = 2\nOfflineCheckPeriodS = 1\n"))
-    proc = subprocess.Popen(  # noqa: ASYNC220 - started once, before the measurement
-        [str(ROOT / ".venv/bin/robotd-fleet"), "serve", "--db", db_url, "--site", str(site),
-         "--port", str(port), "--log-level", "warning", *extra],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    try:
-        await wait_ready(port, proc)
-        admin = Conn(port)
-        for c in range(1, robots // 2 + 1):
-            await admin.call("POST", "/api/requests", json.dumps({"CustomerId": c}).encode())
-        for i in range(robots):
-            await admin.call("POST", f"/api/Robot/robot-{i}/data-exchange",
-                             exchange_body(f"robot-{i}", i), robot_token(i))
+    async with served_fleet(db_url, robots, port, extra,
+                            "OfflineAfterS = 2\nOfflineCheckPeriodS = 1\n") as (admin, _pid):
         # Another process's state, seen only through its API: poll it.
         while sum(r["IsOffline"] for r in await _robots(admin)) < robots:  # noqa: ASYNC110
             await asyncio.sleep(0.5)
@@ -60,13 +44,6 @@ async def run_storm(db_url: str, robots: int, port: int,
             conn.close()
         admin.close()
         return {"restore_s": elapsed_s, "online": online}
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
 
 
 async def _robots(admin: Conn) -> list[dict[str, object]]:

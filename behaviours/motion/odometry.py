@@ -6,6 +6,7 @@ import math
 from dataclasses import dataclass
 
 from hal.readings import EncoderReading
+from hal.settings import SettingsView
 
 
 @dataclass(frozen=True, slots=True)
@@ -43,6 +44,12 @@ class Odometry:
         self.distance_m = 0.0
         self.rebases = 0
         self.last_t_s: float | None = None
+
+    @classmethod
+    def from_settings(cls, settings: SettingsView) -> Odometry:
+        """The robot's wheels as the ``drive`` section describes them."""
+        drive = settings.section("drive")
+        return cls(drive["wheel_base_m"], drive["wheel_radius_m"], drive["ticks_per_rev"])
 
     def reset(self, x_m: float = 0.0, y_m: float = 0.0, theta_rad: float = 0.0) -> None:
         self._x, self._y, self._theta = x_m, y_m, theta_rad

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import asyncio
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -240,6 +240,14 @@ class NavStack:
                            "replans": self.follower.replans}
         out["poses_published"] = self.poses_published
         return out
+
+
+def stored_pose(values: Mapping[str, Any]) -> tuple[float, float, float] | None:
+    """A pose record's values (``x_m``, ``y_m``, ``heading_rad``) as ``NavStack``'s
+    ``stored_pose``; None while none has been stored."""
+    if values["x_m"] is None:
+        return None
+    return float(values["x_m"]), float(values["y_m"]), float(values["heading_rad"])
 
 
 class NavLocalisation:

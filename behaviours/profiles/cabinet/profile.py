@@ -66,9 +66,7 @@ class CabinetProfile(BaseProfile):
         if d.encoders is None or d.motors is None or d.lidar is None:
             msg = "the cabinet profile needs motors, encoders and a lidar"
             raise RuntimeError(msg)
-        drive = ctx.settings.section("drive")
-        odometry = Odometry(drive["wheel_base_m"], drive["wheel_radius_m"],
-                            drive["ticks_per_rev"])
+        odometry = Odometry.from_settings(ctx.settings)
         source = str(getattr(ctx.settings, "source", "") or "")
         base_dir = None if not source or source.startswith("<") else str(Path(source).parent)
         mission = self.mission = Mission(CabinetConfig.from_settings(ctx.settings), odometry,

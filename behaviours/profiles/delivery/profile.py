@@ -33,7 +33,7 @@ from behaviours.motion.encoder_watch import CommandedMotors, EncoderWatch, Encod
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker
 from behaviours.nav.localisation.filter import LOCALISED
-from behaviours.nav.navigator import NavLocalisation, NavStack
+from behaviours.nav.navigator import NavLocalisation, NavStack, stored_pose
 from behaviours.persistence import MissionRecord
 from behaviours.profile import BaseProfile, ControlMethod, StateTask
 from behaviours.profiles.delivery import states
@@ -130,17 +130,11 @@ class DeliveryProfile(BaseProfile):
             msg = "the delivery profile needs motors, encoders and a lidar"
             raise RuntimeError(msg)
         s = ctx.settings
-        drive = s.section("drive")
-        odometry = Odometry(drive["wheel_base_m"], drive["wheel_radius_m"],
-                            drive["ticks_per_rev"])
-        stored = ctx.persisted(POSE_RECORD).values()
-        stored_pose = None
-        if stored["x_m"] is not None:
-            stored_pose = (float(stored["x_m"]), float(stored["y_m"]),
-                           float(stored["heading_rad"]))
+        odometry = Odometry.from_settings(ctx.settings)
+        stored = stored_pose(ctx.persisted(POSE_RECORD).values())
         motors = CommandedMotors(d.motors)  # under the guard: what reaches the board
         nav = self.nav = NavStack(s, motors, d.lidar, odometry, front_range=d.front_range,
-                                  stored_pose=stored_pose, emit=ctx.emit,
+                                  stored_pose=stored, emit=ctx.emit,
                                   telemetry=ctx.telemetry)
         ctx.emit("nav.start", initial_pose=nav.started_from,
                  particles=len(nav.localiser.particles),

@@ -19,7 +19,7 @@ import structlog
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker
 from behaviours.nav.localisation.filter import LocalisedPose
-from behaviours.nav.navigator import NavLocalisation, NavOutcome, NavStack
+from behaviours.nav.navigator import NavLocalisation, NavOutcome, NavStack, stored_pose
 from behaviours.persistence import MissionRecord
 from behaviours.profile import BaseProfile, StateTask
 from behaviours.service import Service, TaskService
@@ -80,16 +80,10 @@ class PatrolProfile(BaseProfile):
         if d.encoders is None or d.motors is None or d.lidar is None:
             msg = "the patrol profile needs motors, encoders and a lidar"
             raise RuntimeError(msg)
-        drive = ctx.settings.section("drive")
-        odometry = Odometry(drive["wheel_base_m"], drive["wheel_radius_m"],
-                            drive["ticks_per_rev"])
-        stored = ctx.persisted(POSE_RECORD).values()
-        stored_pose = None
-        if stored["x_m"] is not None:
-            stored_pose = (float(stored["x_m"]), float(stored["y_m"]),
-                           float(stored["heading_rad"]))
+        odometry = Odometry.from_settings(ctx.settings)
+        stored = stored_pose(ctx.persisted(POSE_RECORD).values())
         nav = self.nav = NavStack(ctx.settings, d.motors, d.lidar, odometry,
-                                  front_range=d.front_range, stored_pose=stored_pose,
+                                  front_range=d.front_range, stored_pose=stored,
                                   emit=ctx.emit, telemetry=ctx.telemetry)
         ctx.emit("nav.start", initial_pose=nav.started_from, particles=len(
             nav.localiser.particles), map_resolution_m=nav.planner.grid.resolution_m)

@@ -23,11 +23,6 @@ if TYPE_CHECKING:
 log = structlog.get_logger(__name__)
 
 
-def make_odometry(ctx: RobotContext) -> Odometry:
-    drive = ctx.settings.section("drive")
-    return Odometry(drive["wheel_base_m"], drive["wheel_radius_m"], drive["ticks_per_rev"])
-
-
 SQUARE_MISSION = MissionRecord("square.mission", 1, {"done": False})
 """The square is driven once per state directory."""
 LEGACY_DONE_KEY = "square.done"
@@ -56,7 +51,7 @@ class SquareProfile(BaseProfile):
         if encoders is None:
             msg = "the square profile needs encoders"
             raise RuntimeError(msg)
-        odometry = self._odometry = make_odometry(ctx)
+        odometry = self._odometry = Odometry.from_settings(ctx.settings)
 
         async def autostart() -> None:
             """Starts the mission once, as soon as the robot is idle after boot."""

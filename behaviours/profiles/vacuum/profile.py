@@ -20,7 +20,6 @@ from behaviours.motion.moves import Mover
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker
 from behaviours.profile import BaseProfile, StateTask
-from behaviours.profiles.square.profile import make_odometry
 from behaviours.profiles.vacuum.cleaning import Coverage
 from behaviours.service import Service, TaskService
 
@@ -62,7 +61,7 @@ class VacuumProfile(BaseProfile):
         if encoders is None:
             msg = "the vacuum profile needs encoders"
             raise RuntimeError(msg)
-        odometry = self._odometry = make_odometry(ctx)
+        odometry = self._odometry = Odometry.from_settings(ctx.settings)
         self._rng = random.Random(str(ctx.settings.get("robot.name")))
 
         async def autostart() -> None:

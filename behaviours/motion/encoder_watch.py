@@ -18,38 +18,19 @@ from typing import Any
 
 import structlog
 
+from behaviours.motion.obstacle_guard import MotorsPassThrough
 from hal.devices import Encoders, Motors
-from hal.readings import LinkStats, MotorCommand
+from hal.readings import MotorCommand
 
 log = structlog.get_logger(__name__)
 
 
-class CommandedMotors:
+class CommandedMotors(MotorsPassThrough):
     """The wheels, passed through; ``last`` is the command the board was given last."""
 
     def __init__(self, motors: Motors) -> None:
-        self.motors = motors
-        self.name = getattr(motors, "name", "motors")
+        super().__init__(motors)
         self.last = MotorCommand.stopped()
-
-    @property
-    def connected(self) -> bool:
-        return self.motors.connected
-
-    async def start(self) -> None:
-        await self.motors.start()
-
-    async def close(self) -> None:
-        await self.motors.close()
-
-    def status(self) -> dict[str, Any]:
-        return self.motors.status()
-
-    def on_link_change(self, callback: Callable[[bool], None]) -> None:
-        self.motors.on_link_change(callback)
-
-    def link_stats(self) -> LinkStats:
-        return self.motors.link_stats()
 
     async def stop(self) -> None:
         self.last = MotorCommand.stopped()

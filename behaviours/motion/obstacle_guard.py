@@ -22,18 +22,14 @@ from hal.settings import SettingsView
 log = structlog.get_logger(__name__)
 
 
-class ObstacleGuard:
-    def __init__(self, motors: Motors, front_range: RangeSensor, settings: SettingsView,
-                 emit: Callable[..., None] | None = None) -> None:
-        self.motors = motors
-        self.front_range = front_range
-        self.settings = settings
-        self.name = f"{getattr(motors, 'name', 'motors')}+guard"
-        self.blocked = False
-        self.blocks = 0
-        self._emit = emit
+class MotorsPassThrough:
+    """A ``Motors`` that hands everything to the one it wraps; layers over the wheels (the
+    obstacle guard, the encoder watch's record of commands) override what they change."""
 
-    # Motors, passed through -----------------------------------------------------------------
+    def __init__(self, motors: Motors) -> None:
+        self.motors = motors
+        self.name = getattr(motors, "name", "motors")
+
     @property
     def connected(self) -> bool:
         return self.motors.connected
@@ -45,8 +41,7 @@ class ObstacleGuard:
         await self.motors.close()
 
     def status(self) -> dict[str, Any]:
-        return {**self.motors.status(), "guard_blocked": self.blocked,
-                "guard_blocks": self.blocks}
+        return self.motors.status()
 
     def on_link_change(self, callback: Callable[[bool], None]) -> None:
         self.motors.on_link_change(callback)
@@ -56,6 +51,25 @@ class ObstacleGuard:
 
     async def stop(self) -> None:
         await self.motors.stop()
+
+    async def drive(self, command: MotorCommand) -> None:
+        await self.motors.drive(command)
+
+
+class ObstacleGuard(MotorsPassThrough):
+    def __init__(self, motors: Motors, front_range: RangeSensor, settings: SettingsView,
+                 emit: Callable[..., None] | None = None) -> None:
+        super().__init__(motors)
+        self.front_range = front_range
+        self.settings = settings
+        self.name = f"{getattr(motors, 'name', 'motors')}+guard"
+        self.blocked = False
+        self.blocks = 0
+        self._emit = emit
+
+    def status(self) -> dict[str, Any]:
+        return {**self.motors.status(), "guard_blocked": self.blocked,
+                "guard_blocks": self.blocks}
 
     async def drive(self, command: MotorCommand) -> None:
         if _moves_forward(command) and self._path_blocked():

@@ -1,7 +1,7 @@
 """Simulator speed: virtual seconds per wall/CPU second on a scenario, and peak memory.
 
     .venv/bin/python bench/bench_sim.py [SCENARIO] [--runs N] [--turns] [--profile FILE]
-                                        [--no-reference]
+                                        [--no-reference] [--record]
 
 Prints, per run, the virtual time simulated and the wall and CPU time the run itself took
 (imports and start-up excluded, reported separately), the speed factor (virtual / wall and
@@ -10,6 +10,9 @@ process's peak RSS. A scenario other than ``square`` is followed by ``square`` i
 process (unless ``--no-reference`` or ``--profile``), and both medians are printed together:
 compare them, and CPU figures rather than wall ones; the machine is shared, wall time follows
 its load.
+
+``--record`` runs each scenario as ``robotd sim --report DIR`` does, writing ``DIR/run.mcap``
+(the events and the PNG are written after the run and are not timed, as in the summary).
 
 ``--turns`` also prints the event loop's turns and callbacks per virtual second by origin (task
 coroutine or callback): in virtual time every wake-up costs a loop turn, so this says which
@@ -48,6 +51,8 @@ def main() -> int:
     parser.add_argument("--profile", metavar="FILE", help="cProfile the runs into FILE")
     parser.add_argument("--no-reference", action="store_true",
                         help=f"do not also run {REFERENCE!r} for comparison")
+    parser.add_argument("--record", action="store_true",
+                        help="record run.mcap as --report does (the issue's figure)")
     opts = parser.parse_args()
 
     names = [opts.scenario]
@@ -63,13 +68,14 @@ def main() -> int:
     profiler = cProfile.Profile() if opts.profile else None
     medians: dict[str, tuple[float, float]] = {}
     for name in names:
-        factors = _bench(name, opts.runs, opts.turns, profiler)
+        factors = _bench(name, opts.runs, opts.turns, profiler, record=opts.record)
         if factors is None:
             return 1
         medians[name] = factors
     rss_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     for name, (wall_x, cpu_x) in medians.items():
-        print(f"speed factor median {name:>14}: x{wall_x:.0f} wall, x{cpu_x:.0f} cpu "
+        print(f"speed factor median {name:>14}{' recorded' if opts.record else ''}: "
+              f"x{wall_x:.0f} wall, x{cpu_x:.0f} cpu "
               f"(target {TARGETS.get(name, '-')})")
     print(f"peak RSS: {rss_mib:.0f} MiB")
     if profiler is not None:
@@ -97,7 +103,8 @@ def _load(name: str) -> None:
 
 
 def _bench(name: str, runs: int, turns: bool,
-           profiler: cProfile.Profile | None) -> tuple[float, float] | None:
+           profiler: cProfile.Profile | None, *,
+           record: bool = False) -> tuple[float, float] | None:
     """Run scenario ``name`` ``runs`` times (seeds 1..runs); median (wall, cpu) speed factors."""
     from hal.sim import vclock
     from robotd.sim import runner as sim_runner
@@ -107,13 +114,17 @@ def _bench(name: str, runs: int, turns: bool,
     scenario = load_scenario(name)
     wall_factors, cpu_factors = [], []
     for i in range(runs):
-        args = argparse.Namespace(scenario=name, seed=i + 1, realtime=False, speed=None,
-                                  report=None, quiet=True, socket=None, config=None, mcu="fake")
         console = SimConsole(quiet=True)
         gc.collect()  # the previous run's garbage is not this run's work
         w0, c0 = time.perf_counter(), time.process_time()
         with tempfile.TemporaryDirectory(prefix="bench-sim-") as workdir, \
                 _counting(turns) as counts:
+            report = str(Path(workdir) / "report") if record else None
+            if report is not None:
+                Path(report).mkdir()
+            args = argparse.Namespace(scenario=name, seed=i + 1, realtime=False, speed=None,
+                                      report=report, quiet=True, socket=None, config=None,
+                                      mcu="fake")
             main = sim_runner._run(args, scenario, console, Path(workdir))
             result = profiler.runcall(vclock.run, main) if profiler else vclock.run(main)
         wall, cpu = time.perf_counter() - w0, time.process_time() - c0

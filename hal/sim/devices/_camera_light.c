@@ -72,9 +72,20 @@ static inline Py_ssize_t reflect(Py_ssize_t i, Py_ssize_t n)
     return i;
 }
 
-/* Rows rows[0..k-1] of the frame, the texture looked up for them (see the top). */
+/* A float rounded to the nearest integer, ties to even (as lrintf, without a libm call):
+ * adding and subtracting 1.5 * 2**23 does it for |v| < 2**22. */
+static inline Py_ssize_t round_index(float v)
+{
+    if (!(fabsf(v) < 4194304.0f))
+        return (Py_ssize_t)nearbyintf(v); /* never for a texture the view fits in */
+    return (Py_ssize_t)((v + 12582912.0f) - 12582912.0f);
+}
+
+/* Rows rows[0..k-1] of the frame, the texture looked up for them (see the top); ambient holds
+ * the room light of those rows only. Where the CPU has FMA (Haswell on) the loader picks a
+ * build whose fmaf is one instruction; elsewhere fmaf is libm's (the same result). */
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("arch=haswell", "default")))
 #endif
 static void light_some_rows(const uint8_t *paint, const float *texture, Py_ssize_t tex_h,
                             Py_ssize_t tex_w, const float *m, const float *stat,
@@ -86,11 +97,12 @@ static void light_some_rows(const uint8_t *paint, const float *texture, Py_ssize
         const Py_ssize_t r = rows[i], at = r * w;
         const float y = (float)r;
         const float bx = m[1] * y + m[2], by = m[4] * y + m[5];
+        const float *a = amb + i * w;
         for (Py_ssize_t c = 0; c < w; c++) {
             const float x = (float)c;
-            const Py_ssize_t sx = reflect((Py_ssize_t)lrintf(fmaf(m[0], x, bx)), tex_w);
-            const Py_ssize_t sy = reflect((Py_ssize_t)lrintf(fmaf(m[3], x, by)), tex_h);
-            const float g = (texture[sy * tex_w + sx] * stat[at + c]) * amb[at + c];
+            const Py_ssize_t sx = reflect(round_index(fmaf(m[0], x, bx)), tex_w);
+            const Py_ssize_t sy = reflect(round_index(fmaf(m[3], x, by)), tex_h);
+            const float g = (texture[sy * tex_w + sx] * stat[at + c]) * a[c];
             gain3[3 * c] = g;
             gain3[3 * c + 1] = g;
             gain3[3 * c + 2] = g;
@@ -169,7 +181,7 @@ done:
 
 /* light_rows(paint, texture, matrix, static_gain, ambient, noise, noise_row, noise_col, rows,
  * out): rows ``rows`` of the frame light() would draw with the texture cv2.warpAffine(texture,
- * matrix, ...) would give, into out (len(rows), w, 3). */
+ * matrix, ...) would give, into out (len(rows), w, 3); ambient has those rows' room light. */
 static PyObject *light_rows(PyObject *self, PyObject *args)
 {
     PyObject *objs[6], *rows_obj;
@@ -201,13 +213,13 @@ static PyObject *light_rows(PyObject *self, PyObject *args)
     int ok = v[0].shape[2] == 3 && v[4].shape[2] == 3 && v[5].shape[2] == 3
              && v[5].shape[0] == k && v[5].shape[1] == w && v[1].shape[0] > 0
              && v[1].shape[1] > 0;
-    for (int i = 2; i < 4; i++)
-        ok = ok && v[i].shape[0] == h && v[i].shape[1] == w;
+    ok = ok && v[2].shape[0] == h && v[2].shape[1] == w && v[3].shape[0] == k
+         && v[3].shape[1] == w;
     ok = ok && oy >= 0 && ox >= 0 && oy + h <= v[4].shape[0] && ox + w <= v[4].shape[1];
     if (!ok) {
         PyErr_SetString(PyExc_ValueError, "camera light: shapes differ (paint (h, w, 3); "
-                        "static gain, ambient (h, w); out (len(rows), w, 3); noise holds "
-                        "(h, w, 3) at the offset; texture not empty)");
+                        "static gain (h, w); ambient (len(rows), w); out (len(rows), w, 3); "
+                        "noise holds (h, w, 3) at the offset; texture not empty)");
         goto done;
     }
     rows = PyMem_Malloc(sizeof(Py_ssize_t) * (size_t)(k ? k : 1));

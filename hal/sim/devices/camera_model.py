@@ -173,36 +173,43 @@ class SimCamera(FrameSource[_Shot]):
         return self._light.light(self._paint(shot.pose, shot.wheel_mps), shot.pose, shot.noise_at)
 
     def _render_rows(self, shot: _Shot, rows: Sequence[int]) -> U8Image:
-        """Rows ``rows`` of ``_render_shot(shot)``, the same bytes; only those rows are lit
-        (the paint is drawn whole: anti-aliased lines drawn into a band are not provably the
-        same pixels)."""
+        """Rows ``rows`` of ``_render_shot(shot)``, the same bytes; only those rows are lit,
+        and the motion blur is done on the band they span (the lines are drawn whole: drawn
+        into a band, anti-aliased lines are not provably the same pixels)."""
         if self.covered:
             return self._light.dark(shot.noise_at, rows)
-        if len(rows) and (min(rows) < 0 or max(rows) >= self.height_px):
-            msg = f"{self.name}: rows {min(rows)}..{max(rows)} outside 0..{self.height_px - 1}"
+        if len(rows) == 0:
+            return np.empty((0, self.width_px, 3), np.uint8)
+        first, last = min(rows), max(rows)
+        if first < 0 or last >= self.height_px:
+            msg = f"{self.name}: rows {first}..{last} outside 0..{self.height_px - 1}"
             raise IndexError(msg)
-        paint = self._paint(shot.pose, shot.wheel_mps)
+        paint = self._paint(shot.pose, shot.wheel_mps, (first, last))
         lit = self._light.light_rows(paint, shot.pose, shot.noise_at, rows)
         if lit is None:  # no C pass: the whole frame's rows
+            paint = self._paint(shot.pose, shot.wheel_mps)
             whole: U8Image = self._light.light(paint, shot.pose, shot.noise_at)
             return whole[np.asarray(rows, np.intp)]
         return lit
 
-    def _paint(self, pose: Pose, wheel_mps: tuple[float, float]) -> U8Image:
-        """The floor and its lines as the lens sees them, blurred by the motion.
+    def _paint(self, pose: Pose, wheel_mps: tuple[float, float],
+               band: tuple[int, int] | None = None) -> U8Image:
+        """The floor and its lines as the lens sees them, blurred by the motion (``band``:
+        only rows ``band[0]..band[1]`` need be right; only those are blurred).
 
         Kept while the robot stands still (and the floor and its lines are the same); drawn
         into the same buffer every frame (a fresh image a frame costs page faults worth as much
         as the drawing).
         """
-        key = (pose, wheel_mps, self.world.floor_bgr, tuple(self.world.lines))
+        whole = (pose, wheel_mps, self.world.floor_bgr, tuple(self.world.lines))
         paint = self._paint_buf
-        if self._paint_key != key:
-            np.copyto(paint, self._bare_floor())
-            drawn = self._draw_lines(paint, pose)
-            # Blurring the paint before lighting it is close enough: the light field is smooth.
-            self._blur(paint, wheel_mps, drawn)
-            self._paint_key = key
+        if self._paint_key in (whole, (*whole, band)):  # a whole paint serves any band
+            return paint
+        np.copyto(paint, self._bare_floor())
+        drawn = self._draw_lines(paint, pose)
+        # Blurring the paint before lighting it is close enough: the light field is smooth.
+        self._blur(paint, wheel_mps, drawn, band)
+        self._paint_key = whole if band is None else (*whole, band)
         return paint
 
     def _draw_lines(self, image: U8Image, pose: Pose) -> tuple[int, int, int, int] | None:
@@ -258,8 +265,14 @@ class SimCamera(FrameSource[_Shot]):
         return cached[1]
 
     def _blur(self, image: U8Image, wheel_mps: tuple[float, float],
-              drawn: tuple[int, int, int, int] | None) -> U8Image:
-        """Motion blur; only around the paint (``drawn``): blurring bare floor changes nothing."""
+              drawn: tuple[int, int, int, int] | None,
+              band: tuple[int, int] | None = None) -> U8Image:
+        """Motion blur; only around the paint (``drawn``): blurring bare floor changes nothing.
+
+        ``band``: only rows ``band[0]..band[1]`` are wanted; the blur then covers them and
+        half a kernel beyond (or up to the painted box's edge, whose mirrored border it reads
+        as the whole blur does): the box filter's integer sums make those rows the same.
+        """
         m = self.mount
         speed = (wheel_mps[0] + wheel_mps[1]) / 2
         yaw_rps = (wheel_mps[1] - wheel_mps[0]) / self.body.params.wheel_base_m
@@ -274,6 +287,10 @@ class SimCamera(FrameSource[_Shot]):
         x0, y0, x1, y1 = drawn
         x0, x1 = max(0, x0 - kx), min(m.width_px, x1 + kx)
         y0, y1 = max(0, y0 - ky), min(m.height_px, y1 + ky)
+        if band is not None:
+            y0, y1 = max(y0, band[0] - ky // 2), min(y1, band[1] + ky // 2 + 1)
+            if y0 >= y1:
+                return image
         region = image[y0:y1, x0:x1]
         region[:] = cv2.blur(region, (kx, ky))
         return image

@@ -99,6 +99,9 @@ class FloorLight:
         self._ambient_grid = (mount.forward_m + (h / 2 - rr - 0.5) * mpp,
                               (w / 2 - cc - 0.5) * mpp)
         self._phases = phases
+        self._ambient_x = _linear_taps(w, gw)  # (gw, w)
+        self._ambient_y = np.ascontiguousarray(_linear_taps(h, gh).T)  # (h, gh)
+        self._ambient_across: tuple[Pose, npt.NDArray[np.float64]] | None = None
         self._texture_buf = np.empty((h, w), np.float32)
         self._ambient_buf = np.empty((h, w), np.float32)
         self._gain_buf = np.empty((h, w), np.float32)
@@ -148,8 +151,8 @@ class FloorLight:
         out: U8Image = np.empty((len(rows), self.mount.width_px, 3), np.uint8)
         oy, ox = noise_at
         _camera_light.light_rows(paint, self.texture, self.texture_affine(pose),
-                                 self.static_gain, self.ambient_gain(pose), self.noise, oy, ox,
-                                 rows, out)
+                                 self.static_gain, self.ambient_rows(pose, rows), self.noise, oy,
+                                 ox, rows, out)
         return out
 
     def dark(self, noise_at: tuple[int, int], rows: Sequence[int] | None = None) -> U8Image:
@@ -200,11 +203,35 @@ class FloorLight:
 
     def ambient_gain(self, pose: Pose) -> F32Array:
         """The room light over the whole view: a coarse grid of the world-fixed field,
-        resized (``cv2.resize`` INTER_LINEAR; OpenCV's own float arithmetic for it was not
-        reproduced to the bit, and the whole view costs ~40 us a pose)."""
-        if self._ambient_pose == pose:
-            return self._ambient_buf
-        m = self.mount
+        resized (``cv2.resize``, INTER_LINEAR)."""
+        if self._ambient_pose != pose:
+            m = self.mount
+            cv2.resize(self._ambient_coarse(pose), (m.width_px, m.height_px),
+                       dst=self._ambient_buf, interpolation=cv2.INTER_LINEAR)
+            self._ambient_pose = pose
+        return self._ambient_buf
+
+    def ambient_rows(self, pose: Pose, rows: Sequence[int]) -> F32Array:
+        """Rows ``rows`` of ``ambient_gain(pose)``, the same floats, working on those rows only.
+
+        OpenCV 5's float32 INTER_LINEAR resize, reproduced to the bit: each coarse row
+        interpolated across in double with float32 weights and rounded to float32, then
+        those rows down in double, rounded to float32 (tests/hal/sim/devices/
+        test_camera_rows.py holds it to cv2.resize). Each step is a product with a matrix of
+        the weights: a pixel's two products are exact in double (float32 values times
+        float32-derived weights) and the other terms exact zeros, so in any order of summing
+        the one rounding is that of the two products' sum, as in OpenCV.
+        """
+        if self._ambient_across is None or self._ambient_across[0] != pose:
+            coarse = self._ambient_coarse(pose).astype(np.float64)
+            across = (coarse @ self._ambient_x).astype(np.float32)
+            self._ambient_across = (pose, across.astype(np.float64))
+        down = self._ambient_y[np.asarray(rows, np.intp)]
+        out: F32Array = (down @ self._ambient_across[1]).astype(np.float32)
+        return out
+
+    def _ambient_coarse(self, pose: Pose) -> F32Array:
+        """The room light's field on the coarse grid seen from ``pose``."""
         fwd, left = self._ambient_grid
         c, s = math.cos(pose.heading_rad), math.sin(pose.heading_rad)
         x = pose.x_m + c * fwd - s * left
@@ -212,11 +239,8 @@ class FloorLight:
         p = self._phases
         field = (np.sin(x * 2.1 + p[0]) * np.sin(y * 1.7 + p[1])
                  + 0.5 * np.sin(x * 5.3 + y * 3.1 + p[2]))
-        coarse = (1.0 + m.ambient_variation * field / 1.5).astype(np.float32)
-        cv2.resize(coarse, (m.width_px, m.height_px), dst=self._ambient_buf,
-                   interpolation=cv2.INTER_LINEAR)
-        self._ambient_pose = pose
-        return self._ambient_buf
+        coarse: F32Array = (1.0 + self.mount.ambient_variation * field / 1.5).astype(np.float32)
+        return coarse
 
     def _gain(self, pose: Pose) -> F32Array:
         """Light reaching each pixel: floor texture x lens and LED falloff x room light."""
@@ -239,3 +263,18 @@ class FloorLight:
         gradient = 1.0 + m.light_gradient * (np.linspace(-0.5, 0.5, m.width_px, dtype=np.float32))
         gain = (1.0 - m.vignette * falloff) * gradient[None, :]
         return gain.astype(np.float32)
+
+
+def _linear_taps(size: int, coarse: int) -> npt.NDArray[np.float64]:
+    """The weights (``coarse`` x ``size``) of each of ``size`` pixels resized up from
+    ``coarse`` cells: the two cells it lies between (the same cell twice past the ends), the
+    second one's weight a float32 (as OpenCV's INTER_LINEAR)."""
+    at = (np.arange(size) + 0.5) * (coarse / size) - 0.5
+    first = np.floor(at)
+    weight = (at - first).astype(np.float32).astype(np.float64)
+    cell = first.astype(np.intp)
+    taps = np.zeros((coarse, size))
+    pixels = np.arange(size)
+    np.add.at(taps, (np.clip(cell, 0, coarse - 1), pixels), 1.0 - weight)
+    np.add.at(taps, (np.clip(cell + 1, 0, coarse - 1), pixels), weight)
+    return taps

@@ -37,24 +37,30 @@ poses = st.one_of(
               st.floats(-1.0, 1.0), st.floats(-math.pi, math.pi)),
     st.builds(Pose, st.floats(-200.0, 200.0), st.floats(-200.0, 200.0),
               st.floats(-math.pi, math.pi)))
-wheels = st.tuples(st.floats(-0.6, 0.6), st.floats(-0.6, 0.6))
+wheels = st.tuples(st.floats(-1.2, 1.2), st.floats(-1.2, 1.2))  # blur kernels up to 13 px
 noise_at = st.tuples(st.integers(0, 239), st.integers(0, 319))
 row_sets = st.lists(st.integers(0, 239), max_size=40)
 
 
 @pytest.mark.parametrize("kernel", KERNELS)
 @settings(max_examples=80, deadline=None)
-@given(pose=poses, wheel_mps=wheels, at=noise_at, covered=st.booleans(), rows=row_sets)
+@given(pose=poses, wheel_mps=wheels, at=noise_at, covered=st.booleans(), rows=row_sets,
+       whole_first=st.booleans())
 def test_rows_drawn_alone_are_the_rows_of_the_whole_frame(
         kernel: str, pose: Pose, wheel_mps: tuple[float, float], at: tuple[int, int],
-        covered: bool, rows: list[int]) -> None:
-    """Any rows (any order, repeated or none), covered or not: byte for byte the frame's."""
+        covered: bool, rows: list[int], whole_first: bool) -> None:
+    """Any rows (any order, repeated or none), covered or not, drawn before or after the
+    whole frame: byte for byte the frame's (the blur of a band included)."""
     camera = SimCamera(WORLD, DiffDriveBody(WORLD, pose), seed=4)
     camera.light_kernel = kernel
     camera.cover(covered)
     shot = _Shot(1, 0.0, pose, wheel_mps, at)
-    alone = camera._render_rows(shot, rows)
-    whole = camera._render_shot(shot)
+    if whole_first:
+        whole = camera._render_shot(shot)
+        alone = camera._render_rows(shot, rows)
+    else:
+        alone = camera._render_rows(shot, rows)
+        whole = camera._render_shot(shot)
     assert alone.dtype == np.uint8 and alone.shape == (len(rows), 320, 3)
     assert np.array_equal(alone, whole[rows])
 
@@ -125,3 +131,16 @@ class TestFrames:
         assert frame.drawn and frame.shape == (48, 64, 3) and frame.image is image
         assert np.array_equal(frame.rows([5, 0, 47]), image[[5, 0, 47]])
         assert frame.rows([]).shape == (0, 64, 3)
+
+
+@pytest.mark.parametrize("size", [(320, 240), (16, 16), (200, 90), (640, 480), (1280, 960)])
+def test_the_room_light_of_some_rows_is_opencvs_resize(size: tuple[int, int]) -> None:
+    """The room light worked out for rows alone equals cv2.resize's whole field, to the bit."""
+    mount = CameraMount(width_px=size[0], height_px=size[1])
+    pose = Pose(1.0, 0.5, 0.0)
+    light = SimCamera(WORLD, DiffDriveBody(WORLD, pose), mount, seed=8)._light
+    rng = np.random.default_rng(size[0])
+    every_row = list(range(size[1]))
+    for _ in range(40):
+        pose = Pose(*rng.uniform(-100, 100, 2), rng.uniform(-math.pi, math.pi))
+        assert np.array_equal(light.ambient_rows(pose, every_row), light.ambient_gain(pose))

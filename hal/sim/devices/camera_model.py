@@ -87,6 +87,7 @@ class _Shot:
     pose: Pose
     wheel_mps: tuple[float, float]
     noise_at: tuple[int, int]
+    covered: bool = False  # a hand over the lens at the instant
 
 
 class SimCamera(FrameSource[_Shot]):
@@ -139,12 +140,13 @@ class SimCamera(FrameSource[_Shot]):
     def render(self, pose: Pose, wheel_mps: tuple[float, float] = (0.0, 0.0)) -> U8Image:
         """Render what the camera sees from ``pose`` (fresh noise), without the clock."""
         self.frames_rendered += 1
-        return self._render_shot(_Shot(0, 0.0, pose, wheel_mps, self._noise_offset()))
+        return self._render_shot(_Shot(0, 0.0, pose, wheel_mps, self._noise_offset(),
+                                       self.covered))
 
     # --- FrameSource ---------------------------------------------------------------------------
     def _snapshot(self, seq: int, t_s: float) -> _Shot:
         wheels = (float(self.body.wheel_mps[0]), float(self.body.wheel_mps[1]))
-        return _Shot(seq, t_s, self.body.pose, wheels, self._noise_offset())
+        return _Shot(seq, t_s, self.body.pose, wheels, self._noise_offset(), self.covered)
 
     def _draw(self, shot: _Shot) -> U8Image:
         return self._render_shot(shot)
@@ -168,7 +170,7 @@ class SimCamera(FrameSource[_Shot]):
         return int(self._rng.integers(0, self.height_px)), int(self._rng.integers(0, self.width_px))
 
     def _render_shot(self, shot: _Shot) -> U8Image:
-        if self.covered:
+        if shot.covered:
             return self._light.dark(shot.noise_at)
         return self._light.light(self._paint(shot.pose, shot.wheel_mps), shot.pose, shot.noise_at)
 
@@ -176,7 +178,7 @@ class SimCamera(FrameSource[_Shot]):
         """Rows ``rows`` of ``_render_shot(shot)``, the same bytes; only those rows are lit,
         and the motion blur is done on the band they span (the lines are drawn whole: drawn
         into a band, anti-aliased lines are not provably the same pixels)."""
-        if self.covered:
+        if shot.covered:
             return self._light.dark(shot.noise_at, rows)
         if len(rows) == 0:
             return np.empty((0, self.width_px, 3), np.uint8)

@@ -64,12 +64,11 @@ def test_a_rows_only_frame_gives_the_reading_of_the_whole_image(
     mount = CameraMount(width_px=width_px, height_px=width_px * 3 // 4,
                         view_width_m=0.24)
     camera = SimCamera(WORLD, DiffDriveBody(WORLD, Pose(x, 0.5 + y, heading)), mount, seed=3)
-    camera.cover(covered)
     by_rows = LineTracker(TrackerParams(), colour, kernel=kernel)
     by_image = LineTracker(TrackerParams(), colour, kernel=kernel)
     for step in range(4):
         pose = Pose(x + 0.02 * step * math.cos(heading), 0.5 + y, heading + 0.05 * step)
-        shot = _Shot(step, 0.0, pose, (0.2, 0.25), (7 * step, 11 * step))
+        shot = _Shot(step, 0.0, pose, (0.2, 0.25), (7 * step, 11 * step), covered)
         painter = ShotPainter(camera, shot)
         reading = by_rows.track(Frame.painted(painter, step, 0.0))
         assert painter.images == 0

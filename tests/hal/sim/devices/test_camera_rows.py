@@ -53,8 +53,7 @@ def test_rows_drawn_alone_are_the_rows_of_the_whole_frame(
     whole frame: byte for byte the frame's (the blur of a band included)."""
     camera = SimCamera(WORLD, DiffDriveBody(WORLD, pose), seed=4)
     camera.light_kernel = kernel
-    camera.cover(covered)
-    shot = _Shot(1, 0.0, pose, wheel_mps, at)
+    shot = _Shot(1, 0.0, pose, wheel_mps, at, covered)
     if whole_first:
         whole = camera._render_shot(shot)
         alone = camera._render_rows(shot, rows)
@@ -123,6 +122,21 @@ class TestFrames:
         assert np.array_equal(rows, image[[60, 90, 143]])
         assert np.array_equal(frame.rows([143, 60]), image[[143, 60]])
         assert camera.frames_rendered == 1
+
+    def test_a_frame_shows_the_lens_as_it_was_at_the_capture(self) -> None:
+        """Covered after the capture, before anyone looks: that frame is not dark, the next is."""
+        camera = SimCamera(WORLD, DiffDriveBody(WORLD, Pose(1.0, 0.5, 0.0)), seed=2)
+
+        async def main() -> tuple[float, float]:
+            await camera.start()
+            frame = await camera.next_reading()
+            camera.cover()
+            after = await camera.next_reading()
+            await camera.close()
+            return float(frame.rows([100, 120]).mean()), float(after.rows([100, 120]).mean())
+
+        before, after = vclock.run(main())
+        assert before > 100 and after < 20
 
     def test_a_frame_of_an_image_hands_out_its_rows(self) -> None:
         """A camera's plain Frame(image, seq, t_s): rows are the image's, shape is its."""

@@ -1,9 +1,12 @@
-"""Readings that devices deliver: plain frozen dataclasses, timestamps in event-loop seconds."""
+"""Readings that devices deliver: plain frozen dataclasses (a camera's Frame may draw itself on
+demand), timestamps in event-loop seconds."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import Enum
+from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -128,13 +131,79 @@ class BinLevel:
     t_s: float
 
 
-@dataclass(frozen=True, slots=True)
-class Frame:
-    """A camera frame: BGR uint8 image, shape (height, width, 3)."""
+class FramePainter(Protocol):
+    """Draws one frame on demand (a simulated camera's shot): all of it or some of its rows."""
 
-    image: npt.NDArray[np.uint8]
-    seq: int
-    t_s: float
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """(height, width, 3) of the image it draws."""
+        ...
+
+    def image(self) -> npt.NDArray[np.uint8]:
+        """The whole BGR image."""
+        ...
+
+    def rows(self, indices: Sequence[int]) -> npt.NDArray[np.uint8]:
+        """Rows ``indices`` of the image, (k, width, 3): the same bytes as ``image()[indices]``."""
+        ...
+
+
+class Frame:
+    """A camera frame: ``image`` is the BGR uint8 image, shape (height, width, 3).
+
+    A reader that needs only some rows asks ``rows(indices)``. A frame made with ``painted``
+    draws on demand (a simulated camera's do): ``rows`` draws just the rows asked for, and the
+    whole image is drawn once, the first time ``image`` is read.
+    """
+
+    __slots__ = ("_image", "_painter", "seq", "t_s")
+
+    def __init__(self, image: npt.NDArray[np.uint8], seq: int, t_s: float) -> None:
+        self._image: npt.NDArray[np.uint8] | None = image
+        self._painter: FramePainter | None = None
+        self.seq = seq
+        self.t_s = t_s
+
+    @classmethod
+    def painted(cls, painter: FramePainter, seq: int, t_s: float) -> Frame:
+        """A frame ``painter`` draws when it is looked at."""
+        frame = cls.__new__(cls)
+        frame._image = None
+        frame._painter = painter
+        frame.seq = seq
+        frame.t_s = t_s
+        return frame
+
+    @property
+    def image(self) -> npt.NDArray[np.uint8]:
+        if self._image is None:
+            assert self._painter is not None
+            self._image = self._painter.image()
+        return self._image
+
+    @property
+    def drawn(self) -> bool:
+        """Whether the whole image is at hand (given, or drawn since)."""
+        return self._image is not None
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """The image's shape, without drawing it."""
+        if self._image is None and self._painter is not None:
+            return self._painter.shape
+        return tuple(self.image.shape)
+
+    def rows(self, indices: Sequence[int]) -> npt.NDArray[np.uint8]:
+        """Rows ``indices`` of the image, shape (k, width, 3): ``image[indices]``, drawn alone
+        when the image has not been drawn."""
+        if self._image is None and self._painter is not None:
+            return self._painter.rows(indices)
+        rows: npt.NDArray[np.uint8] = self.image[np.asarray(indices, np.intp)]
+        return rows
+
+    def __repr__(self) -> str:
+        drawn = "drawn" if self.drawn else "not drawn"
+        return f"Frame(seq={self.seq}, t_s={self.t_s}, shape={self.shape}, {drawn})"
 
 
 @dataclass(frozen=True, slots=True)

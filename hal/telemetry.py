@@ -17,7 +17,7 @@ A new robot publishes its own things with one line each, e.g.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -25,10 +25,12 @@ import numpy.typing as npt
 
 from hal.readings import LidarScan
 
-__all__ = ["NULL_TELEMETRY", "NullTelemetry", "Pose2D", "Telemetry"]
+__all__ = ["NULL_TELEMETRY", "Image", "NullTelemetry", "Pose2D", "Telemetry"]
 
 Pose2D = tuple[float, float, float]
 """x_m, y_m, heading_rad in the map frame."""
+Image = npt.NDArray[np.uint8] | Callable[[], npt.NDArray[np.uint8]]
+"""An image, or a function that draws it (called only if the image is published)."""
 
 
 @runtime_checkable
@@ -71,9 +73,10 @@ class Telemetry(Protocol):
         edges drawn in red (e.g. broken links)."""
         ...
 
-    def image(self, topic: str, image: npt.NDArray[np.uint8], *,
-              marks: Sequence[tuple[int, int]] = ()) -> None:
-        """A camera frame (grey or BGR); ``marks`` are (column, row) pixels drawn on it."""
+    def image(self, topic: str, image: Image, *, marks: Sequence[tuple[int, int]] = ()) -> None:
+        """A camera frame (grey or BGR), or a function that returns it, called only when the
+        image is published (decimated: drawing it may cost); ``marks`` are (column, row)
+        pixels drawn on it."""
         ...
 
     def values(self, topic: str, /, **fields: Any) -> None:
@@ -119,8 +122,7 @@ class NullTelemetry:
               warn: bool = False) -> None:
         return None
 
-    def image(self, topic: str, image: npt.NDArray[np.uint8], *,
-              marks: Sequence[tuple[int, int]] = ()) -> None:
+    def image(self, topic: str, image: Image, *, marks: Sequence[tuple[int, int]] = ()) -> None:
         return None
 
     def values(self, topic: str, /, **fields: Any) -> None:

@@ -293,8 +293,8 @@ class LineFollower:
             self._last_seq = frame.seq
             width = self._camera.width_px
             try:
-                reading = self.tracker.track(frame.image)
-                width = frame.image.shape[1]
+                reading = self.tracker.track(frame)  # reads its scan rows only
+                width = frame.shape[1]
             except ValueError as exc:  # a frame the tracker cannot read counts as lost
                 self.bad_frames += 1
                 if self.bad_frames == 1 or self.bad_frames % 100 == 0:
@@ -316,7 +316,8 @@ class LineFollower:
 
     def _show(self, frame: Frame, reading: LineReading) -> None:
         marks = [] if reading.x_px is None else [(int(reading.x_px), int(reading.row_px))]
-        self.telemetry.image("camera", frame.image, marks=marks)
+        # The whole image is drawn only when the live view takes one (a few a second).
+        self.telemetry.image("camera", lambda: frame.image, marks=marks)
         self.telemetry.sample("line", error_px=round(reading.error_px, 1), lost=reading.lost,
                               confidence=round(reading.confidence, 3), colour=reading.colour)
 

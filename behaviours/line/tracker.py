@@ -18,6 +18,7 @@ import numpy.typing as npt
 
 from behaviours.line.colours import DEFAULT_COLOUR, LineColour, line_colour, parse_colour
 from behaviours.line.scan import Run, row_scan
+from hal.readings import Frame
 
 # Contrast needed, as a multiple of TrackerParams.min_contrast: a grey line on a grey floor
 # differs less than a coloured one, and dark shadows must not pass for a black line.
@@ -118,15 +119,16 @@ class LineTracker:
         self._last_x = None
         self._misses = 0
 
-    def track(self, image: npt.NDArray[np.uint8]) -> LineReading:
-        """Find the line in one BGR frame."""
-        if image.ndim != 3 or image.shape[2] != 3 or image.shape[0] < 2 or image.shape[1] < 8:
-            msg = f"line tracker: expected a BGR image (h, w, 3), got shape {image.shape}"
+    def track(self, frame: Frame | npt.NDArray[np.uint8]) -> LineReading:
+        """Find the line in one BGR frame (a Frame is asked for its scan rows only)."""
+        shape = frame.shape
+        if len(shape) != 3 or shape[2] != 3 or shape[0] < 2 or shape[1] < 8:
+            msg = f"line tracker: expected a BGR image (h, w, 3), got shape {shape}"
             raise ValueError(msg)
-        strip, rows = self._rows(image)
-        reading = self._find(strip, rows, self._colour, image.shape[1])
+        strip, rows = self._rows(frame, shape[0], shape[1])
+        reading = self._find(strip, rows, self._colour, shape[1])
         if reading.lost and self._fallback is not None and self._handover_left > 0:
-            reading = self._find(strip, rows, self._fallback, image.shape[1])
+            reading = self._find(strip, rows, self._fallback, shape[1])
         if self._fallback is not None:
             self._handover_left -= 1
             if self._handover_left <= 0 or (not reading.lost and reading.colour == self.colour):
@@ -139,11 +141,11 @@ class LineTracker:
         return reading
 
     # --- internals ----------------------------------------------------------------------------
-    def _rows(self, image: npt.NDArray[np.uint8]
+    def _rows(self, frame: Frame | npt.NDArray[np.uint8], h: int, w: int
               ) -> tuple[npt.NDArray[np.uint8], Sequence[int]]:
-        """The frame (or its scan rows, averaged down to at most _MAX_WORK_PX wide) and the
-        scan rows in it."""
-        h, w = image.shape[:2]
+        """The scan rows' pixels (the whole image, or a strip of just those rows, averaged down
+        to at most _MAX_WORK_PX wide) and the scan rows in it. The scan reads each row on its
+        own, so a strip gives the runs the whole image gives."""
         if self._picks_height != h:
             p = self.params
             top = min(h - 1, int(p.roi_top * h))
@@ -152,10 +154,15 @@ class LineTracker:
             self._picks_height = h
             self._pick_rows = picks.tolist()
         step = -(-w // _MAX_WORK_PX)
+        if step == 1 and not isinstance(frame, Frame):
+            return frame, self._pick_rows
+        # A frame draws just the rows asked for (a simulated camera renders only those).
+        strip = frame.rows(self._pick_rows) if isinstance(frame, Frame) else frame[
+            self._pick_rows]
         if step == 1:
-            return image, self._pick_rows
+            return strip, range(len(self._pick_rows))
         # The mean of each column group keeps sub-pixel detail and halves the noise.
-        rows = cv2.resize(image[self._pick_rows], (w // step, len(self._pick_rows)),
+        rows = cv2.resize(strip, (w // step, len(self._pick_rows)),
                           interpolation=cv2.INTER_AREA).astype(np.uint8, copy=False)
         return rows, range(len(self._pick_rows))
 

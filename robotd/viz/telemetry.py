@@ -32,7 +32,7 @@ from foxglove.channels import (
 )
 
 from hal.readings import LidarScan
-from hal.telemetry import Pose2D
+from hal.telemetry import Image, Pose2D
 from robotd.viz import messages as fm
 
 log = structlog.get_logger(__name__)
@@ -121,12 +121,12 @@ class FoxgloveTelemetry:
                       lambda: fm.graph_scene(t_ns, topic, nodes, edges, self.frame(frame),
                                                      warn=warn))
 
-    def image(self, topic: str, image: npt.NDArray[np.uint8], *,
-              marks: Sequence[tuple[int, int]] = ()) -> None:
+    def image(self, topic: str, image: Image, *, marks: Sequence[tuple[int, int]] = ()) -> None:
         t_ns = self.clock_ns()
         if self._due(topic, "image", t_ns):
-            self._log(topic, CompressedImageChannel, t_ns,
-                      lambda: fm.jpeg_image(t_ns, image, marks, self.frame("camera")))
+            # A function is called here only: a frame is drawn only for the images sent.
+            self._log(topic, CompressedImageChannel, t_ns, lambda: fm.jpeg_image(
+                t_ns, image() if callable(image) else image, marks, self.frame("camera")))
 
     def sample(self, topic: str, /, **fields: Any) -> None:
         if self._due(topic, "sample", self.clock_ns()):

@@ -1,5 +1,6 @@
 /* The simulated line camera's last step in one pass: light the painted floor and add sensor
- * noise (hal/sim/devices/camera_model.py, SimCamera._render_shot).
+ * noise (hal/sim/devices/camera_model.py, SimCamera._render_shot), for the whole frame
+ * (light) or for some of its rows (light_rows: the rows the line tracker reads).
  *
  * The same arithmetic as the OpenCV calls it replaces, so frames are the same to the bit:
  *   gain = (texture * static_gain) * ambient            float32, as two cv2.multiply
@@ -7,12 +8,17 @@
  *   out  = saturate(round_half_even(lit) + noise)       cv2.add(f32, i8, dtype=CV_8U)
  * (for an integer result with one float input, OpenCV rounds that input to an integer first,
  * then adds in int32).
- * Built with -ffp-contract=off: a fused multiply-add rounds once where OpenCV rounds twice.
- * No -ffast-math. The Python fallback (the OpenCV calls) is used when this was not built.
+ * light_rows also looks the floor texture up itself, as OpenCV 5's
+ * warpAffine(INTER_NEAREST | WARP_INVERSE_MAP, BORDER_REFLECT) does: the matrix in float32,
+ * each source coordinate fma(M[0], x, M[1] * y + M[2]) in float32, rounded half to even.
+ * Built with -ffp-contract=off: a fused multiply-add rounds once where OpenCV rounds twice
+ * (the texture's fma is an explicit fmaf, as OpenCV's). No -ffast-math. The Python fallback
+ * (the OpenCV calls) is used when this was not built.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 
+#include <math.h>
 #include <stdint.h>
 #include <string.h>
 
@@ -21,14 +27,26 @@
  * range: paint is >= 0 and every gain factor > 0 and bounded (camera_model.py checks). */
 #define ROUND_MAGIC 8388608.0f
 
+/* One row: each pixel's gain already in gain3 (three times over), lit and noised into out. */
+static inline void light_row(const uint8_t *p, const float *gain3, const int8_t *n, uint8_t *o,
+                             Py_ssize_t w)
+{
+    /* One flat loop over the row's 3w values: the compiler vectorizes it. */
+    for (Py_ssize_t i = 0; i < 3 * w; i++) {
+        const float lit = (float)p[i] * gain3[i];
+        const int x = (int)((lit + ROUND_MAGIC) - ROUND_MAGIC) + n[i];
+        o[i] = (uint8_t)(x < 0 ? 0 : (x > 255 ? 255 : x));
+    }
+}
+
 /* x86-64's baseline (SSE2) converts between bytes, ints and floats one lane at a time; where
  * the CPU has AVX2 the loader picks a build of this function that uses it (2x faster). */
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
 __attribute__((target_clones("avx2", "default")))
 #endif
-static void light_rows(const uint8_t *paint, const float *tex, const float *stat,
-                       const float *amb, const int8_t *noise, Py_ssize_t noise_row,
-                       uint8_t *out, Py_ssize_t h, Py_ssize_t w, float *gain3)
+static void light_frame(const uint8_t *paint, const float *tex, const float *stat,
+                        const float *amb, const int8_t *noise, Py_ssize_t noise_row,
+                        uint8_t *out, Py_ssize_t h, Py_ssize_t w, float *gain3)
 {
     for (Py_ssize_t r = 0; r < h; r++) {
         const Py_ssize_t at = r * w;
@@ -38,15 +56,58 @@ static void light_rows(const uint8_t *paint, const float *tex, const float *stat
             gain3[3 * c + 1] = g;
             gain3[3 * c + 2] = g;
         }
-        /* One flat loop over the row's 3w values: the compiler vectorizes it. */
-        const uint8_t *p = paint + at * 3;
-        const int8_t *n = noise + r * noise_row;
-        uint8_t *o = out + at * 3;
-        for (Py_ssize_t i = 0; i < 3 * w; i++) {
-            const float lit = (float)p[i] * gain3[i];
-            const int x = (int)((lit + ROUND_MAGIC) - ROUND_MAGIC) + n[i];
-            o[i] = (uint8_t)(x < 0 ? 0 : (x > 255 ? 255 : x));
+        light_row(paint + at * 3, gain3, noise + r * noise_row, out + at * 3, w);
+    }
+}
+
+/* BORDER_REFLECT (fedcba|abcdefgh|hgfedcb) of an index into 0 .. n - 1. */
+static inline Py_ssize_t reflect(Py_ssize_t i, Py_ssize_t n)
+{
+    while (i < 0 || i >= n) {
+        if (i < 0)
+            i = -i - 1;
+        else
+            i = 2 * n - i - 1;
+    }
+    return i;
+}
+
+/* A float rounded to the nearest integer, ties to even (as lrintf, without a libm call):
+ * adding and subtracting 1.5 * 2**23 does it for |v| < 2**22. */
+static inline Py_ssize_t round_index(float v)
+{
+    if (!(fabsf(v) < 4194304.0f))
+        return (Py_ssize_t)nearbyintf(v); /* never for a texture the view fits in */
+    return (Py_ssize_t)((v + 12582912.0f) - 12582912.0f);
+}
+
+/* Rows rows[0..k-1] of the frame, the texture looked up for them (see the top); ambient holds
+ * the room light of those rows only. Where the CPU has FMA the loader picks a build whose
+ * fmaf is one instruction (2x faster than libm's call, which gives the same result). */
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
+__attribute__((target_clones("fma", "default")))
+#endif
+static void light_some_rows(const uint8_t *paint, const float *texture, Py_ssize_t tex_h,
+                            Py_ssize_t tex_w, const float *m, const float *stat,
+                            const float *amb, const int8_t *noise, Py_ssize_t noise_row,
+                            const Py_ssize_t *rows, Py_ssize_t k, uint8_t *out, Py_ssize_t w,
+                            float *gain3)
+{
+    for (Py_ssize_t i = 0; i < k; i++) {
+        const Py_ssize_t r = rows[i], at = r * w;
+        const float y = (float)r;
+        const float bx = m[1] * y + m[2], by = m[4] * y + m[5];
+        const float *a = amb + i * w;
+        for (Py_ssize_t c = 0; c < w; c++) {
+            const float x = (float)c;
+            const Py_ssize_t sx = reflect(round_index(fmaf(m[0], x, bx)), tex_w);
+            const Py_ssize_t sy = reflect(round_index(fmaf(m[3], x, by)), tex_h);
+            const float g = (texture[sy * tex_w + sx] * stat[at + c]) * a[c];
+            gain3[3 * c] = g;
+            gain3[3 * c + 1] = g;
+            gain3[3 * c + 2] = g;
         }
+        light_row(paint + at * 3, gain3, noise + r * noise_row, out + i * w * 3, w);
     }
 }
 
@@ -107,8 +168,8 @@ static PyObject *light(PyObject *self, PyObject *args)
         goto done;
     }
     Py_BEGIN_ALLOW_THREADS
-    light_rows(paint, tex, stat, amb, noise + (Py_ssize_t)oy * noise_row + (Py_ssize_t)ox * 3,
-               noise_row, out, h, w, gain3);
+    light_frame(paint, tex, stat, amb, noise + (Py_ssize_t)oy * noise_row + (Py_ssize_t)ox * 3,
+                noise_row, out, h, w, gain3);
     Py_END_ALLOW_THREADS
     PyMem_Free(gain3);
     result = Py_NewRef(Py_None);
@@ -118,9 +179,87 @@ done:
     return result;
 }
 
+/* light_rows(paint, texture, matrix, static_gain, ambient, noise, noise_row, noise_col, rows,
+ * out): rows ``rows`` of the frame light() would draw with the texture cv2.warpAffine(texture,
+ * matrix, ...) would give, into out (len(rows), w, 3); ambient has those rows' room light. */
+static PyObject *light_rows(PyObject *self, PyObject *args)
+{
+    PyObject *objs[6], *rows_obj;
+    float m[6];
+    int oy, ox;
+    (void)self;
+    if (!PyArg_ParseTuple(args, "OO(ffffff)OOOiiOO", &objs[0], &objs[1], &m[0], &m[1], &m[2],
+                          &m[3], &m[4], &m[5], &objs[2], &objs[3], &objs[4], &oy, &ox,
+                          &rows_obj, &objs[5]))
+        return NULL;
+    static const char *const names[6] = {"paint", "texture", "static gain", "ambient",
+                                         "noise", "out"};
+    static const int ndims[6] = {3, 2, 2, 2, 3, 3};
+    static const char *const formats[6] = {"B", "f", "f", "f", "b", "B"};
+    Py_buffer v[6];
+    int got = 0;
+    PyObject *result = NULL;
+    Py_ssize_t *rows = NULL;
+    float *gain3 = NULL;
+    PyObject *seq = PySequence_Fast(rows_obj, "camera light: rows must be a sequence of ints");
+    if (seq == NULL)
+        return NULL;
+    for (; got < 6; got++) {
+        if (get(objs[got], &v[got], got == 5 ? PyBUF_WRITABLE : 0, ndims[got], formats[got],
+                names[got]) < 0)
+            goto done;
+    }
+    const Py_ssize_t h = v[0].shape[0], w = v[0].shape[1], k = PySequence_Fast_GET_SIZE(seq);
+    int ok = v[0].shape[2] == 3 && v[4].shape[2] == 3 && v[5].shape[2] == 3
+             && v[5].shape[0] == k && v[5].shape[1] == w && v[1].shape[0] > 0
+             && v[1].shape[1] > 0;
+    ok = ok && v[2].shape[0] == h && v[2].shape[1] == w && v[3].shape[0] == k
+         && v[3].shape[1] == w;
+    ok = ok && oy >= 0 && ox >= 0 && oy + h <= v[4].shape[0] && ox + w <= v[4].shape[1];
+    if (!ok) {
+        PyErr_SetString(PyExc_ValueError, "camera light: shapes differ (paint (h, w, 3); "
+                        "static gain (h, w); ambient (len(rows), w); out (len(rows), w, 3); "
+                        "noise holds (h, w, 3) at the offset; texture not empty)");
+        goto done;
+    }
+    rows = PyMem_Malloc(sizeof(Py_ssize_t) * (size_t)(k ? k : 1));
+    gain3 = PyMem_Malloc(sizeof(float) * (size_t)w * 3);
+    if (rows == NULL || gain3 == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    for (Py_ssize_t i = 0; i < k; i++) {
+        rows[i] = PyNumber_AsSsize_t(PySequence_Fast_GET_ITEM(seq, i), PyExc_IndexError);
+        if (rows[i] == -1 && PyErr_Occurred())
+            goto done;
+        if (rows[i] < 0 || rows[i] >= h) {
+            PyErr_Format(PyExc_IndexError, "camera light: row %zd (rows[%zd]) outside the "
+                         "frame's 0..%zd", rows[i], i, h - 1);
+            goto done;
+        }
+    }
+    const Py_ssize_t noise_row = v[4].shape[1] * 3;
+    Py_BEGIN_ALLOW_THREADS
+    light_some_rows(v[0].buf, v[1].buf, v[1].shape[0], v[1].shape[1], m, v[2].buf, v[3].buf,
+                    (const int8_t *)v[4].buf + (Py_ssize_t)oy * noise_row + (Py_ssize_t)ox * 3,
+                    noise_row, rows, k, v[5].buf, w, gain3);
+    Py_END_ALLOW_THREADS
+    result = Py_NewRef(Py_None);
+done:
+    PyMem_Free(rows);
+    PyMem_Free(gain3);
+    while (got-- > 0)
+        PyBuffer_Release(&v[got]);
+    Py_DECREF(seq);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"light", light, METH_VARARGS,
      "light(paint, texture, static_gain, ambient, noise, noise_row, noise_col, out) -> None"},
+    {"light_rows", light_rows, METH_VARARGS,
+     "light_rows(paint, texture, matrix, static_gain, ambient, noise, noise_row, noise_col, "
+     "rows, out) -> None"},
     {NULL, NULL, 0, NULL},
 };
 

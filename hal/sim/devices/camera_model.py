@@ -4,12 +4,15 @@ The image is what the real tracker reads: painted lines in their colours, a floo
 to the world, light that falls off towards the corners and varies over the floor, sensor noise
 and motion blur from the wheel speeds. Frames are captured at the mount's rate on the event
 loop's clock; a frame is only rendered when somebody looks at it, so an idle camera costs little
-(hal/sim/devices/frame_source.py).
+(hal/sim/devices/frame_source.py), and only the rows asked for when those are all that is read
+(the line tracker's scan rows: ``Frame.rows``): the same bytes as those rows of the whole frame.
+The light and noise are hal/sim/devices/lighting/.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -18,22 +21,14 @@ import numpy as np
 import numpy.typing as npt
 
 from hal.sim.devices.frame_source import FrameSource
+from hal.sim.devices.lighting.floor_light import FloorLight, make_texture
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import PaintedLine, World
 from hal.sim.world.geometry import Pose, SegmentSet
 
-F32Array = npt.NDArray[Any]  # float32; cv2 returns loosely typed arrays
 U8Image = npt.NDArray[Any]  # uint8 BGR
 
-try:
-    from hal.sim.devices import _camera_light
-except ImportError:  # not built (no C compiler or Python headers): OpenCV calls, same pixels
-    _camera_light = None  # type: ignore[assignment]
-
-_TEXTURE_TILE_PX = 256
 _DRAW_SHIFT = 4  # cv2 fixed-point bits: sub-pixel line positions
-_AMBIENT_GRID = (8, 6)  # coarse grid the world-fixed light field is computed on
-_BAND_ROWS = 32  # rows lit at a time: a band's float images fit in the CPU's cache
 
 
 @dataclass(frozen=True, slots=True)
@@ -92,18 +87,7 @@ class _Shot:
     pose: Pose
     wheel_mps: tuple[float, float]
     noise_at: tuple[int, int]
-
-
-class _Buffers:
-    """The images a render works in, kept from frame to frame (see ``SimCamera._render_shot``)."""
-
-    def __init__(self, height_px: int, width_px: int) -> None:
-        self.paint = np.empty((height_px, width_px, 3), np.uint8)
-        self.texture = np.empty((height_px, width_px), np.float32)
-        self.ambient = np.empty((height_px, width_px), np.float32)
-        self.gain = np.empty((height_px, width_px), np.float32)
-        self.gain3 = np.empty((_BAND_ROWS, width_px, 3), np.float32)
-        self.lit = np.empty((_BAND_ROWS, width_px, 3), np.float32)
+    covered: bool = False  # a hand over the lens at the instant
 
 
 class SimCamera(FrameSource[_Shot]):
@@ -126,33 +110,27 @@ class SimCamera(FrameSource[_Shot]):
         self.width_px = self.mount.width_px
         self.height_px = self.mount.height_px
         self._rng = np.random.default_rng(seed)
-        self._texture = self._make_texture()
+        texture = make_texture(self._rng, self.mount.texture_std, self.width_px, self.height_px)
         # Sensor noise: a bank twice the frame size, read at a random offset for each frame;
         # int8 keeps it at 3.7 MB at 640 x 480.
-        self._noise = np.clip(np.rint(self._rng.normal(
+        noise = np.clip(np.rint(self._rng.normal(
             0.0, self.mount.noise_std, (2 * self.height_px, 2 * self.width_px, 3))),
             -127, 127).astype(np.int8)
-        self._static_gain = self._make_static_gain()
-        gw, gh = _AMBIENT_GRID
-        cc, rr = np.meshgrid(np.linspace(0, self.width_px - 1, gw),
-                             np.linspace(0, self.height_px - 1, gh))
-        mpp = self.mount.m_per_px
-        self._ambient_grid = (self.mount.forward_m + (self.height_px / 2 - rr - 0.5) * mpp,
-                              (self.width_px / 2 - cc - 0.5) * mpp)
         self._segments: dict[int, tuple[PaintedLine, SegmentSet]] = {}
-        self._phases = self._rng.uniform(0, 2 * math.pi, 4)
-        self._bufs = _Buffers(self.height_px, self.width_px)
+        self._light = FloorLight(self.mount, texture, noise, self._rng.uniform(0, 2 * math.pi, 4))
+        self._paint_buf = np.empty((self.height_px, self.width_px, 3), np.uint8)
         self._paint_key: tuple[Any, ...] | None = None
-        self._gain_pose: Pose | None = None
-        self._fields_pose: Pose | None = None
-        # The C pass rounds as OpenCV does for gains > 0 and lit values below 2**22.
-        bounded = (float(self._texture.min()) > 0 and float(self._static_gain.min()) > 0
-                   and self.mount.ambient_variation < 1
-                   and 255 * float(self._texture.max()) * float(self._static_gain.max())
-                   * (1 + self.mount.ambient_variation) < 2**22)
-        self.light_kernel = "c" if _camera_light is not None and bounded else "opencv"
         self._floor: tuple[tuple[int, int, int], U8Image] | None = None
         self.covered = False
+
+    @property
+    def light_kernel(self) -> str:
+        """How frames are lit: "c" (hal/sim/devices/_camera_light.c) or "opencv"."""
+        return self._light.kernel
+
+    @light_kernel.setter
+    def light_kernel(self, kernel: str) -> None:
+        self._light.kernel = kernel
 
     # --- physics-style methods ----------------------------------------------------------------
     def cover(self, covered: bool = True) -> None:
@@ -162,15 +140,19 @@ class SimCamera(FrameSource[_Shot]):
     def render(self, pose: Pose, wheel_mps: tuple[float, float] = (0.0, 0.0)) -> U8Image:
         """Render what the camera sees from ``pose`` (fresh noise), without the clock."""
         self.frames_rendered += 1
-        return self._render_shot(_Shot(0, 0.0, pose, wheel_mps, self._noise_offset()))
+        return self._render_shot(_Shot(0, 0.0, pose, wheel_mps, self._noise_offset(),
+                                       self.covered))
 
     # --- FrameSource ---------------------------------------------------------------------------
     def _snapshot(self, seq: int, t_s: float) -> _Shot:
         wheels = (float(self.body.wheel_mps[0]), float(self.body.wheel_mps[1]))
-        return _Shot(seq, t_s, self.body.pose, wheels, self._noise_offset())
+        return _Shot(seq, t_s, self.body.pose, wheels, self._noise_offset(), self.covered)
 
     def _draw(self, shot: _Shot) -> U8Image:
         return self._render_shot(shot)
+
+    def _draw_rows(self, shot: _Shot, rows: Sequence[int]) -> U8Image:
+        return self._render_rows(shot, rows)
 
     def _status_extra(self) -> dict[str, Any]:
         return {"covered": self.covered}
@@ -188,56 +170,49 @@ class SimCamera(FrameSource[_Shot]):
         return int(self._rng.integers(0, self.height_px)), int(self._rng.integers(0, self.width_px))
 
     def _render_shot(self, shot: _Shot) -> U8Image:
-        m = self.mount
-        h, w = m.height_px, m.width_px
-        if self.covered:
-            dark = np.full((h, w, 3), 8.0, np.float32)
-            return self._finish(dark, shot.noise_at)
-        paint = self._paint(shot.pose, shot.wheel_mps)
-        b = self._bufs
-        out: U8Image = np.empty((h, w, 3), np.uint8)
-        oy, ox = shot.noise_at
-        if self.light_kernel == "c" and _camera_light is not None:
-            # The steps below in one pass, to the bit (hal/sim/devices/_camera_light.c).
-            self._light_fields(shot.pose)
-            _camera_light.light(paint, b.texture, self._static_gain, b.ambient, self._noise,
-                                oy, ox, out)
-            return out
-        gain = self._gain(shot.pose)
-        # Light and noise a band of rows at a time: the float images of a band stay in the
-        # cache, where whole-frame ones (1 MB each) went to memory and back at every step.
-        for r0 in range(0, h, _BAND_ROWS):
-            r1 = min(h, r0 + _BAND_ROWS)
-            n = r1 - r0
-            g3, lit = b.gain3[:n], b.lit[:n]
-            cv2.merge([gain[r0:r1]] * 3, dst=g3)
-            cv2.multiply(paint[r0:r1], g3, dst=lit, dtype=cv2.CV_32F)
-            cv2.add(lit, self._noise[oy + r0:oy + r1, ox:ox + w], dst=out[r0:r1],
-                    dtype=cv2.CV_8U)  # saturates to 0-255
-        return out
+        if shot.covered:
+            return self._light.dark(shot.noise_at)
+        return self._light.light(self._paint(shot.pose, shot.wheel_mps), shot.pose, shot.noise_at)
 
-    def _paint(self, pose: Pose, wheel_mps: tuple[float, float]) -> U8Image:
-        """The floor and its lines as the lens sees them, blurred by the motion.
+    def _render_rows(self, shot: _Shot, rows: Sequence[int]) -> U8Image:
+        """Rows ``rows`` of ``_render_shot(shot)``, the same bytes; only those rows are lit,
+        and the motion blur is done on the band they span (the lines are drawn whole: drawn
+        into a band, anti-aliased lines are not provably the same pixels)."""
+        if shot.covered:
+            return self._light.dark(shot.noise_at, rows)
+        if len(rows) == 0:
+            return np.empty((0, self.width_px, 3), np.uint8)
+        first, last = min(rows), max(rows)
+        if first < 0 or last >= self.height_px:
+            msg = f"{self.name}: rows {first}..{last} outside 0..{self.height_px - 1}"
+            raise IndexError(msg)
+        paint = self._paint(shot.pose, shot.wheel_mps, (first, last))
+        lit = self._light.light_rows(paint, shot.pose, shot.noise_at, rows)
+        if lit is None:  # no C pass: the whole frame's rows
+            paint = self._paint(shot.pose, shot.wheel_mps)
+            whole: U8Image = self._light.light(paint, shot.pose, shot.noise_at)
+            return whole[np.asarray(rows, np.intp)]
+        return lit
+
+    def _paint(self, pose: Pose, wheel_mps: tuple[float, float],
+               band: tuple[int, int] | None = None) -> U8Image:
+        """The floor and its lines as the lens sees them, blurred by the motion (``band``:
+        only rows ``band[0]..band[1]`` need be right; only those are blurred).
 
         Kept while the robot stands still (and the floor and its lines are the same); drawn
         into the same buffer every frame (a fresh image a frame costs page faults worth as much
         as the drawing).
         """
-        key = (pose, wheel_mps, self.world.floor_bgr, tuple(self.world.lines))
-        b = self._bufs
-        if self._paint_key != key:
-            np.copyto(b.paint, self._bare_floor())
-            drawn = self._draw_lines(b.paint, pose)
-            # Blurring the paint before lighting it is close enough: the light field is smooth.
-            self._blur(b.paint, wheel_mps, drawn)
-            self._paint_key = key
-        return b.paint
-
-    def _finish(self, lit: F32Array, noise_at: tuple[int, int]) -> U8Image:
-        oy, ox = noise_at
-        noise = self._noise[oy:oy + self.height_px, ox:ox + self.width_px]
-        out: U8Image = cv2.add(lit, noise, dtype=cv2.CV_8U)  # saturates to 0-255
-        return out
+        whole = (pose, wheel_mps, self.world.floor_bgr, tuple(self.world.lines))
+        paint = self._paint_buf
+        if self._paint_key in (whole, (*whole, band)):  # a whole paint serves any band
+            return paint
+        np.copyto(paint, self._bare_floor())
+        drawn = self._draw_lines(paint, pose)
+        # Blurring the paint before lighting it is close enough: the light field is smooth.
+        self._blur(paint, wheel_mps, drawn, band)
+        self._paint_key = whole if band is None else (*whole, band)
+        return paint
 
     def _draw_lines(self, image: U8Image, pose: Pose) -> tuple[int, int, int, int] | None:
         """Paint the lines near the view; returns the box (x0, y0, x1, y1) they touch, if any.
@@ -291,89 +266,15 @@ class SimCamera(FrameSource[_Shot]):
             self._segments[id(line)] = cached
         return cached[1]
 
-    def _make_texture(self) -> F32Array:
-        """A seamless tile of floor texture, repeated so the whole view fits inside it.
-
-        Reading inside one big periodic image is ten times faster than cv2's wrap-around
-        border, and shifting by whole tiles is invisible, so the texture stays world-fixed.
-        """
-        n = _TEXTURE_TILE_PX
-        fine = self._rng.normal(0.0, 1.0, (n, n)).astype(np.float32)
-        noise = np.tile(self._rng.normal(0.0, 1.0, (n, n)).astype(np.float32), (3, 3))
-        blurred: F32Array = cv2.GaussianBlur(noise, (0, 0), 6)[n:2 * n, n:2 * n]
-        blotches = blurred / max(float(blurred.std()), 1e-6)
-        tile = 1.0 + self.mount.texture_std * (0.6 * fine + 0.8 * blotches)
-        reps = math.ceil(math.hypot(self.width_px, self.height_px) / n) + 2
-        self._texture_centre = reps * n / 2
-        return np.tile(tile.astype(np.float32), (reps, reps))
-
-    def _texture_gain(self, pose: Pose, dst: F32Array | None = None) -> F32Array:
-        m = self.mount
-        mpp = m.m_per_px
-        c, s = math.cos(pose.heading_rad), math.sin(pose.heading_rad)
-        x0, y0 = m.px_to_floor(pose, 0.0, 0.0)
-        xc, yc = pose.to_world(m.forward_m, 0.0)
-        n = _TEXTURE_TILE_PX
-        # Whole tiles taken off so the view centre lands in the middle tile of the texture.
-        base = self._texture_centre - n / 2
-        shift_x = n * math.floor(xc / mpp / n) - base
-        shift_y = n * math.floor(yc / mpp / n) - base
-        # Destination pixel -> texture pixel: the texture is laid on the floor at camera scale.
-        affine = np.array([[s, -c, x0 / mpp - shift_x], [-c, -s, y0 / mpp - shift_y]],
-                          np.float64)
-        out: F32Array = cv2.warpAffine(self._texture, affine, (m.width_px, m.height_px),
-                                       dst=dst, flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
-                                       borderMode=cv2.BORDER_REFLECT)
-        return out
-
-    def _light_fields(self, pose: Pose) -> None:
-        """The floor texture and the room light under the view, kept while the pose is."""
-        if self._fields_pose != pose:
-            self._texture_gain(pose, self._bufs.texture)
-            self._ambient_gain(pose, self._bufs.ambient)
-            self._fields_pose = pose
-
-    def _gain(self, pose: Pose) -> F32Array:
-        """Light reaching each pixel: floor texture x lens and LED falloff x room light."""
-        b = self._bufs
-        if self._gain_pose != pose:
-            self._light_fields(pose)
-            cv2.multiply(b.texture, self._static_gain, dst=b.gain)
-            cv2.multiply(b.gain, b.ambient, dst=b.gain)
-            self._gain_pose = pose
-        return b.gain
-
-    def _make_static_gain(self) -> F32Array:
-        m = self.mount
-        mpp = m.m_per_px
-        cols = (np.arange(m.width_px, dtype=np.float32) - m.width_px / 2) * mpp
-        rows = (np.arange(m.height_px, dtype=np.float32) - m.height_px / 2) * mpp
-        r2 = cols[None, :] ** 2 + rows[:, None] ** 2
-        cos4 = (m.height_m**2 / (m.height_m**2 + r2)) ** 2
-        cos4 /= cos4.max()
-        corner = float(cos4.min())
-        falloff = (1.0 - cos4) / max(1.0 - corner, 1e-6)
-        gradient = 1.0 + m.light_gradient * (np.linspace(-0.5, 0.5, m.width_px, dtype=np.float32))
-        gain = (1.0 - m.vignette * falloff) * gradient[None, :]
-        return gain.astype(np.float32)
-
-    def _ambient_gain(self, pose: Pose, dst: F32Array | None = None) -> F32Array:
-        m = self.mount
-        fwd, left = self._ambient_grid
-        c, s = math.cos(pose.heading_rad), math.sin(pose.heading_rad)
-        x = pose.x_m + c * fwd - s * left
-        y = pose.y_m + s * fwd + c * left
-        p = self._phases
-        field = (np.sin(x * 2.1 + p[0]) * np.sin(y * 1.7 + p[1])
-                 + 0.5 * np.sin(x * 5.3 + y * 3.1 + p[2]))
-        coarse = (1.0 + m.ambient_variation * field / 1.5).astype(np.float32)
-        out: F32Array = cv2.resize(coarse, (m.width_px, m.height_px), dst=dst,
-                                   interpolation=cv2.INTER_LINEAR)
-        return out
-
     def _blur(self, image: U8Image, wheel_mps: tuple[float, float],
-              drawn: tuple[int, int, int, int] | None) -> U8Image:
-        """Motion blur; only around the paint (``drawn``): blurring bare floor changes nothing."""
+              drawn: tuple[int, int, int, int] | None,
+              band: tuple[int, int] | None = None) -> U8Image:
+        """Motion blur; only around the paint (``drawn``): blurring bare floor changes nothing.
+
+        ``band``: only rows ``band[0]..band[1]`` are wanted; the blur then covers them and
+        half a kernel beyond (or up to the painted box's edge, whose mirrored border it reads
+        as the whole blur does): the box filter's integer sums make those rows the same.
+        """
         m = self.mount
         speed = (wheel_mps[0] + wheel_mps[1]) / 2
         yaw_rps = (wheel_mps[1] - wheel_mps[0]) / self.body.params.wheel_base_m
@@ -388,6 +289,10 @@ class SimCamera(FrameSource[_Shot]):
         x0, y0, x1, y1 = drawn
         x0, x1 = max(0, x0 - kx), min(m.width_px, x1 + kx)
         y0, y1 = max(0, y0 - ky), min(m.height_px, y1 + ky)
+        if band is not None:
+            y0, y1 = max(y0, band[0] - ky // 2), min(y1, band[1] + ky // 2 + 1)
+            if y0 >= y1:
+                return image
         region = image[y0:y1, x0:x1]
         region[:] = cv2.blur(region, (kx, ky))
         return image

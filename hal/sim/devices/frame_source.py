@@ -3,12 +3,16 @@
 A capture takes a snapshot (a "shot": what the camera needs to draw the instant, nothing drawn
 yet) at the mount's rate; a frame is rendered from the latest shot only when somebody looks at
 it (``latest()``, or a waiter of ``next_reading()`` at the capture), once per shot, so an idle
-camera costs little. The subclass says what a shot holds and how it is drawn.
+camera costs little. Even then a frame draws only what is read of it: the rows asked for
+(``Frame.rows``, the line tracker's scan rows) where the subclass can draw rows alone, the
+whole image (once) when ``Frame.image`` is read. The subclass says what a shot holds and how it
+is drawn.
 """
 
 from __future__ import annotations
 
 import asyncio
+from collections.abc import Sequence
 from typing import Any, Generic, Protocol, TypeVar
 
 import numpy as np
@@ -36,7 +40,8 @@ class FrameSource(Generic[ShotT]):
     """A `hal.devices.Camera` whose frames are drawn from shots taken at ``fps``.
 
     Subclasses set ``name``, ``width_px``, ``height_px`` and implement ``_snapshot`` and
-    ``_draw``; ``_status_extra`` adds to ``status()``.
+    ``_draw``; ``_draw_rows`` draws some rows alone (by default they are cut from ``_draw``'s
+    image); ``_status_extra`` adds to ``status()``.
     """
 
     name: str
@@ -75,8 +80,7 @@ class FrameSource(Generic[ShotT]):
         if shot is None:
             return None
         if self._frame is None or self._frame.seq != shot.seq:
-            self._frame = Frame(self._draw(shot), shot.seq, shot.t_s)
-            self.frames_rendered += 1
+            self._frame = Frame.painted(_ShotPainter(self, shot), shot.seq, shot.t_s)
         return self._frame
 
     async def next_reading(self) -> Frame:
@@ -107,6 +111,11 @@ class FrameSource(Generic[ShotT]):
         """The BGR image of ``shot``."""
         raise NotImplementedError
 
+    def _draw_rows(self, shot: ShotT, rows: Sequence[int]) -> npt.NDArray[np.uint8] | None:
+        """Rows ``rows`` of ``_draw(shot)``, the same bytes, drawn alone (None: not drawn
+        alone, they are cut from the whole image)."""
+        return None
+
     def _status_extra(self) -> dict[str, Any]:
         return {}
 
@@ -128,3 +137,39 @@ class FrameSource(Generic[ShotT]):
             for fut in waiters:
                 if not fut.done():
                     fut.set_result(frame)
+
+
+class _ShotPainter(Generic[ShotT]):
+    """Draws one shot of ``source`` for its Frame: rows alone, or the whole image once."""
+
+    __slots__ = ("_counted", "_image", "_shot", "_source")
+
+    def __init__(self, source: FrameSource[ShotT], shot: ShotT) -> None:
+        self._source = source
+        self._shot = shot
+        self._image: npt.NDArray[np.uint8] | None = None
+        self._counted = False
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return self._source.height_px, self._source.width_px, 3
+
+    def image(self) -> npt.NDArray[np.uint8]:
+        if self._image is None:
+            self._count()
+            self._image = self._source._draw(self._shot)
+        return self._image
+
+    def rows(self, indices: Sequence[int]) -> npt.NDArray[np.uint8]:
+        if self._image is None:
+            self._count()
+            rows = self._source._draw_rows(self._shot, indices)
+            if rows is not None:
+                return rows
+        picked: npt.NDArray[np.uint8] = self.image()[np.asarray(indices, np.intp)]
+        return picked
+
+    def _count(self) -> None:
+        if not self._counted:  # a frame is counted once, however much of it is drawn
+            self._source.frames_rendered += 1
+            self._counted = True

@@ -1,0 +1,58 @@
+"""Reading laundry requests: what ``GET /api/requests`` and ``GET /api/requests/{id}`` answer.
+
+The routes (``fleet.api.requests``) and their fast path (``fleet.api.requests_fast``) both call
+these, so the two cannot answer differently. Raises ``FleetError`` (404, 403) as the routes'
+error handler words it.
+"""
+
+from __future__ import annotations
+
+from sqlalchemy import Select, select
+
+from fleet.api.auth import check_customer
+from fleet.api.deps import request_out
+from fleet.api.schemas import RequestOut
+from fleet.errors import NotFound
+from fleet.models import Request
+from fleet.server import FleetServer
+from fleet.settings import load_settings
+from fleet.status import Status
+from fleet.tokens import Principal, Role
+
+# Built once: statements are immutable, and building one costs more than SQLAlchemy's cached
+# compilation of it.
+_NEWEST_FIRST = select(Request).order_by(Request.id.desc())
+_DEFAULT_LIMIT = 100
+_NEWEST_FIRST_DEFAULT = _NEWEST_FIRST.limit(_DEFAULT_LIMIT)
+
+
+async def one_request(server: FleetServer, caller: Principal, request_id: int) -> RequestOut:
+    """The request ``request_id`` (404 if there is none, 403 if another customer's)."""
+    async with server.db.read() as session:
+        request = await session.get(Request, request_id)
+        if request is None:
+            msg = f"request {request_id} does not exist"
+            raise NotFound(msg)
+        check_customer(caller, request.customer_id, f"request {request_id}")
+        return await request_out(session, await load_settings(session), request)
+
+
+async def newest_requests(server: FleetServer, caller: Principal, status: Status | None = None,
+                          customer_id: int | None = None,
+                          limit: int = _DEFAULT_LIMIT) -> list[RequestOut]:
+    """Requests, newest first (a customer sees only its own; 403 for a customer asking for
+    another's)."""
+    if caller.role == Role.CUSTOMER:
+        if customer_id is not None:
+            check_customer(caller, customer_id, f"customer {customer_id}")
+        customer_id = caller.customer_id
+    query: Select[Request] = (
+        _NEWEST_FIRST_DEFAULT if limit == _DEFAULT_LIMIT else _NEWEST_FIRST.limit(limit))
+    if status is not None:
+        query = query.where(Request.status == status)
+    if customer_id is not None:
+        query = query.where(Request.customer_id == customer_id)
+    async with server.db.read() as session:
+        cfg = await load_settings(session)
+        rows = (await session.execute(query)).scalars().all()
+        return [await request_out(session, cfg, r) for r in rows]

@@ -45,9 +45,14 @@ def server_of(http: HttpRequest) -> FleetServer:
 async def request_out(session: AsyncSession, cfg: FleetSettings, request: Request) -> RequestOut:
     robot = (await session.get(Robot, request.assigned_robot_id)
              if request.assigned_robot_id is not None else None)
+    return request_body(request, robot.name if robot is not None else None, cfg)
+
+
+def request_body(request: Request, robot_name: str | None, cfg: FleetSettings) -> RequestOut:
+    """A request as the API shows it (``robot_name``: the assigned robot's)."""
     return RequestOut(
         Id=request.id, CustomerId=request.customer_id, Status=request.status,
-        AssignedRobotName=robot.name if robot is not None else None,
+        AssignedRobotName=robot_name,
         IsApproved=request.is_approved, CreatedAt=request.created_at,
         StatusChangedAt=request.status_changed_at, IsPaid=request.is_paid,
         RefundDue=request.refund_due, CancelReason=request.cancel_reason,

@@ -7,34 +7,42 @@ error handler words it.
 
 from __future__ import annotations
 
-from sqlalchemy import Select, select
+from typing import Any
+
+from sqlalchemy import Row, Select, bindparam, select
 
 from fleet.api.auth import check_customer
-from fleet.api.deps import request_out
+from fleet.api.deps import request_body
 from fleet.api.schemas import RequestOut
 from fleet.errors import NotFound
-from fleet.models import Request
+from fleet.models import Request, Robot
 from fleet.server import FleetServer
 from fleet.settings import load_settings
 from fleet.status import Status
 from fleet.tokens import Principal, Role
 
-# Built once: statements are immutable, and building one costs more than SQLAlchemy's cached
-# compilation of it.
-_NEWEST_FIRST = select(Request).order_by(Request.id.desc())
+# One Core query per read: the request's columns and its robot's name (the ORM took one query
+# for the request and one for each robot, each through a session). Built once: statements are
+# immutable, and building one costs more than SQLAlchemy's cached compilation of it.
+_ROBOT_NAME = "assigned_robot_name"
+_WITH_ROBOT = select(Request.__table__, Robot.name.label(_ROBOT_NAME)).outerjoin(
+    Robot, Robot.id == Request.assigned_robot_id)
+_ONE = _WITH_ROBOT.where(Request.id == bindparam("request_id"))
+_NEWEST_FIRST = _WITH_ROBOT.order_by(Request.id.desc())
 _DEFAULT_LIMIT = 100
 _NEWEST_FIRST_DEFAULT = _NEWEST_FIRST.limit(_DEFAULT_LIMIT)
 
 
 async def one_request(server: FleetServer, caller: Principal, request_id: int) -> RequestOut:
     """The request ``request_id`` (404 if there is none, 403 if another customer's)."""
-    async with server.db.read() as session:
-        request = await session.get(Request, request_id)
-        if request is None:
+    async with server.db.read_connection() as conn:
+        row = (await conn.execute(_ONE, {"request_id": request_id})).first()
+        if row is None:
             msg = f"request {request_id} does not exist"
             raise NotFound(msg)
+        request, robot_name = _request(row)
         check_customer(caller, request.customer_id, f"request {request_id}")
-        return await request_out(session, await load_settings(session), request)
+        return request_body(request, robot_name, await load_settings(conn))
 
 
 async def newest_requests(server: FleetServer, caller: Principal, status: Status | None = None,
@@ -46,13 +54,20 @@ async def newest_requests(server: FleetServer, caller: Principal, status: Status
         if customer_id is not None:
             check_customer(caller, customer_id, f"customer {customer_id}")
         customer_id = caller.customer_id
-    query: Select[Request] = (
+    query: Select[Any] = (
         _NEWEST_FIRST_DEFAULT if limit == _DEFAULT_LIMIT else _NEWEST_FIRST.limit(limit))
     if status is not None:
         query = query.where(Request.status == status)
     if customer_id is not None:
         query = query.where(Request.customer_id == customer_id)
-    async with server.db.read() as session:
-        cfg = await load_settings(session)
-        rows = (await session.execute(query)).scalars().all()
-        return [await request_out(session, cfg, r) for r in rows]
+    async with server.db.read_connection() as conn:
+        cfg = await load_settings(conn)
+        rows = (await conn.execute(query)).all()
+    return [request_body(*_request(row), cfg) for row in rows]
+
+
+def _request(row: Row[Any]) -> tuple[Request, str | None]:
+    """The request of a row (not in any session) and its robot's name."""
+    fields = row._asdict()
+    robot_name: str | None = fields.pop(_ROBOT_NAME)
+    return Request(**fields), robot_name

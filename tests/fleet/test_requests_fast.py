@@ -3,11 +3,15 @@ do, in every state the requests reach, and leaves everything it does not answer 
 
 from __future__ import annotations
 
+import asyncio
 import functools
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
 from typing import Any
 
 import httpx
 import pytest
+import uvicorn
 from fastapi import FastAPI
 from fleet_harness import Fleet, bearer, token_for
 from hypothesis import HealthCheck, given, settings
@@ -17,6 +21,7 @@ from test_properties import FleetMachine
 
 from fleet.api.auth import SCOPE_KEY, Authenticate
 from fleet.api.requests_fast import RequestsFastPath
+from fleet.http_protocol import CoalescingHttpToolsProtocol
 from fleet.tokens import Principal, Role
 
 Answer = tuple[int, list[tuple[bytes, bytes]], bytes]
@@ -118,6 +123,43 @@ class TestSameAnswersAsTheRoutes:
         fast, route = await both(fleet, "/api/requests?customer_id=2", CALLERS["customer 1"])
         assert fast == route
         assert fast[0] == 403
+
+
+@asynccontextmanager
+async def served(fleet: Fleet) -> AsyncIterator[str]:
+    """The fleet app under uvicorn on a free local port, as ``robotd-fleet serve`` runs it."""
+    config = uvicorn.Config(fleet.app, host="127.0.0.1", port=0, log_config=None,
+                            access_log=False, lifespan="off", http=CoalescingHttpToolsProtocol)
+    server = uvicorn.Server(config)
+    task = asyncio.ensure_future(server.serve())
+    try:
+        while not server.started:
+            assert not task.done(), "uvicorn did not start"
+            await asyncio.sleep(0.01)
+        port = server.servers[0].sockets[0].getsockname()[1]
+        yield f"http://127.0.0.1:{port}"
+    finally:
+        server.should_exit = True
+        await task
+
+
+class TestOverTcp:
+    async def test_a_client_over_tcp_gets_the_routes_answers(self, fleet):
+        """Under uvicorn, the fast path's status, content type, length and body are the
+        routes' (uvicorn adds its date and server headers to both)."""
+        ids = [(await fleet.request(c))["Id"] for c in (1, 2)]
+        await fleet.act(ids[1], "cancel")
+        paths = ["/api/requests", *(f"/api/requests/{i}" for i in [*ids, 9, 0])]
+        async with served(fleet) as url, httpx.AsyncClient(base_url=url) as tcp, \
+                routed(fleet) as route:
+            for who in ("admin", "customer 1", "customer 2", "robot", "no token"):
+                for path in paths:
+                    got = await tcp.get(path, headers=CALLERS[who])
+                    want = await route.get(path, headers=CALLERS[who])
+                    assert (got.status_code, got.headers.get("content-type"),
+                            got.headers.get("content-length"), got.content) == \
+                        (want.status_code, want.headers.get("content-type"),
+                         want.headers.get("content-length"), want.content), (who, path)
 
 
 class RecordingApp:

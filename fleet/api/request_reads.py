@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from sqlalchemy import Row, Select, bindparam, select
+from sqlalchemy import Select, bindparam, select
 
 from fleet.api.auth import check_customer
 from fleet.api.deps import request_body
@@ -22,10 +22,10 @@ from fleet.status import Status
 from fleet.tokens import Principal, Role
 
 # One Core query per read: the request's columns and its robot's name (the ORM took one query
-# for the request and one for each robot, each through a session). Built once: statements are
-# immutable, and building one costs more than SQLAlchemy's cached compilation of it.
-_ROBOT_NAME = "assigned_robot_name"
-_WITH_ROBOT = select(Request.__table__, Robot.name.label(_ROBOT_NAME)).outerjoin(
+# for the request and one for each robot, each through a session), shown from the row without
+# making ORM objects. Built once: statements are immutable, and building one costs more than
+# SQLAlchemy's cached compilation of it.
+_WITH_ROBOT = select(Request.__table__, Robot.name.label("assigned_robot_name")).outerjoin(
     Robot, Robot.id == Request.assigned_robot_id)
 _ONE = _WITH_ROBOT.where(Request.id == bindparam("request_id"))
 _NEWEST_FIRST = _WITH_ROBOT.order_by(Request.id.desc())
@@ -40,9 +40,8 @@ async def one_request(server: FleetServer, caller: Principal, request_id: int) -
         if row is None:
             msg = f"request {request_id} does not exist"
             raise NotFound(msg)
-        request, robot_name = _request(row)
-        check_customer(caller, request.customer_id, f"request {request_id}")
-        return request_body(request, robot_name, await load_settings(conn))
+        check_customer(caller, row.customer_id, f"request {request_id}")
+        return request_body(row, row.assigned_robot_name, await load_settings(conn))
 
 
 async def newest_requests(server: FleetServer, caller: Principal, status: Status | None = None,
@@ -63,11 +62,5 @@ async def newest_requests(server: FleetServer, caller: Principal, status: Status
     async with server.db.read_connection() as conn:
         cfg = await load_settings(conn)
         rows = (await conn.execute(query)).all()
-    return [request_body(*_request(row), cfg) for row in rows]
+    return [request_body(row, row.assigned_robot_name, cfg) for row in rows]
 
-
-def _request(row: Row[Any]) -> tuple[Request, str | None]:
-    """The request of a row (not in any session) and its robot's name."""
-    fields = row._asdict()
-    robot_name: str | None = fields.pop(_ROBOT_NAME)
-    return Request(**fields), robot_name

@@ -17,11 +17,16 @@ from fleet_harness import Fleet, bearer, token_for
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.stateful import invariant
+from sqlalchemy import select
 from test_properties import FleetMachine
 
 from fleet.api.auth import SCOPE_KEY, Authenticate
+from fleet.api.deps import request_out
+from fleet.api.request_reads import newest_requests, one_request
 from fleet.api.requests_fast import RequestsFastPath
 from fleet.http_protocol import CoalescingHttpToolsProtocol
+from fleet.models import Request
+from fleet.settings import load_settings
 from fleet.tokens import Principal, Role
 
 Answer = tuple[int, list[tuple[bytes, bytes]], bytes]
@@ -69,13 +74,28 @@ async def same_answers(fleet: Fleet, request_ids: list[int]) -> None:
                     (who, path)
 
 
+async def same_as_the_orm(fleet: Fleet) -> None:
+    """The reads (one Core query) show each request as the ORM objects do (``request_out``,
+    which creating and acting on a request answer with)."""
+    admin = Principal(1, Role.ADMIN, "staff")
+    listed = await newest_requests(fleet.server, admin, limit=1000)
+    async with fleet.server.db.read() as session:
+        cfg = await load_settings(session)
+        rows = (await session.execute(select(Request).order_by(Request.id.desc()))).scalars()
+        expected = [await request_out(session, cfg, r) for r in rows]
+    assert listed == expected
+    for request in expected:
+        assert await one_request(fleet.server, admin, request.Id) == request
+
+
 class ReadsMachine(FleetMachine):
     """Customers, admins and robots in any order; after each step every read is answered by
-    the fast path as by the route."""
+    the fast path as by the route, and shows what the ORM objects show."""
 
     @invariant()
     def reads_answer_as_the_routes_do(self) -> None:
         self.run(same_answers(self.fleet, self.request_ids))
+        self.run(same_as_the_orm(self.fleet))
 
     def teardown(self) -> None:
         self.run(self.fleet.__aexit__(None, None, None))
@@ -95,6 +115,7 @@ class TestSameAnswersAsTheRoutes:
         ids = [(await fleet.request(c))["Id"] for c in (1, 2, 3, 5)]
         await fleet.act(ids[2], "cancel")
         await same_answers(fleet, ids)
+        await same_as_the_orm(fleet)
 
     async def test_no_requests_at_all(self, fleet):
         await same_answers(fleet, [])

@@ -131,6 +131,7 @@ class Customer:
         self.request_id: int | None = None
         self.status: str | None = None
         self.paid = False
+        self._poll: httpx.Request | None = None
 
     async def run(self) -> None:
         loop = asyncio.get_running_loop()
@@ -195,7 +196,9 @@ class Customer:
         return response
 
     async def _get(self) -> dict[str, Any]:
-        response = await self.client.get(f"/api/requests/{self.request_id}")
+        if self._poll is None:  # the same request every second: built once, like an app would
+            self._poll = self.client.build_request("GET", f"/api/requests/{self.request_id}")
+        response = await self.client.send(self._poll)
         body: dict[str, Any] = response.json()
         return body
 
@@ -218,11 +221,13 @@ class Staff:
         self.washing_s = washing_s
         self._washing_since: dict[int, float] = {}
         self.double_assignments: list[str] = []
+        # The list is asked for every second: the request is built once, like a page would.
+        self._poll = client.build_request("GET", "/api/requests")
 
     async def run(self) -> None:
         loop = asyncio.get_running_loop()
         while True:
-            requests = (await self.client.get("/api/requests")).json()
+            requests = (await self.client.send(self._poll)).json()
             self._audit(requests, loop.time())
             for r in requests:
                 rid = int(r["Id"])

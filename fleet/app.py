@@ -24,6 +24,7 @@ from fleet.api.docs import add_offline_docs
 from fleet.api.error_bodies import add_error_handlers
 from fleet.api.exchange_fast import ExchangeFastPath
 from fleet.api.methods import AllowedMethods
+from fleet.api.requests_fast import RequestsFastPath
 from fleet.clock import Clock
 from fleet.server import FleetServer
 from fleet.settings import FleetSettings
@@ -34,13 +35,15 @@ log = structlog.get_logger(__name__)
 
 
 class FleetApp(FastAPI):
-    """The FastAPI app with the robots' data exchange answered before its middleware and
-    routing (``fleet.api.exchange_fast``): every robot posts once a second."""
+    """The FastAPI app with the robots' data exchange and the customers' and staff's request
+    reads answered before its middleware and routing (``fleet.api.exchange_fast``,
+    ``fleet.api.requests_fast``): each is called about once a second by each robot or person."""
 
     def __init__(self, server: FleetServer, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self._front = BodyLimit(AllowedMethods(
-            Authenticate(ExchangeFastPath(super().__call__, server), server.auth),
+            Authenticate(ExchangeFastPath(RequestsFastPath(super().__call__, server), server),
+                         server.auth),
             self.openapi))
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:

@@ -105,6 +105,16 @@ class Cached(Generic[T]):
             return loaded
 
 
+# The site's queries, built once (a load runs every ``ttl_s`` while robots report).
+_ACTIVE_BEACONS = (
+    select(Beacon.id, Beacon.mac_address, Beacon.name, Beacon.room_id, Room.name,
+           Room.floor_color, Beacon.rssi_threshold_dbm, Beacon.is_base)
+    .join(Room, Beacon.room_id == Room.id)
+    .where(Beacon.is_active.is_(True)).order_by(Beacon.id))
+_BEACON_ROOMS = select(Beacon.id, Beacon.room_id)
+_CUSTOMER_BEACONS = select(Customer.id, Customer.beacon_id)
+
+
 class SiteCache:
     def __init__(self, db: Database, ttl_s: float = 2.0) -> None:
         self._db = db
@@ -127,14 +137,9 @@ class SiteCache:
 
     async def _load_site(self) -> SiteView:
         async with self._db.read_connection() as conn:
-            rows = (await conn.execute(
-                select(Beacon.id, Beacon.mac_address, Beacon.name, Beacon.room_id, Room.name,
-                       Room.floor_color, Beacon.rssi_threshold_dbm, Beacon.is_base)
-                .join(Room, Beacon.room_id == Room.id)
-                .where(Beacon.is_active.is_(True)).order_by(Beacon.id)
-            )).all()
-            beacon_rooms = dict((await conn.execute(select(Beacon.id, Beacon.room_id))).all())
-            customers = (await conn.execute(select(Customer.id, Customer.beacon_id))).all()
+            rows = (await conn.execute(_ACTIVE_BEACONS)).all()
+            beacon_rooms = dict((await conn.execute(_BEACON_ROOMS)).all())
+            customers = (await conn.execute(_CUSTOMER_BEACONS)).all()
         beacons = [BeaconRow(*row) for row in rows]
         return SiteView(beacons, {
             cid: (beacon_rooms.get(bid) if bid is not None else None) for cid, bid in customers})

@@ -3,12 +3,13 @@ of a site sees the same values."""
 
 from __future__ import annotations
 
+import functools
 import json
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 from sqlalchemy import select
-from sqlalchemy.ext.asyncio import AsyncSession
+from sqlalchemy.ext.asyncio import AsyncConnection, AsyncSession
 
 from fleet.models import Setting
 
@@ -66,11 +67,21 @@ class SettingsUpdate(BaseModel):
         return {k: v for k, v in self.model_dump().items() if v is not None}
 
 
-async def load_settings(session: AsyncSession) -> FleetSettings:
-    rows = (await session.execute(select(Setting.key, Setting.value))).all()
+_STORED = select(Setting.key, Setting.value)
+_KNOWN = frozenset(f.alias for f in FleetSettings.model_fields.values())
+
+
+async def load_settings(session: AsyncSession | AsyncConnection) -> FleetSettings:
+    """The stored settings (an ORM session or a Core connection reads them alike)."""
+    return _parsed(tuple((key, value) for key, value in (await session.execute(_STORED)).all()))
+
+
+@functools.lru_cache(maxsize=16)
+def _parsed(rows: tuple[tuple[str, str], ...]) -> FleetSettings:
+    """The settings of these stored rows (they rarely change, and FleetSettings is frozen: one
+    instance serves every reader of the same rows)."""
     stored = {key: json.loads(value) for key, value in rows}
-    known = {f.alias for f in FleetSettings.model_fields.values()}
-    return FleetSettings.model_validate({k: v for k, v in stored.items() if k in known})
+    return FleetSettings.model_validate({k: v for k, v in stored.items() if k in _KNOWN})
 
 
 async def store_settings(session: AsyncSession, values: dict[str, Any]) -> FleetSettings:

@@ -10,20 +10,22 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-from collections.abc import Iterator
+from contextlib import AbstractContextManager
 from typing import Any
 
 from starlette.types import ASGIApp, Receive, Scope, Send
 
+_NO_HOLD: contextlib.nullcontext[None] = contextlib.nullcontext()
 
-@contextlib.contextmanager
-def hold_loop_time() -> Iterator[None]:
+
+def hold_loop_time() -> AbstractContextManager[None]:
+    """The running loop's ``hold_time()``, or a context that does nothing (every request takes
+    one: the loop's own context manager is returned, not wrapped in another)."""
     hold: Any = getattr(asyncio.get_running_loop(), "hold_time", None)
     if hold is None:
-        yield
-        return
-    with hold():
-        yield
+        return _NO_HOLD
+    held: AbstractContextManager[None] = hold()
+    return held
 
 
 class HoldTimeMiddleware:

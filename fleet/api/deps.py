@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+from datetime import datetime
+from typing import Protocol
+
 from fastapi import Request as HttpRequest
 from sqlalchemy.ext.asyncio import AsyncSession
 
 from fleet.api.schemas import ErrorOut, RequestOut, RobotOut
 from fleet.models import Request, Robot
 from fleet.server import FleetServer
-from fleet.services.weight import can_confirm_loaded, can_confirm_unloaded
+from fleet.services.weight import Weighed, can_confirm_loaded, can_confirm_unloaded
 from fleet.settings import FleetSettings
 
 _TEXT = {
@@ -45,9 +48,46 @@ def server_of(http: HttpRequest) -> FleetServer:
 async def request_out(session: AsyncSession, cfg: FleetSettings, request: Request) -> RequestOut:
     robot = (await session.get(Robot, request.assigned_robot_id)
              if request.assigned_robot_id is not None else None)
+    return request_body(request, robot.name if robot is not None else None, cfg)
+
+
+class RequestFields(Weighed, Protocol):
+    """What the API shows of a request: a ``Request``, or a row of its columns."""
+
+    @property
+    def id(self) -> int: ...
+    @property
+    def customer_id(self) -> int: ...
+    @property
+    def is_approved(self) -> bool: ...
+    @property
+    def created_at(self) -> datetime: ...
+    @property
+    def status_changed_at(self) -> datetime: ...
+    @property
+    def is_paid(self) -> bool: ...
+    @property
+    def refund_due(self) -> bool: ...
+    @property
+    def cancel_reason(self) -> str | None: ...
+    @property
+    def cancelled_from(self) -> str | None: ...
+    @property
+    def disposition(self) -> str: ...
+    @property
+    def robot_returned(self) -> bool: ...
+    @property
+    def overweight(self) -> bool: ...
+    @property
+    def admin_alert(self) -> str | None: ...
+
+
+def request_body(request: RequestFields, robot_name: str | None,
+                 cfg: FleetSettings) -> RequestOut:
+    """A request as the API shows it (``robot_name``: the assigned robot's)."""
     return RequestOut(
         Id=request.id, CustomerId=request.customer_id, Status=request.status,
-        AssignedRobotName=robot.name if robot is not None else None,
+        AssignedRobotName=robot_name,
         IsApproved=request.is_approved, CreatedAt=request.created_at,
         StatusChangedAt=request.status_changed_at, IsPaid=request.is_paid,
         RefundDue=request.refund_due, CancelReason=request.cancel_reason,

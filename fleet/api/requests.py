@@ -14,6 +14,7 @@ from sqlalchemy.ext.asyncio import AsyncSession
 
 from fleet.api.auth import CustomerOrAdmin, check_customer
 from fleet.api.deps import AUTH_ERRORS, ERRORS, errors, request_out, server_of
+from fleet.api.request_reads import newest_requests, one_request
 from fleet.api.schemas import RequestCreate, RequestOut
 from fleet.errors import Forbidden, NotFound
 from fleet.models import Request
@@ -51,30 +52,12 @@ async def list_requests(
     limit: Annotated[int, Query(ge=1, le=1000)] = 100,
 ) -> list[RequestOut]:
     """Requests, newest first (a customer sees only its own)."""
-    if caller.role == Role.CUSTOMER:
-        if customer_id is not None:
-            check_customer(caller, customer_id, f"customer {customer_id}")
-        customer_id = caller.customer_id
-    query = select(Request).order_by(Request.id.desc()).limit(limit)
-    if status is not None:
-        query = query.where(Request.status == status)
-    if customer_id is not None:
-        query = query.where(Request.customer_id == customer_id)
-    async with server_of(http).db.read() as session:
-        cfg = await load_settings(session)
-        rows = (await session.execute(query)).scalars().all()
-        return [await request_out(session, cfg, r) for r in rows]
+    return await newest_requests(server_of(http), caller, status, customer_id, limit)
 
 
 @router.get("/{request_id}", response_model=RequestOut, responses=errors(404))
 async def get(request_id: RequestId, http: HttpRequest, caller: CustomerOrAdmin) -> RequestOut:
-    async with server_of(http).db.read() as session:
-        request = await session.get(Request, request_id)
-        if request is None:
-            msg = f"request {request_id} does not exist"
-            raise NotFound(msg)
-        check_customer(caller, request.customer_id, f"request {request_id}")
-        return await request_out(session, await load_settings(session), request)
+    return await one_request(server_of(http), caller, request_id)
 
 
 @router.post("/{request_id}/{action}", response_model=RequestOut,

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 from datetime import datetime
+from typing import Protocol
 
 from sqlalchemy.ext.asyncio import AsyncSession
 
@@ -11,6 +12,15 @@ from fleet.models import Request
 from fleet.services.notify import notify
 from fleet.settings import FleetSettings
 from fleet.status import Status
+
+
+class Weighed(Protocol):
+    """What the confirmations read of a request (a ``Request`` or a row of its columns)."""
+
+    @property
+    def status(self) -> str: ...
+    @property
+    def weight_kg(self) -> float | None: ...
 
 
 def load_ok(weight_kg: float | None, cfg: FleetSettings) -> bool:
@@ -23,12 +33,12 @@ def unload_ok(weight_kg: float | None, cfg: FleetSettings) -> bool:
     return weight_kg is not None and weight_kg < cfg.min_weight_kg
 
 
-def can_confirm_loaded(request: Request, cfg: FleetSettings) -> bool:
+def can_confirm_loaded(request: Weighed, cfg: FleetSettings) -> bool:
     return request.status == Status.ARRIVED_AT_ROOM and (
         not cfg.require_weight_check or load_ok(request.weight_kg, cfg))
 
 
-def can_confirm_unloaded(request: Request, cfg: FleetSettings) -> bool:
+def can_confirm_unloaded(request: Weighed, cfg: FleetSettings) -> bool:
     return request.status == Status.ARRIVED_FOR_DELIVERY and (
         not cfg.require_weight_check or unload_ok(request.weight_kg, cfg))
 

@@ -1,10 +1,10 @@
 """The laundry fleet server inside the simulator, and the people who use it.
 
 ``InProcessFleet`` runs the real fleet app on the simulator's event loop (its clock follows
-virtual time); the robots' real HTTP clients reach it through an ASGI transport. Customers and
-the laundry staff are actors that use the same HTTP API a phone app or an admin page would:
-they create requests, load and unload the robots' bins, confirm, cancel, mark washing done and
-pay, each as their scenario table says.
+virtual time); the robots' real HTTP clients reach it through an ASGI transport
+(``robotd.sim.actors.asgi_pipe``). Customers and the laundry staff are actors that use the same
+HTTP API a phone app or an admin page would: they create requests, load and unload the robots'
+bins, confirm, cancel, mark washing done and pay, each as their scenario table says.
 
 Everyone holds a token like on a real site: each robot of the site its own (in a file its
 ``fleet.token_file`` names), each customer its own, the laundry staff an admin token. They
@@ -29,6 +29,7 @@ from fleet.clock import loop_clock
 from fleet.site import Site
 from robotd.config.settings import Settings
 from robotd.sim.actors import ActorContext, ActorTask
+from robotd.sim.actors.asgi_pipe import AsgiPipe
 from robotd.sim.rig import SimRig
 from robotd.sim.scenario import read_beside
 
@@ -62,7 +63,7 @@ class InProcessFleet:
         self.app = create_app(f"sqlite:///{workdir / 'fleet.db'}", site=site,
                               clock=loop_clock(origin, loop.time), settings=settings,
                               inline_sqlite=True)
-        self.transport = httpx.ASGITransport(app=self.app)
+        self.transport = AsgiPipe(self.app)
         self.client = self._client(self._tokens[("admin", "laundry-staff")])
         self._clients = [self.client]
 
@@ -130,6 +131,7 @@ class Customer:
         self.request_id: int | None = None
         self.status: str | None = None
         self.paid = False
+        self._poll: httpx.Request | None = None
 
     async def run(self) -> None:
         loop = asyncio.get_running_loop()
@@ -194,7 +196,9 @@ class Customer:
         return response
 
     async def _get(self) -> dict[str, Any]:
-        response = await self.client.get(f"/api/requests/{self.request_id}")
+        if self._poll is None:  # the same request every second: built once, like an app would
+            self._poll = self.client.build_request("GET", f"/api/requests/{self.request_id}")
+        response = await self.client.send(self._poll)
         body: dict[str, Any] = response.json()
         return body
 
@@ -217,11 +221,13 @@ class Staff:
         self.washing_s = washing_s
         self._washing_since: dict[int, float] = {}
         self.double_assignments: list[str] = []
+        # The list is asked for every second: the request is built once, like a page would.
+        self._poll = client.build_request("GET", "/api/requests")
 
     async def run(self) -> None:
         loop = asyncio.get_running_loop()
         while True:
-            requests = (await self.client.get("/api/requests")).json()
+            requests = (await self.client.send(self._poll)).json()
             self._audit(requests, loop.time())
             for r in requests:
                 rid = int(r["Id"])

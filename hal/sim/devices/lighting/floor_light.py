@@ -17,6 +17,7 @@ from typing import Any, Protocol
 import cv2
 import numpy as np
 import numpy.typing as npt
+import structlog
 
 from hal.sim.world.geometry import Pose
 
@@ -25,6 +26,7 @@ try:
 except ImportError:  # not built (no C compiler or Python headers): OpenCV calls, same pixels
     _camera_light = None  # type: ignore[assignment]
 
+log = structlog.get_logger(__name__)
 F32Array = npt.NDArray[Any]  # float32; cv2 returns loosely typed arrays
 U8Image = npt.NDArray[Any]  # uint8 BGR
 Affine = tuple[float, float, float, float, float, float]
@@ -33,6 +35,7 @@ TEXTURE_TILE_PX = 256
 _AMBIENT_GRID = (8, 6)  # coarse grid the world-fixed light field is computed on
 _BAND_ROWS = 32  # rows lit at a time: a band's float images fit in the CPU's cache
 _DARK = 8.0  # what a covered lens sees, grey levels before noise
+_CHECK_POSES = (Pose(0.37, -1.3, 0.7), Pose(-52.1, 13.9, -2.2), Pose(731.0, 7.7, 3.1))
 
 
 class Mount(Protocol):
@@ -117,6 +120,13 @@ class FloorLight:
                    and 255 * float(self.texture.max()) * float(self.static_gain.max())
                    * (1 + mount.ambient_variation) < 2**22)
         self.kernel = "c" if _camera_light is not None and bounded else "opencv"
+        # The rows pass reproduces OpenCV's warpAffine and resize: checked here against the
+        # OpenCV at hand, whose arithmetic another version may change.
+        self.rows_alone = self.kernel == "c" and self._rows_agree()
+        if self.kernel == "c" and not self.rows_alone:
+            log.warning("sim_camera.rows_not_alone", opencv=cv2.__version__,
+                        why="rows lit alone differ from OpenCV's whole frame here; rows are "
+                            "cut from whole frames")
 
     # --- lighting -----------------------------------------------------------------------------
     def light(self, paint: U8Image, pose: Pose, noise_at: tuple[int, int]) -> U8Image:
@@ -146,7 +156,7 @@ class FloorLight:
                    rows: Sequence[int]) -> U8Image | None:
         """Rows ``rows`` of ``light``'s frame, the same bytes, working on those rows only
         (the texture looked up and lit in C); None without the C pass."""
-        if self.kernel != "c" or _camera_light is None:
+        if self.kernel != "c" or _camera_light is None or not self.rows_alone:
             return None
         out: U8Image = np.empty((len(rows), self.mount.width_px, 3), np.uint8)
         oy, ox = noise_at
@@ -249,6 +259,18 @@ class FloorLight:
             cv2.multiply(self._gain_buf, self.ambient_gain(pose), dst=self._gain_buf)
             self._gain_pose = pose
         return self._gain_buf
+
+    def _rows_agree(self) -> bool:
+        """Whether rows lit alone are the whole frame's rows, from a few poses far apart."""
+        m = self.mount
+        paint = np.full((m.height_px, m.width_px, 3), 200, np.uint8)
+        every_row = range(m.height_px)
+        for pose in _CHECK_POSES:
+            self.rows_alone = True
+            alone = self.light_rows(paint, pose, (0, 0), every_row)
+            if alone is None or not np.array_equal(alone, self.light(paint, pose, (0, 0))):
+                return False
+        return True
 
     def _make_static_gain(self) -> F32Array:
         m = self.mount

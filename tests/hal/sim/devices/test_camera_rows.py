@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import importlib.util
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ from hypothesis import strategies as st
 from hal.readings import Frame
 from hal.sim import vclock
 from hal.sim.devices.camera_model import CameraMount, SimCamera, _Shot
+from hal.sim.devices.lighting.floor_light import FloorLight
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import PaintedLine, World
 from hal.sim.world.geometry import Pose, segments_array
@@ -158,3 +160,27 @@ def test_the_room_light_of_some_rows_is_opencvs_resize(size: tuple[int, int]) ->
     for _ in range(40):
         pose = Pose(*rng.uniform(-100, 100, 2), rng.uniform(-math.pi, math.pi))
         assert np.array_equal(light.ambient_rows(pose, every_row), light.ambient_gain(pose))
+
+
+def test_an_opencv_that_resizes_otherwise_gets_rows_cut_from_whole_frames(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where the rows pass would not match OpenCV (another version's rounding), the camera
+    notices at start and cuts rows from whole frames: still the same bytes."""
+    exact = FloorLight.ambient_rows
+
+    def an_ulp_off(self: FloorLight, pose: Pose, rows: Sequence[int]) -> np.ndarray:  # type: ignore[type-arg]
+        return np.nextafter(exact(self, pose, rows), np.float32(2.0))
+
+    monkeypatch.setattr(FloorLight, "ambient_rows", an_ulp_off)
+    pose = Pose(1.0, 0.52, 0.3)
+    camera = SimCamera(WORLD, DiffDriveBody(WORLD, pose), seed=4)
+    assert not camera._light.rows_alone
+    shot = _Shot(1, 0.0, pose, (0.3, 0.2), (4, 9))
+    alone = camera._render_rows(shot, [60, 100])
+    assert np.array_equal(alone, camera._render_shot(shot)[[60, 100]])
+
+
+def test_this_opencv_gets_rows_lit_alone() -> None:
+    """With the OpenCV installed here the check at start passes (where C was built)."""
+    camera = SimCamera(WORLD, DiffDriveBody(WORLD, Pose(1.0, 0.5, 0.0)))
+    assert camera._light.rows_alone == C_BUILT

@@ -31,7 +31,9 @@ class LgpioHx711Lines:
     """``hal.ports.Hx711Lines`` on ``/dev/gpiochipN``: PD_SCK an output, DOUT an input.
 
     DOUT is claimed as an alert line, so the lines also offer ``hal.ports.DoutAlert``: the
-    driver sleeps until DOUT falls instead of polling it.
+    driver sleeps until DOUT falls instead of polling it. DOUT also falls between a read's
+    data bits; those alerts find no waiter, and lgpio's thread waits for the GIL, which a read
+    holds for well under Python's 5 ms switch interval, so they cannot stretch a pulse.
     """
 
     def __init__(self, chip: int, data_gpio: int, clock_gpio: int,

@@ -39,6 +39,7 @@ IBEACON_PAYLOAD_BYTES = 2 + IBEACON_LENGTH
 # over 0 when they have no RSSI. 0 dBm would put a -59 dBm beacon a millimetre away.
 MIN_RSSI_DBM = -127
 MAX_RSSI_DBM = 20
+FRAME_CACHE_SIZE = 1024
 
 
 class MalformedAdvert(ValueError):
@@ -174,6 +175,9 @@ class BleBeaconScanner:
                                      "scan_errors"), 0)
         self.last_error: str | None = None
         self.last_sighting: BeaconSighting | None = None
+        # Apple manufacturer data bytes -> the iBeacon in them: a beacon repeats the same
+        # bytes ten times a second, so each distinct payload is parsed once.
+        self._frames: dict[bytes, IBeaconFrame] = {}
 
     # --- BeaconScanner ----------------------------------------------------------------------
     def on_sighting(self, callback: Callable[[BeaconSighting], None]) -> None:
@@ -224,14 +228,17 @@ class BleBeaconScanner:
                 log.info("ble.recovered", after_error=self.last_error)
                 self.last_error = None
         try:
-            frame = parse_ibeacon(adv.manufacturer_data)
+            frame = self._frame(adv.manufacturer_data)
             if frame is None:
                 self.counts["not_ibeacon"] += 1
                 return
             if self._uuids and frame.uuid not in self._uuids:
                 self.counts["other_uuid"] += 1
                 return
-            rssi_dbm = valid_rssi_dbm(adv.rssi)
+            rssi = adv.rssi
+            # The usual advert, an int in range, without valid_rssi_dbm's general checks.
+            rssi_dbm = (rssi if type(rssi) is int and MIN_RSSI_DBM <= rssi <= MAX_RSSI_DBM
+                        and rssi != 0 else valid_rssi_dbm(rssi))
             if rssi_dbm is None:
                 # Tracked as a sighting it would drag the smoothed RSSI up to "arrived".
                 self.counts["bad_rssi"] += 1
@@ -253,6 +260,21 @@ class BleBeaconScanner:
             except Exception:
                 self.counts["callback_errors"] += 1
                 log.exception("ble.callback_failed", mac=sighting.mac)
+
+    def _frame(self, manufacturer_data: Mapping[int, bytes]) -> IBeaconFrame | None:
+        """``parse_ibeacon``, once per distinct payload (raises what it raises)."""
+        data = manufacturer_data.get(APPLE_COMPANY_ID) if type(manufacturer_data) is dict \
+            else None
+        if type(data) is bytes:
+            frame = self._frames.get(data)
+            if frame is not None:
+                return frame
+        frame = parse_ibeacon(manufacturer_data)
+        if frame is not None and type(data) is bytes:
+            if len(self._frames) >= FRAME_CACHE_SIZE:  # a storm of distinct payloads
+                self._frames.clear()
+            self._frames[data] = frame
+        return frame
 
     # --- scanner lifecycle ------------------------------------------------------------------
     async def _start_scanner(self) -> None:

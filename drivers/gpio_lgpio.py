@@ -7,7 +7,9 @@ is ``/dev/gpiochip4`` on kernels before 6.6.45 and ``/dev/gpiochip0`` after.
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
+import threading
 import time
 from collections.abc import Callable
 from typing import Any
@@ -26,13 +28,22 @@ def _import_lgpio() -> Any:
 
 
 class LgpioHx711Lines:
-    """``hal.ports.Hx711Lines`` on ``/dev/gpiochipN``: PD_SCK an output, DOUT an input."""
+    """``hal.ports.Hx711Lines`` on ``/dev/gpiochipN``: PD_SCK an output, DOUT an input.
+
+    DOUT is claimed as an alert line, so the lines also offer ``hal.ports.DoutAlert``: the
+    driver sleeps until DOUT falls instead of polling it. DOUT also falls between a read's
+    data bits; those alerts find no waiter, and lgpio's thread waits for the GIL, which a read
+    holds for well under Python's 5 ms switch interval, so they cannot stretch a pulse.
+    """
 
     def __init__(self, chip: int, data_gpio: int, clock_gpio: int,
                  lgpio_module: Any | None = None) -> None:
         self._lg = lgpio_module if lgpio_module is not None else _import_lgpio()
         self._clock = clock_gpio
         self._data = data_gpio
+        self._waiters: list[tuple[asyncio.AbstractEventLoop, Callable[[], None]]] = []
+        self._waiters_lock = threading.Lock()
+        self._alert: Any = None
         try:
             self._handle = self._lg.gpiochip_open(chip)
         except Exception as exc:  # lgpio raises its own lgpio.error
@@ -40,7 +51,9 @@ class LgpioHx711Lines:
             raise DeviceUnavailable(msg) from exc
         try:
             self._lg.gpio_claim_output(self._handle, clock_gpio, 0)
-            self._lg.gpio_claim_input(self._handle, data_gpio)
+            self._lg.gpio_claim_alert(self._handle, data_gpio, self._lg.FALLING_EDGE)
+            self._alert = self._lg.callback(self._handle, data_gpio, self._lg.FALLING_EDGE,
+                                            self._on_alert)
         except Exception as exc:
             self._lg.gpiochip_close(self._handle)
             msg = (f"hx711: cannot claim GPIO {clock_gpio} (PD_SCK) and {data_gpio} (DOUT) on "
@@ -53,6 +66,33 @@ class LgpioHx711Lines:
     def read_dout(self) -> bool:
         return bool(self._lg.gpio_read(self._handle, self._data))
 
+    def on_dout_low(self, callback: Callable[[], None]) -> Callable[[], None]:
+        """``hal.ports.DoutAlert``: ``callback()`` on the running loop at DOUT's next fall."""
+        loop = asyncio.get_running_loop()
+        entry = (loop, callback)
+        with self._waiters_lock:
+            self._waiters.append(entry)
+        if not self.read_dout():  # it fell before the alert was armed: no edge will come
+            self._on_alert(0, self._data, 0, 0)
+
+        def cancel() -> None:
+            with self._waiters_lock:
+                if entry in self._waiters:
+                    self._waiters.remove(entry)
+
+        return cancel
+
+    def _on_alert(self, _chip: int, _gpio: int, level: int, _timestamp_ns: int) -> None:
+        """lgpio's thread (its callback API calls from its own thread): hand the waiters over
+        to their loops with ``call_soon_threadsafe``; nothing else happens here."""
+        if level != 0:  # only falls; 2 is lgpio's watchdog report
+            return
+        with self._waiters_lock:
+            waiters, self._waiters = self._waiters, []
+        for loop, callback in waiters:
+            with contextlib.suppress(RuntimeError):  # the loop closed while we shut down
+                loop.call_soon_threadsafe(callback)
+
     def now_us(self) -> int:
         # Pulse widths are measured within one synchronous read, where the event loop's clock
         # stands still; a monotonic hardware clock is the only one that moves.
@@ -62,6 +102,10 @@ class LgpioHx711Lines:
         if self._handle is None:
             return
         handle, self._handle = self._handle, None
+        alert, self._alert = self._alert, None
+        if alert is not None:
+            with contextlib.suppress(Exception):  # closing anyway
+                alert.cancel()
         for gpio in (self._clock, self._data):
             with contextlib.suppress(Exception):  # closing anyway
                 self._lg.gpio_free(handle, gpio)

@@ -5,7 +5,8 @@ shifts out one bit, MSB first, 24 bits of two's complement; 1, 2 or 3 extra puls
 total) select channel A gain 128, channel B gain 32 or channel A gain 64 for the NEXT
 conversion. PD_SCK held high for more than 60 us powers the chip down, so a read during which
 any pulse stayed high that long is discarded. The clocking is synchronous (microsecond timing
-cannot yield to the event loop); the wait for data-ready is asynchronous.
+cannot yield to the event loop); the wait for data-ready is asynchronous
+(``drivers.hx711_ready``: on DOUT's falling edge when the lines report it, else polled).
 
 Filtering (seed 000 section 11): saturated codes rejected, a reading far from the median of
 the recent ones rejected, then a moving average; kg = (average - tare_offset) / factor.
@@ -24,6 +25,7 @@ from typing import Any
 
 import structlog
 
+from drivers.hx711_ready import wait_dout_low
 from hal.devices import DeviceUnavailable
 from hal.latest import LatestValue
 from hal.ports import Hx711Lines
@@ -36,7 +38,6 @@ log = structlog.get_logger(__name__)
 MAX_SCK_HIGH_US = 60  # HX711: PD_SCK high for > 60 us enters power-down
 SATURATED_HIGH = 0x7FFFFF
 SATURATED_LOW = -0x800000
-POLL_S = 0.002
 MIN_CALIBRATION_COUNTS = 1000  # a calibration mass must move the code well above the noise
 
 
@@ -72,16 +73,26 @@ def clock_out(lines: Hx711Lines, gain: Gain) -> int:
     Raises ReadDiscarded("sck_high") when a pulse stayed high beyond 60 us, and
     ReadDiscarded("saturated") for the codes the chip gives when the input is out of range.
     """
+    # The hot loop of a read: the line methods bound once, no call but theirs per pulse.
+    set_sck, read_dout, now_us = lines.set_sck, lines.read_dout, lines.now_us
     raw = 0
     longest_us = 0
-    for i in range(gain.pulses):
-        t0 = lines.now_us()
-        lines.set_sck(True)
-        lines.set_sck(False)
-        longest_us = max(longest_us, lines.now_us() - t0)
-        if i < 24:
-            # DOUT changes on the rising edge and holds until the next one.
-            raw = (raw << 1) | int(lines.read_dout())
+    for _ in range(24):
+        t0 = now_us()
+        set_sck(True)
+        set_sck(False)
+        high_us = now_us() - t0
+        if high_us > MAX_SCK_HIGH_US:
+            longest_us = max(longest_us, high_us)
+        # DOUT changes on the rising edge and holds until the next one.
+        raw = (raw << 1) | read_dout()
+    for _ in range(gain.pulses - 24):  # the gain pulses: no data
+        t0 = now_us()
+        set_sck(True)
+        set_sck(False)
+        high_us = now_us() - t0
+        if high_us > MAX_SCK_HIGH_US:
+            longest_us = max(longest_us, high_us)
     if longest_us > MAX_SCK_HIGH_US:
         raise ReadDiscarded("sck_high", f"a clock pulse lasted {longest_us} us")
     code = to_signed24(raw)
@@ -279,13 +290,7 @@ class Hx711:
     # --- reading ----------------------------------------------------------------------------
     async def _wait_ready(self, timeout_s: float) -> bool:
         assert self._lines is not None
-        loop = asyncio.get_running_loop()
-        deadline = loop.time() + timeout_s
-        while self._lines.read_dout():  # DOUT high: conversion not ready
-            if loop.time() >= deadline:
-                return False
-            await asyncio.sleep(POLL_S)
-        return True
+        return await wait_dout_low(self._lines, timeout_s)
 
     def read_once(self) -> int:
         """Clock out one conversion (DOUT low); raises ReadDiscarded."""

@@ -33,6 +33,18 @@ class Hx711Lines(Protocol):
     def now_us(self) -> int: ...
 
 
+@runtime_checkable
+class DoutAlert(Protocol):
+    """What ``Hx711Lines`` may also offer: a call when DOUT falls, so a reader need not poll.
+
+    ``on_dout_low(callback)`` calls ``callback()`` once, on the event loop's thread, when DOUT
+    goes low (soon when it already is). It is a hint: it may come a little early or for a
+    glitch, so the reader confirms by reading DOUT. Returns a function that cancels the call.
+    """
+
+    def on_dout_low(self, callback: Callable[[], None]) -> Callable[[], None]: ...
+
+
 @dataclass(frozen=True, slots=True)
 class IrEdge:
     """One level change on an IR receiver's pin: the level after it, and when (microseconds)."""

@@ -13,11 +13,13 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from drivers.ble_scanner import (
+    FRAME_CACHE_SIZE,
     BleBeaconScanner,
     IBeaconFrame,
     MalformedAdvert,
     build_ibeacon,
     parse_ibeacon,
+    valid_rssi_dbm,
 )
 from hal.devices import BeaconScanner
 from hal.readings import BeaconSighting
@@ -186,3 +188,67 @@ class TestScannerAdverts:
         """A UUID in the configuration that is not a UUID raises ValueError naming it."""
         with pytest.raises(ValueError, match="not-a-uuid"):
             BleBeaconScanner(["not-a-uuid"])
+
+
+PAYLOADS = [ESTIMOTE_12345_54321, AIRLOCATE_1_2, TRUNCATED, WRONG_LENGTH_BYTE,
+            APPLE_NEARBY_INFO, MICROSOFT_SWIFT_PAIR, {0x004C: None},
+            {0x004C: bytearray(AIRLOCATE_1_2[0x004C])},
+            {0x004C: build_ibeacon(ESTIMOTE, 7, 8, -61)}]
+RSSIS = [-70, -127, 20, 0, 21, 127, -128, -65.0, True, None, float("nan")]
+
+
+def _expected(data: dict[int, Any], rssi: Any) -> tuple[str, tuple[Any, ...] | None]:
+    """What one advert must give, straight from parse_ibeacon and valid_rssi_dbm."""
+    try:
+        frame = parse_ibeacon(data)
+    except (MalformedAdvert, TypeError):
+        return "malformed", None
+    if frame is None:
+        return "not_ibeacon", None
+    rssi_dbm = valid_rssi_dbm(rssi)
+    if rssi_dbm is None:
+        return "bad_rssi", None
+    return "sighting", (frame.uuid, frame.major, frame.minor, rssi_dbm, frame.tx_power_dbm)
+
+
+class TestParsedOncePerPayload:
+    @given(st.lists(st.tuples(st.integers(0, len(PAYLOADS) - 1),
+                              st.integers(0, len(RSSIS) - 1)), max_size=40))
+    def test_repeated_payloads_give_what_a_fresh_parse_gives(
+            self, adverts: list[tuple[int, int]]) -> None:
+        """Whatever order payloads and RSSI values come in, each advert is sorted and its
+        sighting built exactly as parse_ibeacon and valid_rssi_dbm say."""
+        async def main() -> tuple[list[tuple[Any, ...]], dict[str, int]]:
+            driver, made = _scanner()
+            seen: list[BeaconSighting] = []
+            driver.on_sighting(seen.append)
+            await driver.start()
+            for p, r in adverts:
+                made[0].play("aa:00:00:00:00:01", PAYLOADS[p], rssi=RSSIS[r])
+            await driver.close()
+            return ([(s.uuid, s.major, s.minor, s.rssi_dbm, s.tx_power_dbm) for s in seen],
+                    driver.counts)
+
+        seen, counts = vclock.run(main())
+        expected = [_expected(PAYLOADS[p], RSSIS[r]) for p, r in adverts]
+        assert seen == [e for kind, e in expected if kind == "sighting"]
+        for kind in ("malformed", "not_ibeacon", "bad_rssi"):
+            assert counts[kind] == sum(1 for k, _ in expected if k == kind)
+        assert counts["sightings"] == len(seen)
+
+    def test_a_storm_of_distinct_payloads_keeps_the_cache_bounded(self) -> None:
+        """3000 distinct iBeacons: each reported with its own minor, the cache stays small."""
+        async def main() -> tuple[list[int], int]:
+            driver, made = _scanner()
+            seen: list[BeaconSighting] = []
+            driver.on_sighting(seen.append)
+            await driver.start()
+            for minor in range(3000):
+                made[0].play("aa:00:00:00:00:01", {0x004C: build_ibeacon(ESTIMOTE, 1, minor,
+                                                                          -59)})
+            await driver.close()
+            return [s.minor for s in seen], len(driver._frames)
+
+        minors, cached = vclock.run(main())
+        assert minors == list(range(3000))
+        assert cached <= FRAME_CACHE_SIZE

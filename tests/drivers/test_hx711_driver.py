@@ -3,13 +3,11 @@
 from __future__ import annotations
 
 import asyncio
-import importlib.util
 import random
 from typing import Any
 
 import pytest
 
-from drivers.gpio_lgpio import LgpioHx711Lines
 from drivers.hx711 import Gain, Hx711
 from hal.devices import DeviceUnavailable, LoadCell
 from hal.sim import vclock
@@ -173,64 +171,6 @@ class TestHx711Driver:
             await hx.close()
 
         vclock.run(main())
-
-
-class FakeLgpio:
-    """Records what the driver asks of lgpio."""
-
-    def __init__(self, fail_open: bool = False) -> None:
-        self.fail_open = fail_open
-        self.calls: list[tuple[Any, ...]] = []
-        self.level = 1
-
-    def gpiochip_open(self, chip: int) -> int:
-        if self.fail_open:
-            raise OSError("can not open gpiochip")
-        self.calls.append(("open", chip))
-        return 7
-
-    def gpio_claim_output(self, h: int, gpio: int, level: int) -> None:
-        self.calls.append(("out", gpio, level))
-
-    def gpio_claim_input(self, h: int, gpio: int) -> None:
-        self.calls.append(("in", gpio))
-
-    def gpio_write(self, h: int, gpio: int, level: int) -> None:
-        self.calls.append(("write", gpio, level))
-
-    def gpio_read(self, h: int, gpio: int) -> int:
-        return self.level
-
-    def gpio_free(self, h: int, gpio: int) -> None:
-        self.calls.append(("free", gpio))
-
-    def gpiochip_close(self, h: int) -> None:
-        self.calls.append(("close", h))
-
-
-class TestLgpioLines:
-    def test_claims_clock_low_and_data_in_then_frees_them(self) -> None:
-        """PD_SCK is claimed as an output driven low (powered up), DOUT as an input."""
-        lg = FakeLgpio()
-        lines = LgpioHx711Lines(0, data_gpio=5, clock_gpio=6, lgpio_module=lg)
-        lines.set_sck(True)
-        assert lines.read_dout() is True
-        lines.close()
-        lines.close()
-        assert lg.calls == [("open", 0), ("out", 6, 0), ("in", 5), ("write", 6, 1),
-                            ("free", 6), ("free", 5), ("close", 7)]
-
-    def test_missing_chip_is_device_unavailable(self) -> None:
-        """A chip that cannot be opened names /dev/gpiochipN."""
-        with pytest.raises(DeviceUnavailable, match="/dev/gpiochip4"):
-            LgpioHx711Lines(4, 5, 6, lgpio_module=FakeLgpio(fail_open=True))
-
-    @pytest.mark.skipif(importlib.util.find_spec("lgpio") is not None,
-                        reason="lgpio is installed here")
-    def test_missing_lgpio_says_how_to_install_it(self) -> None:
-        """Without lgpio the error names the pi extra."""
-        with pytest.raises(DeviceUnavailable, match=r"robotd\[pi\]"):
-            LgpioHx711Lines(0, 5, 6)
 
 
 class TestHx711FromSettings:

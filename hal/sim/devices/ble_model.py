@@ -100,6 +100,8 @@ class SimBleAir:
     _powered: bool = True
     _start_errors: list[BleakError] = field(default_factory=list)
     _extra: list[tuple[str, AdvertisementData]] = field(default_factory=list)
+    # mac -> (the beacon, its manufacturer data bytes): built once per beacon, not per advert
+    _payloads: dict[str, tuple[SimBeacon, bytes]] = field(default_factory=dict)
 
     # --- what the driver is given ------------------------------------------------------------
     def scanner_factory(self) -> Any:
@@ -185,8 +187,11 @@ class SimBleAir:
         if rssi < p.sensitivity_dbm:
             self.counts["too_weak"] += 1
             return
-        self._deliver(beacon.mac, _advert({APPLE_COMPANY_ID: ibeacon_payload(beacon)},
-                                          max(-127, min(20, rssi))))
+        cached = self._payloads.get(beacon.mac)
+        if cached is None or cached[0] is not beacon:
+            cached = self._payloads[beacon.mac] = (beacon, ibeacon_payload(beacon))
+        self._deliver(beacon.mac, _advert({APPLE_COMPANY_ID: cached[1]},
+                                          -127 if rssi < -127 else min(20, rssi)))
 
     def _deliver(self, mac: str, adv: AdvertisementData) -> None:
         for backend in list(self._listening):
@@ -199,23 +204,38 @@ class SimBleAir:
 
         Each beacon's next advert is a timer whose callback sends it and sets the next one (one
         loop turn per advert; a task sleeping between adverts would cost two). Beacons added to
-        the world start within 0.5 s; a removed one stops at its next advert.
+        the world start within 0.5 s; a removed one stops at its next advert. (Adverts are never
+        due at one instant: each interval has its own random advDelay.)
         """
         loop = asyncio.get_running_loop()
         timers: dict[str, asyncio.TimerHandle] = {}
+        world = self.body.world
+        # The world's beacons as last looked at, and by MAC (the first of a MAC counts): looked
+        # at again only when the list changed, not at every advert.
+        known: list[SimBeacon] = []
+        by_mac: dict[str, SimBeacon] = {}
 
         def schedule_new() -> None:
-            now = loop.time()
-            for beacon in self.body.world.beacons:
-                if beacon.mac not in timers:
-                    timers[beacon.mac] = loop.call_at(
-                        now + self.rng.uniform(0, beacon.interval_s), advert_due, beacon.mac)
-            self._deliver_extra()
+            # A beacon lacks a timer only when the list changed: a MAC leaves ``timers`` only
+            # once it left the list.
+            if world.beacons != known:  # identical objects compare by identity: cheap
+                known[:] = world.beacons
+                by_mac.clear()
+                for beacon in reversed(known):
+                    by_mac[beacon.mac] = beacon
+                now = loop.time()
+                for beacon in known:
+                    if beacon.mac not in timers:
+                        timers[beacon.mac] = loop.call_at(
+                            now + self.rng.uniform(0, beacon.interval_s), advert_due,
+                            beacon.mac)
+            if self._extra:
+                self._deliver_extra()
 
         def advert_due(mac: str) -> None:
             due_s = timers[mac].when()
             schedule_new()  # ``mac`` is still in ``timers``: only new beacons get a first time
-            found = next((b for b in self.body.world.beacons if b.mac == mac), None)
+            found = by_mac.get(mac)
             if found is None:
                 del timers[mac]
                 return
@@ -250,6 +270,6 @@ class SimBleAir:
 
 
 def _advert(manufacturer_data: dict[int, bytes], rssi_dbm: int) -> AdvertisementData:
-    return AdvertisementData(local_name=None, manufacturer_data=manufacturer_data,
-                             service_data={}, service_uuids=[], tx_power=None, rssi=rssi_dbm,
-                             platform_data=())
+    # Positional (local_name, manufacturer_data, service_data, service_uuids, tx_power, rssi,
+    # platform_data): a NamedTuple built from keywords costs twice as much.
+    return AdvertisementData(None, manufacturer_data, {}, [], None, rssi_dbm, ())

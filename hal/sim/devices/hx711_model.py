@@ -8,7 +8,9 @@ it down; bringing it low again resets it to A/128 and restarts settling. The cod
 ``offset + counts_per_kg * gain/128 * payload + noise``, clamped to the 24-bit range.
 
 Microseconds: the port keeps its own clock that advances a little with every call (the time
-a GPIO access takes) and never falls behind the event loop's clock.
+a GPIO access takes) and never falls behind the event loop's clock. ``on_dout_low``
+(``hal.ports.DoutAlert``) calls back when a conversion completes, from a timer on the loop's
+clock (``clock`` must then be the running loop's time, as by default).
 """
 
 from __future__ import annotations
@@ -27,6 +29,19 @@ POWER_DOWN_US = 60
 CODE_MAX = 0x7FFFFF
 CODE_MIN = -0x800000
 GAIN_BY_PULSES = {25: ("A", 128), 26: ("B", 32), 27: ("A", 64)}
+# The bits of each byte, MSB first: a code's 24 DOUT levels are three lookups.
+_BYTE_BITS = tuple(tuple(bool((byte >> (7 - i)) & 1) for i in range(8)) for byte in range(256))
+
+
+def _loop_s_reaching(us: int) -> float:
+    """The earliest clock reading (seconds, >= 0) that ``int(s * 1e6)`` takes to ``us`` or
+    beyond."""
+    s = max(0.0, us / 1_000_000)  # the loop's clock does not go below zero
+    while int(s * 1_000_000) < us:
+        s = math.nextafter(s, math.inf)
+    while s > 0.0 and int((earlier := math.nextafter(s, -math.inf)) * 1_000_000) >= us:
+        s = earlier
+    return s
 
 
 def _loop_clock() -> float:
@@ -69,7 +84,7 @@ class SimHx711Lines:
     _rise_us: int = 0
     _pulses_per_read: int = 25
     _pulses: int = 0
-    _shift: int = 0
+    _bits: tuple[bool, ...] = (True,) * 25  # DOUT after rising edge n: _bits[n], n = 1..24
     _first_ready_us: int = 0
     _last_read_index: int = -1
     _glitch: tuple[int, int] | None = None
@@ -79,6 +94,8 @@ class SimHx711Lines:
     _gpio_error: OSError | None = None
     _clock_s: float = -1.0
     _clock_us: int = 0
+    _dout_waiters: list[Callable[[], None]] = field(default_factory=list)
+    _dout_timer: asyncio.Handle | None = None
 
     def __post_init__(self) -> None:
         if self.sps not in (10, 80):
@@ -115,12 +132,16 @@ class SimHx711Lines:
 
     def connect(self) -> None:
         self._connected = True
+        if self._dout_waiters:
+            self._arm_dout_alert()
 
     def lose_gpio(self, errno_name: str = "ENODEV") -> None:
         """The GPIO chip went away (a header cable pulled, a driver unloaded): every line
         access raises OSError, as lgpio does, until ``restore_gpio``."""
         code = getattr(errno, errno_name)
         self._gpio_error = OSError(code, os.strerror(code))
+        if self._dout_waiters:
+            self._arm_dout_alert()  # the reader finds out at its next access
 
     def restore_gpio(self) -> None:
         self._gpio_error = None
@@ -150,8 +171,9 @@ class SimHx711Lines:
         # ``powered_down`` with the time just taken (the clock cannot move in between).
         if (self._sck and now - self._rise_us > POWER_DOWN_US) or not self._connected:
             return True
-        if 1 <= self._pulses <= 24:
-            return bool((self._shift >> (24 - self._pulses)) & 1)
+        pulses = self._pulses
+        if 1 <= pulses <= 24:
+            return self._bits[pulses]
         return not self._ready(now)
 
     def set_sck(self, high: bool) -> None:
@@ -162,26 +184,85 @@ class SimHx711Lines:
             return
         self._sck = high
         if high:
+            pulses = self._pulses
+            if 1 <= pulses < 23 and self._glitch is None:
+                # Within the 24 data bits: the next bit is on DOUT already.
+                self._rise_us = now
+                self.pulses_total += 1
+                self._pulses = pulses + 1
+                return
             self._rise(now)
             return
         if now - self._rise_us > POWER_DOWN_US:
             self._reset(now)
+        if self._dout_waiters:
+            self._arm_dout_alert()
+
+    def on_dout_low(self, callback: Callable[[], None]) -> Callable[[], None]:
+        """``hal.ports.DoutAlert``: ``callback()`` once DOUT reads low (a loop timer).
+
+        The timer is due at the first loop time at which a read finds DOUT low: when the
+        conversion completes."""
+        self._dout_waiters.append(callback)
+        self._arm_dout_alert()
+
+        def cancel() -> None:
+            if callback in self._dout_waiters:
+                self._dout_waiters.remove(callback)
+            if not self._dout_waiters and self._dout_timer is not None:
+                self._dout_timer.cancel()
+                self._dout_timer = None
+
+        return cancel
 
     # --- the chip ----------------------------------------------------------------------------
     def _loop_us(self) -> int:
         return int(self.clock() * 1_000_000)
 
     def _tick(self) -> int:
-        # The driver makes ~135 of these calls per conversion, all within one instant of the
+        # The driver makes ~125 of these calls per conversion, all within one instant of the
         # loop's clock: its microseconds are worked out once per instant.
         clock_s = self.clock()
         if clock_s != self._clock_s:
             self._clock_s = clock_s
             self._clock_us = int(clock_s * 1_000_000)
         now_us = self._now_us + self.call_us
-        now_us = max(now_us, self._clock_us)
-        self._now_us = now_us
+        clock_us = self._clock_us
+        self._now_us = now_us = now_us if now_us > clock_us else clock_us  # max(), no call
         return now_us
+
+    def _dout_falls_us(self) -> int | None:
+        """When DOUT next reads low if the lines are left alone (now: it does, or an access
+        raises); None: not before something changes (SCK, the wire)."""
+        if self._gpio_error is not None:
+            return self._now_us
+        if not self._connected or self._sck:
+            return None
+        if 1 <= self._pulses <= 24:  # a read broken off: DOUT holds the bit
+            return None if self._bits[self._pulses] else self._now_us
+        return self._first_ready_us + (self._last_read_index + 1) * self.period_us
+
+    def _arm_dout_alert(self) -> None:
+        if self._dout_timer is not None:
+            self._dout_timer.cancel()
+            self._dout_timer = None
+        falls_us = self._dout_falls_us()
+        if falls_us is None:
+            return
+        loop = asyncio.get_running_loop()
+        # An access reads the later of (this port's microseconds + one call) and the loop's
+        # clock in whole microseconds: the first loop time at which one can find DOUT low.
+        at_s = None if self._now_us + self.call_us >= falls_us else _loop_s_reaching(falls_us)
+        if at_s is None or at_s <= loop.time():
+            self._dout_timer = loop.call_soon(self._fire_dout_low)
+        else:
+            self._dout_timer = loop.call_at(at_s, self._fire_dout_low)
+
+    def _fire_dout_low(self) -> None:
+        self._dout_timer = None
+        waiters, self._dout_waiters = self._dout_waiters, []
+        for callback in waiters:
+            callback()
 
     def _conversion_index(self, now_us: int) -> int:
         if now_us < self._first_ready_us:
@@ -200,7 +281,9 @@ class SimHx711Lines:
             if not self._ready(now_us):
                 return  # a stray pulse while no data is ready: ignored
             self._last_read_index = self._conversion_index(now_us)
-            self._shift = self._code() & 0xFFFFFF
+            code = self._code() & 0xFFFFFF
+            self._bits = ((True,) + _BYTE_BITS[code >> 16] + _BYTE_BITS[(code >> 8) & 0xFF]
+                          + _BYTE_BITS[code & 0xFF])
             self.reads_started += 1
         self._pulses += 1
         if self._pulses in GAIN_BY_PULSES:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import math
 import random
 import statistics
@@ -130,3 +131,35 @@ class TestSimBleAir:
 
         counts = vclock.run(main())
         assert (counts["not_ibeacon"], counts["malformed"], counts["sightings"]) == (1, 1, 0)
+
+    def test_beacons_added_removed_and_replaced_while_advertising(self) -> None:
+        """A beacon added to the world starts advertising, a removed one stops, one replaced
+        by a beacon of the same MAC advertises the new one's bytes from its next advert."""
+        air = _air()
+        world = air.body.world
+        first = world.beacons[0]
+        second = dataclasses.replace(first, mac="C3:00:00:00:01:04", minor=104)
+        got: list[tuple[float, str, int]] = []
+
+        async def main() -> None:
+            loop = asyncio.get_running_loop()
+            scanner = air.scanner_factory()(lambda d, a: got.append(
+                (loop.time(), d.address, a.manufacturer_data[0x004C][21])))
+            async with air.running():
+                await scanner.start()
+                await asyncio.sleep(1.0)
+                world.beacons.append(second)
+                await asyncio.sleep(1.0)
+                world.beacons.remove(first)
+                await asyncio.sleep(1.0)
+                world.beacons[0] = dataclasses.replace(second, minor=105)
+                await asyncio.sleep(1.0)
+                await scanner.stop()
+
+        vclock.run(main())
+        first_adverts = [t for t, mac, _ in got if mac == first.mac]
+        second_adverts = [(t, minor) for t, mac, minor in got if mac == second.mac]
+        assert 1.0 < second_adverts[0][0] < 1.5  # started within the 0.5 s look at the world
+        assert first_adverts and max(first_adverts) < 2.2  # gone at its next advert
+        assert {m for t, m in second_adverts if t < 3.0} == {104}
+        assert {m for t, m in second_adverts if t > 3.2} == {105}

@@ -2,9 +2,16 @@
 
 from __future__ import annotations
 
+import asyncio
+import itertools
+import math
 import random
 
-from hal.sim.devices.hx711_model import SimHx711Lines
+from hypothesis import given
+from hypothesis import strategies as st
+
+from hal.sim import vclock
+from hal.sim.devices.hx711_model import SimHx711Lines, _loop_s_reaching
 
 
 class Bench:
@@ -152,3 +159,63 @@ class TestSimHx711Lines:
                 raise AssertionError("no OSError")
         bench.chip.restore_gpio()
         bench.wait_ready()
+
+
+class TestDoutAlert:
+    def test_calls_back_at_the_first_instant_dout_reads_low(self) -> None:
+        """``on_dout_low`` fires when the conversion completes: DOUT reads low then, and the
+        loop clock a hair earlier gives a microsecond that is not ready yet."""
+        async def main() -> list[tuple[float, bool, bool]]:
+            loop = asyncio.get_running_loop()
+            await asyncio.sleep(12.345678)  # a clock far from zero, where floats are coarse
+            chip = SimHx711Lines(weight_kg=lambda: 1.0, sps=80, clock=loop.time)
+            seen: list[tuple[float, bool, bool]] = []
+            for _ in range(6):
+                fired = asyncio.Event()
+                chip.on_dout_low(fired.set)
+                await fired.wait()
+                now = loop.time()
+                earlier_us = int(math.nextafter(now, -math.inf) * 1_000_000)
+                seen.append((now, chip.read_dout(), earlier_us >= chip._first_ready_us
+                             + (chip._last_read_index + 1) * chip.period_us))
+                for _ in range(25):
+                    chip.set_sck(True)
+                    chip.set_sck(False)
+            return seen
+
+        seen = vclock.run(main())
+        assert [low for _, low, _ in seen] == [False] * 6
+        assert [early for _, _, early in seen] == [False] * 6
+        gaps = [b[0] - a[0] for a, b in itertools.pairwise(seen)]
+        assert all(abs(g - 0.0125) < 1e-6 for g in gaps)
+
+    def test_cancel_and_wire_switches(self) -> None:
+        """A cancelled wait is not called; a pulled wire holds it off until reconnected; a
+        lost GPIO chip calls at once (the reader's next access raises)."""
+        async def main() -> tuple[list[str], float]:
+            loop = asyncio.get_running_loop()
+            chip = SimHx711Lines(weight_kg=lambda: 1.0, sps=10, clock=loop.time)
+            calls: list[str] = []
+            cancel = chip.on_dout_low(lambda: calls.append("cancelled"))
+            cancel()
+            chip.disconnect()
+            chip.on_dout_low(lambda: calls.append(f"wire {loop.time():.1f}"))
+            await asyncio.sleep(1.0)
+            chip.connect()
+            await asyncio.sleep(0)
+            chip.lose_gpio()
+            chip.on_dout_low(lambda: calls.append("lost"))
+            await asyncio.sleep(0)
+            return calls, loop.time()
+
+        calls, _ = vclock.run(main())
+        assert calls == ["wire 1.0", "lost"]
+
+
+@given(st.integers(0, 10**12))
+def test_loop_s_reaching_is_the_first_clock_reading_at_the_microsecond(us: int) -> None:
+    """The returned seconds reach ``us`` when truncated to microseconds; the float before
+    them does not."""
+    s = _loop_s_reaching(us)
+    assert int(s * 1_000_000) >= us
+    assert s == 0.0 or int(math.nextafter(s, -math.inf) * 1_000_000) < us

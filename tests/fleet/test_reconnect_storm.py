@@ -47,7 +47,10 @@ class TestReconnectStorm:
             notices = await fleet.notifications(recipient="admin", limit=1000)
             back = [n["RobotName"] for n in notices if n["Kind"] == "robot.reconnected"]
             assert sorted(back) == sorted(everyone)
-            assert fleet.server.views.reconnects.batches <= 20
+            # How many exchanges share a transaction depends on how fast the database answers
+            # (2-5 on a quiet machine, 40 seen with the 2 cores busy): a tenth of the robots at
+            # most is still "far fewer transactions than robots" on a loaded CI machine.
+            assert fleet.server.views.reconnects.batches <= len(everyone) // 10
             print(f"\nreconnect storm: {len(everyone)} robots restored in {elapsed_s:.2f} s, "
                   f"{fleet.server.views.reconnects.batches} transactions")
             # The robot with laundry goes on to base as before.

@@ -63,8 +63,7 @@ class NoCookies(http.cookiejar.CookieJar):
 
     The fleet API authenticates the robot by its bearer token and sets no cookies; a robot
     that kept them would carry whatever a server or a proxy on the way set into every later
-    exchange. Keeping none also spares the standard library's ``Set-Cookie`` parsing of every
-    answer (httpx hands each response to the client's jar).
+    exchange.
     """
 
     def extract_cookies(self, response: Any, request: Any) -> None:
@@ -74,11 +73,40 @@ class NoCookies(http.cookiejar.CookieJar):
         """Sends no ``Cookie``."""
 
 
+class _NoCookies(httpx.Cookies):
+    """httpx's cookies over a ``NoCookies`` jar, which skip handing each response to the jar
+    (the standard library's request and header wrappers, then nothing kept)."""
+
+    def __init__(self) -> None:
+        super().__init__(NoCookies())
+
+    def extract_cookies(self, response: httpx.Response) -> None:
+        """Keeps nothing of ``Set-Cookie``."""
+
+
+class FleetClient(httpx.AsyncClient):
+    """An ``httpx.AsyncClient`` that keeps no cookies (``NoCookies``); its ``cookies`` are
+    always empty and cannot be set."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self._none_kept = _NoCookies()
+
+    @property
+    def cookies(self) -> httpx.Cookies:
+        return self._none_kept
+
+    @cookies.setter
+    def cookies(self, cookies: Any) -> None:
+        msg = "a fleet client keeps no cookies"
+        raise TypeError(msg)
+
+
 def fleet_client(url: str, transport: httpx.AsyncBaseTransport | None = None
                  ) -> httpx.AsyncClient:
     """The robot's client of the fleet server at ``url`` (``fleet.url``): keeps no cookies.
     ``transport`` is None on the robot (TCP); the simulator gives its in-process one."""
-    return httpx.AsyncClient(base_url=url, transport=transport, cookies=NoCookies())
+    return FleetClient(base_url=url, transport=transport)
 
 
 class FleetLink:

@@ -8,10 +8,11 @@ import json
 from typing import Any
 
 import httpx
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from behaviours.profiles.laundry.fleet_link import FleetLink, NoCookies, fleet_client
+from behaviours.profiles.laundry.fleet_link import FleetClient, FleetLink, NoCookies, fleet_client
 
 _BASES = ["http://fleet.local", "http://fleet.local:8080/base/", "https://10.0.0.2/fleet"]
 
@@ -34,7 +35,7 @@ def _same(built: httpx.Request, expected: httpx.Request) -> None:
 def test_the_request_is_what_build_request_builds(
         base: str, token: str | None, timeout_s: float, headers: dict[str, str]) -> None:
     """URL, headers (order included), body and timeout equal client.build_request's."""
-    client = httpx.AsyncClient(base_url=base, headers=headers, cookies=NoCookies())
+    client = FleetClient(base_url=base, headers=headers)
     link = FleetLink(client, "r 1", _report, lambda _d: None, timeout_s=timeout_s, token=token)
     auth = {"Authorization": f"Bearer {token}"} if token else None
     _same(link.request(_report()), client.build_request(
@@ -49,6 +50,23 @@ def test_a_client_holding_cookies_gets_them_sent() -> None:
     _same(built, client.build_request("POST", link.path, json=_report(),
                                       headers={"Authorization": "Bearer t0k"}, timeout=2.0))
     assert built.headers["Cookie"] == "site=a"
+
+
+def test_a_jar_of_no_cookies_keeps_none_from_an_answer() -> None:
+    """An ordinary client on a NoCookies jar keeps nothing of Set-Cookie and sends none."""
+    client = httpx.AsyncClient(base_url="http://fleet.local", cookies=NoCookies())
+    request = client.build_request("POST", "/x")
+    client.cookies.extract_cookies(httpx.Response(
+        200, headers={"Set-Cookie": "session=abc; Path=/"}, request=request))
+    assert not client.cookies
+    assert "Cookie" not in client.build_request("POST", "/x").headers
+
+
+def test_a_fleet_clients_cookies_cannot_be_set() -> None:
+    """Setting a fleet client's cookies is refused: it keeps none."""
+    client = fleet_client("http://fleet.local")
+    with pytest.raises(TypeError, match="keeps no cookies"):
+        client.cookies = {"a": "b"}
 
 
 async def _serve(requests: list[bytes], reader: asyncio.StreamReader,

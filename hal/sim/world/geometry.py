@@ -163,11 +163,18 @@ class NearestSegments:
     distance is within 3 roundings of the exact one and libm's hypot within 1 ulp of it, so
     any other one's hypot is larger than the smallest's. Points out of range (not finite, or
     farther than 1e4 m) go to ``SegmentSet.distances``.
+
+    A cell's candidates are chosen the same way among those of its block (``_BLOCK`` x
+    ``_BLOCK`` cells, chosen over all segments): a segment that cannot hold the minimum
+    anywhere in the block cannot in the cell, and at the cell's centre the exact minimum is a
+    block candidate's; those distances are taken with ``math.hypot`` (any distance within
+    ``eps`` of the exact one serves the choice).
     """
 
     _MARGIN_M = 1e-6
     _RANGE_M = 1e4
     _MAX_CELLS = 1 << 16  # bound the cache (a robot visits a few hundred cells)
+    _BLOCK = 8
 
     def __init__(self, segments: SegmentSet, cell_m: float = 0.05) -> None:
         self.segments = segments
@@ -177,6 +184,7 @@ class NearestSegments:
                               segments.ex.tolist(), segments.ey.tolist(),
                               segments.length2.tolist(), strict=True))
         self._cells: dict[tuple[int, int], list[tuple[float, float, float, float, float]]] = {}
+        self._blocks: dict[tuple[int, int], list[tuple[float, float, float, float, float]]] = {}
 
     def min_distance(self, x_m: float, y_m: float) -> float:
         """The distance from a point to the nearest segment (inf when there are none)."""
@@ -209,13 +217,34 @@ class NearestSegments:
 
     def _candidates(self, ix: int, iy: int) -> list[tuple[float, float, float, float, float]]:
         """The segments that can hold the minimum for a point of cell (ix, iy)."""
-        centre = self.segments.distances((ix + 0.5) * self.cell_m, (iy + 0.5) * self.cell_m)
-        keep = np.flatnonzero(centre <= centre.min() + self._reach_m).tolist()
-        rows = [self._rows[i] for i in keep]
+        key = (ix // self._BLOCK, iy // self._BLOCK)
+        block = self._blocks.get(key)
+        if block is None:
+            block = self._blocks[key] = self._block(*key)
+        x_m, y_m = (ix + 0.5) * self.cell_m, (iy + 0.5) * self.cell_m
+        centre = [_distance(row, x_m, y_m) for row in block]
+        nearest_m = min(centre)
+        rows = [row for row, d in zip(block, centre, strict=True)
+                if d <= nearest_m + self._reach_m]
         if len(self._cells) >= self._MAX_CELLS:
             self._cells.clear()
+            self._blocks.clear()
         self._cells[(ix, iy)] = rows
         return rows
+
+    def _block(self, bx: int, by: int) -> list[tuple[float, float, float, float, float]]:
+        """The segments that can hold the minimum for a point of block (bx, by)."""
+        size_m = self._BLOCK * self.cell_m
+        centre = self.segments.distances((bx + 0.5) * size_m, (by + 0.5) * size_m)
+        reach_m = math.sqrt(2.0) * size_m + 5 * self._MARGIN_M
+        return [self._rows[i] for i in np.flatnonzero(centre <= centre.min() + reach_m).tolist()]
+
+
+def _distance(row: tuple[float, float, float, float, float], x_m: float, y_m: float) -> float:
+    """From a point to a segment (x1, y1, ex, ey, length2), within ``eps`` of the exact."""
+    x1, y1, ex, ey, length2 = row
+    t = min(max(((x_m - x1) * ex + (y_m - y1) * ey) / length2, 0.0), 1.0) if length2 > 0 else 0.0
+    return math.hypot(x1 + t * ex - x_m, y1 + t * ey - y_m)
 
 
 def distance_to_segments(segments: FloatArray, x_m: float, y_m: float) -> float:

@@ -44,7 +44,7 @@ class FleetApp(FastAPI):
         self._front = BodyLimit(AllowedMethods(
             Authenticate(ExchangeFastPath(RequestsFastPath(super().__call__, server), server),
                          server.auth),
-            self.openapi))
+            lambda: self.routes))
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         await self._front(scope, receive, send)

@@ -34,9 +34,9 @@ Ts = TypeVarTuple("Ts")
 _HOLD_POLL_S = 0.05
 # Real file descriptors are polled on every Nth loop turn, and before every jump of the clock
 # of at least _POLL_BEFORE_JUMP_S: a simulation turns the loop a few hundred times per virtual
-# second, mostly for short jumps, and a poll is a system call. Real I/O so waits at most a few
-# turns (well under a millisecond of wall time) and never sees a timeout it could have beaten.
-_READY_POLL_EVERY = 8
+# second, mostly for short jumps, and a poll is a system call (every 8th turn: 2 % of laundry).
+# Real I/O waits at most 32 turns (under a millisecond), never past a timeout it could beat.
+_READY_POLL_EVERY = 32
 _POLL_BEFORE_JUMP_S = 0.02
 # asyncio's policy for purging cancelled timers from the queue.
 _PURGE_MIN_TIMERS = 100

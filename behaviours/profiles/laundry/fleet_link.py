@@ -8,6 +8,7 @@ cannot be reached (or answers nonsense) the robot logs it and keeps trying; afte
 from __future__ import annotations
 
 import asyncio
+import http.cookiejar
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -57,6 +58,57 @@ def read_token(path: Path) -> str:
     return token
 
 
+class NoCookies(http.cookiejar.CookieJar):
+    """A cookie jar that keeps no cookies and sends none.
+
+    The fleet API authenticates the robot by its bearer token and sets no cookies; a robot
+    that kept them would carry whatever a server or a proxy on the way set into every later
+    exchange.
+    """
+
+    def extract_cookies(self, response: Any, request: Any) -> None:
+        """Keeps nothing of ``Set-Cookie``."""
+
+    def add_cookie_header(self, request: Any) -> None:
+        """Sends no ``Cookie``."""
+
+
+class _NoCookies(httpx.Cookies):
+    """httpx's cookies over a ``NoCookies`` jar, which skip handing each response to the jar
+    (the standard library's request and header wrappers, then nothing kept)."""
+
+    def __init__(self) -> None:
+        super().__init__(NoCookies())
+
+    def extract_cookies(self, response: httpx.Response) -> None:
+        """Keeps nothing of ``Set-Cookie``."""
+
+
+class FleetClient(httpx.AsyncClient):
+    """An ``httpx.AsyncClient`` that keeps no cookies (``NoCookies``); its ``cookies`` are
+    always empty and cannot be set."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self._none_kept = _NoCookies()
+
+    @property
+    def cookies(self) -> httpx.Cookies:
+        return self._none_kept
+
+    @cookies.setter
+    def cookies(self, cookies: Any) -> None:
+        msg = "a fleet client keeps no cookies"
+        raise TypeError(msg)
+
+
+def fleet_client(url: str, transport: httpx.AsyncBaseTransport | None = None
+                 ) -> httpx.AsyncClient:
+    """The robot's client of the fleet server at ``url`` (``fleet.url``): keeps no cookies.
+    ``transport`` is None on the robot (TCP); the simulator gives its in-process one."""
+    return FleetClient(base_url=url, transport=transport)
+
+
 class FleetLink:
     """Runs the exchange loop; ``on_directive`` gets every good answer (and the grace stop).
 
@@ -77,7 +129,6 @@ class FleetLink:
                  grace_s: float = 5.0, timeout_s: float = 2.0,
                  token: str | None = None) -> None:
         self.client = client
-        self._headers = {"Authorization": f"Bearer {token}"} if token else None
         self.robot_name = robot_name
         self.build_report = build_report
         self.on_directive = on_directive
@@ -88,10 +139,28 @@ class FleetLink:
         self.last_error: str | None = None
         self.last_ok_s: float | None = None
         self._grace_stopped = False
+        # What client.build_request would merge into every request, merged once: the URL on
+        # the base URL, the client's headers and the token, the timeout. The client's headers
+        # are read here: a client whose headers change later needs a new link.
+        self._auth = {"Authorization": f"Bearer {token}"} if token else None
+        self._url = client.build_request("POST", self.path).url
+        self._request_headers = httpx.Headers(client.headers)
+        self._request_headers.update(self._auth)
+        self._timeout = httpx.Timeout(timeout_s).as_dict()
 
     @property
     def path(self) -> str:
         return f"/api/Robot/{self.robot_name}/data-exchange"
+
+    def request(self, report: dict[str, Any]) -> httpx.Request:
+        """The exchange request carrying ``report``: the one ``client.build_request`` builds
+        for ``POST path`` with the token and timeout (its cookies too, when the client has
+        any), built from what does not change between requests."""
+        if self.client.cookies:
+            return self.client.build_request("POST", self.path, json=report,
+                                             headers=self._auth, timeout=self.timeout_s)
+        return httpx.Request("POST", self._url, json=report, headers=self._request_headers,
+                             extensions={"timeout": self._timeout})
 
     async def run(self) -> None:
         loop = asyncio.get_running_loop()
@@ -113,8 +182,7 @@ class FleetLink:
         """One POST; applies and returns the directive, or None when there was none."""
         self.counts["sent"] += 1
         try:
-            response = await self.client.post(self.path, json=self.build_report(),
-                                              headers=self._headers, timeout=self.timeout_s)
+            response = await self.client.send(self.request(self.build_report()))
         except httpx.HTTPError as exc:
             self._failed(f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__)
             return None

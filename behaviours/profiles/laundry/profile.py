@@ -13,7 +13,6 @@ import os
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-import httpx
 import structlog
 
 from behaviours.beacons.arrival import Arrival
@@ -23,7 +22,7 @@ from behaviours.motion.obstacle_guard import ObstacleGuard
 from behaviours.persistence import MissionRecord
 from behaviours.profile import BaseProfile, StateTask
 from behaviours.profiles.laundry.directive import Directive
-from behaviours.profiles.laundry.fleet_link import FleetLink, read_token, token_path
+from behaviours.profiles.laundry.fleet_link import FleetLink, fleet_client, read_token, token_path
 from behaviours.profiles.laundry.load_check import LoadCheck
 from behaviours.profiles.laundry.local_route import LocalRoute
 from behaviours.profiles.laundry.memory import LAUNDRY_MISSION, LaundryMemory
@@ -97,7 +96,7 @@ class LaundryProfile(BaseProfile):
         if url:
             report = RobotReport(ctx.settings.get("robot.name"), ctx.wall_clock, tracker,
                                  arrival, load, d.front_range, holding=memory.report)
-            client = httpx.AsyncClient(base_url=url, transport=d.network)
+            client = fleet_client(url, d.network)
 
             async def follow(directive: Directive) -> None:
                 # What the answer means the robot holds is on disk before the robot acts on it.

@@ -18,6 +18,7 @@ from hal.occupancy_map import MapFileError, read_map_yaml
 from hal.sim.world.dock import CONTACT_MV, DEFAULT_BEAMS, FAULT_MV, SLOT_S, Beam, Dock
 from hal.sim.world.geometry import (
     FloatArray,
+    NearestSegments,
     SegmentSet,
     distance_to_segments,
     polyline_segments,
@@ -138,7 +139,7 @@ class World:
     y_min_m: float = 0.0
     map_source: str = ""  # the map_server YAML the walls came from, if any
     unmapped_walls: int = 0  # the last this many walls are furniture the robots' maps lack
-    _segments_cache: tuple[tuple[PaintedLine, ...], FloatArray, SegmentSet] | None = field(
+    _segments_cache: tuple[tuple[PaintedLine, ...], FloatArray, NearestSegments] | None = field(
         default=None, init=False, repr=False, compare=False)
 
     def mapped_walls(self) -> FloatArray:
@@ -163,15 +164,15 @@ class World:
             parts = [line.segments() for line in self.lines]
             segments = np.concatenate(parts) if parts else segments_array([])
             segments.flags.writeable = False
-            cached = self._segments_cache = (key, segments, SegmentSet(segments))
+            cached = self._segments_cache = (key, segments, NearestSegments(SegmentSet(segments)))
         return cached[1]
 
     def cross_track_m(self, x_m: float, y_m: float) -> float:
         """Distance from a point to the nearest painted line's centre."""
         self.line_segments()
         assert self._segments_cache is not None
-        lines = self._segments_cache[2]  # as distance_to_segments, to the bit, in fewer steps
-        return float(lines.distances(x_m, y_m).min()) if lines.x1.shape[0] else math.inf
+        # as distance_to_segments, to the bit, from the few segments near the point
+        return self._segments_cache[2].min_distance(x_m, y_m)
 
     def beacon(self, mac: str) -> SimBeacon:
         for b in self.beacons:

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import cv2
 import numpy as np
@@ -34,6 +34,7 @@ except ImportError:  # not built (no C compiler or Python headers): placed in Py
 U8Image = npt.NDArray[Any]  # uint8 BGR
 
 _DRAW_SHIFT = 4  # cv2 fixed-point bits: sub-pixel line positions
+_NOISE_DRAWS = 256  # noise offsets drawn at a time
 
 
 @dataclass(frozen=True, slots=True)
@@ -100,9 +101,9 @@ class _LinePaint:
 _Placed = tuple[list[tuple[tuple[int, int], tuple[int, int]]], float, float, float, float] | None
 
 
-@dataclass(frozen=True, slots=True)
-class _Shot:
-    """What the camera captured at one instant; rendered into an image on demand."""
+class _Shot(NamedTuple):
+    """What the camera captured at one instant; rendered into an image on demand (a named
+    tuple: one is made 30 times a second, and a frozen dataclass is slower to make)."""
 
     seq: int
     t_s: float
@@ -142,6 +143,7 @@ class SimCamera(FrameSource[_Shot]):
         # How lines are placed: "c" (place_segments in _camera_light.c) or "python".
         self.place_kernel = "c" if _camera_light is not None else "python"
         self._light = FloorLight(self.mount, texture, noise, self._rng.uniform(0, 2 * math.pi, 4))
+        self._offsets: list[tuple[int, int]] = []  # noise offsets drawn ahead, last one next
         self._paint_buf = np.empty((self.height_px, self.width_px, 3), np.uint8)
         self._paint_key: tuple[Any, ...] | None = None
         self._floor: tuple[tuple[int, int, int], U8Image] | None = None
@@ -191,7 +193,16 @@ class SimCamera(FrameSource[_Shot]):
         return self._floor[1]
 
     def _noise_offset(self) -> tuple[int, int]:
-        return int(self._rng.integers(0, self.height_px)), int(self._rng.integers(0, self.width_px))
+        """The next (row, column) of the noise bank to read a frame's noise at.
+
+        Drawn ahead, _NOISE_DRAWS pairs in one call: the generator gives the numbers that one
+        call a row and one a column gave (tests/hal/sim/devices/test_camera_lines.py), and
+        nothing else draws from it once the camera is made.
+        """
+        if not self._offsets:
+            drawn = self._rng.integers(0, (self.height_px, self.width_px), (_NOISE_DRAWS, 2))
+            self._offsets = [(int(r), int(c)) for r, c in drawn.tolist()][::-1]
+        return self._offsets.pop()
 
     def _render_shot(self, shot: _Shot) -> U8Image:
         if shot.covered:

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hal.sim.devices.camera_model import SimCamera, _Shot
+from hal.sim.devices.camera_model import CameraMount, SimCamera, _Shot
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import PaintedLine, World
 from hal.sim.world.geometry import Pose, segments_array
@@ -100,3 +100,20 @@ def test_segments_of_no_length_and_far_ones() -> None:
     assert _camera_light.place_segments(cam._line_paint(far).ends, *args,
                                         cam._line_paint(far).limit_m, m.width_px / 2,
                                         m.height_px / 2, m.m_per_px, m.forward_m, 16.0) is None
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), size=st.sampled_from([(240, 320), (17, 16), (480, 640)]))
+def test_noise_offsets_drawn_ahead_are_those_drawn_one_by_one(
+        seed: int, size: tuple[int, int]) -> None:
+    """The camera's noise offsets are the row-then-column draws of its generator, in order."""
+
+    world = World(4.0, 4.0, segments_array([]))
+    pose = Pose(1.0, 1.0, 0.0)
+    cam = SimCamera(world, DiffDriveBody(world, pose),
+                    CameraMount(width_px=size[1], height_px=size[0]), seed=seed)
+    one_by_one = np.random.Generator(np.random.PCG64())
+    one_by_one.bit_generator.state = cam._rng.bit_generator.state
+    for _ in range(600):
+        expected = (int(one_by_one.integers(0, size[0])), int(one_by_one.integers(0, size[1])))
+        assert cam._noise_offset() == expected

@@ -146,6 +146,11 @@ class SimCamera(FrameSource[_Shot]):
         self._offsets: list[tuple[int, int]] = []  # noise offsets drawn ahead, last one next
         self._paint_buf = np.empty((self.height_px, self.width_px, 3), np.uint8)
         self._paint_key: tuple[Any, ...] | None = None
+        # What the last paint left: the lines' box, the rows a band's blur took (top row,
+        # left column, their sharp pixels) and the box touched on which bare floor image.
+        self._drawn: tuple[int, int, int, int] | None = None
+        self._sharp: tuple[int, int, U8Image] | None = None
+        self._dirty: tuple[U8Image, tuple[int, int, int, int] | None] | None = None
         self._floor: tuple[tuple[int, int, int], U8Image] | None = None
         self.covered = False
 
@@ -240,14 +245,37 @@ class SimCamera(FrameSource[_Shot]):
         """
         whole = (pose, wheel_mps, self.world.floor_bgr, tuple(self.world.lines))
         paint = self._paint_buf
-        if self._paint_key in (whole, (*whole, band)):  # a whole paint serves any band
+        key = self._paint_key
+        if key in (whole, (*whole, band)):  # a whole paint serves any band
             return paint
-        np.copyto(paint, self._bare_floor())
-        drawn = self._draw_lines(paint, pose)
+        if band is None and key is not None and key[:4] == whole and self._sharp is not None:
+            # This shot's rows were painted (a recorder now wants the whole frame): the lines
+            # are drawn; the rows blurred for them are put back sharp and the whole box blurred.
+            y0, x0, sharp = self._sharp
+            paint[y0:y0 + sharp.shape[0], x0:x0 + sharp.shape[1]] = sharp
+            self._sharp = None
+            self._blur(paint, wheel_mps, self._drawn)
+            self._paint_key = whole
+            return paint
+        self._restore_floor(paint)
+        self._sharp = None
+        drawn = self._drawn = self._draw_lines(paint, pose)
         # Blurring the paint before lighting it is close enough: the light field is smooth.
         self._blur(paint, wheel_mps, drawn, band)
-        self._paint_key = whole if band is None else (*whole, band)
+        # Nothing blurred for the band alone (no blur, no lines): the paint is whole.
+        self._paint_key = whole if band is None or self._sharp is None else (*whole, band)
         return paint
+
+    def _restore_floor(self, paint: U8Image) -> None:
+        """The bare floor back in the paint buffer: only the box the last paint touched (lines
+        and blur stay inside it: ``_blur`` relies on that too), when on the same floor."""
+        floor = self._bare_floor()
+        dirty, self._dirty = self._dirty, None
+        if dirty is None or dirty[0] is not floor:
+            np.copyto(paint, floor)
+        elif dirty[1] is not None:
+            x0, y0, x1, y1 = dirty[1]
+            paint[y0:y1, x0:x1] = floor[y0:y1, x0:x1]
 
     def _draw_lines(self, image: U8Image, pose: Pose) -> tuple[int, int, int, int] | None:
         """Paint the lines near the view; returns the box (x0, y0, x1, y1) they touch, if any.
@@ -340,6 +368,7 @@ class SimCamera(FrameSource[_Shot]):
         across_px = abs(yaw_rps) * m.forward_m * m.exposure_s / m.m_per_px
         # Odd box sizes: an even one has no centre pixel and shifts the image half a pixel.
         ky, kx = 1 + 2 * round(along_px / 2), 1 + 2 * round(across_px / 2)
+        self._dirty = (self._bare_floor(), drawn)
         if (kx == 1 and ky == 1) or drawn is None:
             return image
         # The box is grown by a kernel width of bare floor, so the mirrored border cv2 reads at
@@ -347,9 +376,13 @@ class SimCamera(FrameSource[_Shot]):
         x0, y0, x1, y1 = drawn
         x0, x1 = max(0, x0 - kx), min(m.width_px, x1 + kx)
         y0, y1 = max(0, y0 - ky), min(m.height_px, y1 + ky)
+        self._dirty = (self._bare_floor(), (x0, y0, x1, y1))
         if band is not None:
             y0, y1 = max(y0, band[0] - ky // 2), min(y1, band[1] + ky // 2 + 1)
-            if y0 >= y1:
+            y1 = max(y0, y1)
+            # Kept sharp: a whole frame of the same shot blurs them again (``_paint``).
+            self._sharp = (y0, x0, image[y0:y1, x0:x1].copy())
+            if y0 == y1:
                 return image
         region = image[y0:y1, x0:x1]
         region[:] = cv2.blur(region, (kx, ky))

@@ -117,3 +117,32 @@ def test_noise_offsets_drawn_ahead_are_those_drawn_one_by_one(
     for _ in range(600):
         expected = (int(one_by_one.integers(0, size[0])), int(one_by_one.integers(0, size[1])))
         assert cam._noise_offset() == expected
+
+
+LOOP = [PaintedLine("loop", ((0.5, 0.5), (3.5, 0.5), (3.5, 2.5), (0.5, 2.5)), "black", 0.025,
+                    closed=True),
+        PaintedLine("spur", ((2.0, 0.5), (2.0, 2.5)), "red", 0.02)]
+ROWS = [40, 70, 100, 130, 160, 190, 200, 210]
+shots = st.lists(st.tuples(
+    st.builds(Pose, st.floats(0.3, 3.7), st.sampled_from([0.5, 2.5, 1.5]).flatmap(
+        lambda y: st.floats(y - 0.15, y + 0.15)), st.floats(-math.pi, math.pi)),
+    st.tuples(st.floats(-0.6, 0.6), st.floats(-0.6, 0.6)) | st.just((0.0, 0.0)),
+    st.sampled_from(["rows", "whole", "rows then whole"])), min_size=1, max_size=8)
+
+
+@settings(max_examples=60, deadline=None)
+@given(sequence=shots)
+def test_a_camera_reusing_its_paint_draws_what_a_fresh_one_draws(
+        sequence: list[tuple[Pose, tuple[float, float], str]]) -> None:
+    """Frames and rows drawn one after another (the floor put back where the last paint
+    touched it, a whole frame after its rows reusing their lines) are a fresh camera's."""
+    used = camera(LOOP, Pose(1.0, 0.5, 0.0))
+    for i, (pose, wheel_mps, what) in enumerate(sequence):
+        shot = _Shot(i, 0.0, pose, wheel_mps, (i, 2 * i))
+        fresh = camera(LOOP, pose)
+        if what != "whole":
+            assert np.array_equal(used._render_rows(shot, ROWS), fresh._render_rows(shot, ROWS))
+        if what != "rows":
+            fresh = camera(LOOP, pose)
+            assert np.array_equal(used._render_shot(shot), fresh._render_shot(shot))
+

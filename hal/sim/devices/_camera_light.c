@@ -254,6 +254,49 @@ done:
     return result;
 }
 
+/* ambient_coarse(fwd, left, x, y, c, s, phases, variation, out): the room light's field on the
+ * coarse grid (fwd, left: float64 (gh, gw), the grid's points in the robot's frame) seen from
+ * the pose (x, y, c = cos heading, s = sin heading), into out (float64 (gh, gw)): each value
+ * rounded to float32 and back, as FloorLight._ambient_coarse's numpy steps give it (libm sin,
+ * which numpy's float64 sin is: the module's user checks that at start). */
+static PyObject *ambient_coarse(PyObject *self, PyObject *args)
+{
+    PyObject *objs[3];
+    double x, y, c, s, p[4], variation;
+    (void)self;
+    if (!PyArg_ParseTuple(args, "OOdddd(dddd)dO", &objs[0], &objs[1], &x, &y, &c, &s, &p[0],
+                          &p[1], &p[2], &p[3], &variation, &objs[2]))
+        return NULL;
+    static const char *const names[3] = {"fwd", "left", "out"};
+    Py_buffer v[3];
+    int got = 0;
+    PyObject *result = NULL;
+    for (; got < 3; got++) {
+        if (get(objs[got], &v[got], got == 2 ? PyBUF_WRITABLE : 0, 2, "d", names[got]) < 0)
+            goto done;
+    }
+    if (v[1].shape[0] != v[0].shape[0] || v[1].shape[1] != v[0].shape[1]
+        || v[2].shape[0] != v[0].shape[0] || v[2].shape[1] != v[0].shape[1]) {
+        PyErr_SetString(PyExc_ValueError, "camera light: fwd, left and out differ in shape");
+        goto done;
+    }
+    const double *fwd = v[0].buf, *left = v[1].buf;
+    double *out = v[2].buf;
+    for (Py_ssize_t i = 0; i < v[0].shape[0] * v[0].shape[1]; i++) {
+        /* pose.x_m + c * fwd - s * left; pose.y_m + s * fwd + c * left (numpy's order) */
+        const double wx = (x + c * fwd[i]) - s * left[i];
+        const double wy = (y + s * fwd[i]) + c * left[i];
+        const double field = sin(wx * 2.1 + p[0]) * sin(wy * 1.7 + p[1])
+                             + 0.5 * sin((wx * 5.3 + wy * 3.1) + p[2]);
+        out[i] = (double)(float)(1.0 + variation * field / 1.5);
+    }
+    result = Py_NewRef(Py_None);
+done:
+    while (got-- > 0)
+        PyBuffer_Release(&v[got]);
+    return result;
+}
+
 /* place_segments(ends, x, y, c, s, limit, half_w, half_h, m_per_px, forward_m, scale): the
  * segments (rows x1, y1, x2, y2 of the float64 array ends) of one painted line that come
  * within ``limit`` of the view's centre, placed in the image as SimCamera._draw_lines does in
@@ -351,6 +394,8 @@ static PyMethodDef methods[] = {
     {"light_rows", light_rows, METH_VARARGS,
      "light_rows(paint, texture, matrix, static_gain, ambient, noise, noise_row, noise_col, "
      "rows, out) -> None"},
+    {"ambient_coarse", ambient_coarse, METH_VARARGS,
+     "ambient_coarse(fwd, left, x, y, c, s, phases, variation, out) -> None"},
     {"place_segments", place_segments, METH_VARARGS,
      "place_segments(ends, x, y, c, s, limit, half_w, half_h, m_per_px, forward_m, scale) -> "
      "None | (points, min_col, min_row, max_col, max_row)"},

@@ -9,3 +9,6 @@ def place_segments(ends: Any, x: float, y: float, c: float, s: float, limit: flo
                    half_w: float, half_h: float, m_per_px: float, forward_m: float,
                    scale: float) -> tuple[list[tuple[tuple[int, int], tuple[int, int]]],
                                           float, float, float, float] | None: ...
+def ambient_coarse(fwd: Any, left: Any, x: float, y: float, c: float, s: float,
+                   phases: tuple[float, float, float, float], variation: float,
+                   out: Any) -> None: ...

@@ -1,4 +1,5 @@
-"""The simulated camera places its lines in C exactly as its Python placement does."""
+"""The simulated camera's C helpers (line placement, the room light's coarse field), noise
+draws and paint reuse give exactly what the plain Python steps give."""
 
 from __future__ import annotations
 
@@ -146,3 +147,22 @@ def test_a_camera_reusing_its_paint_draws_what_a_fresh_one_draws(
             fresh = camera(LOOP, pose)
             assert np.array_equal(used._render_shot(shot), fresh._render_shot(shot))
 
+
+
+@settings(max_examples=200, deadline=None)
+@given(pose=st.builds(Pose, st.floats(-1e4, 1e4), st.floats(-1e4, 1e4),
+                      st.floats(-4 * math.pi, 4 * math.pi)))
+def test_the_c_room_light_is_numpys(pose: Pose) -> None:
+    """ambient_coarse in C gives _ambient_coarse's numpy values, to the bit."""
+    cam = camera(LOOP, pose)
+    light = cam._light
+    assert light.coarse_kernel == "c"
+    fast = light._ambient_coarse64(pose).copy()
+    assert np.array_equal(fast, light._ambient_coarse(pose).astype(np.float64))
+    rows = light.ambient_rows(pose, ROWS).copy()
+    whole = light.ambient_gain(pose).copy()
+    light.coarse_kernel = "numpy"
+    light._ambient_across = None
+    light._ambient_pose = None
+    assert np.array_equal(rows, light.ambient_rows(pose, ROWS))
+    assert np.array_equal(whole, light.ambient_gain(pose))

@@ -254,12 +254,151 @@ done:
     return result;
 }
 
+/* ambient_coarse(fwd, left, x, y, c, s, phases, variation, out): the room light's field on the
+ * coarse grid (fwd, left: float64 (gh, gw), the grid's points in the robot's frame) seen from
+ * the pose (x, y, c = cos heading, s = sin heading), into out (float64 (gh, gw)): each value
+ * rounded to float32 and back, as FloorLight._ambient_coarse's numpy steps give it (libm sin,
+ * which numpy's float64 sin is: the module's user checks that at start). */
+static PyObject *ambient_coarse(PyObject *self, PyObject *args)
+{
+    PyObject *objs[3];
+    double x, y, c, s, p[4], variation;
+    (void)self;
+    if (!PyArg_ParseTuple(args, "OOdddd(dddd)dO", &objs[0], &objs[1], &x, &y, &c, &s, &p[0],
+                          &p[1], &p[2], &p[3], &variation, &objs[2]))
+        return NULL;
+    static const char *const names[3] = {"fwd", "left", "out"};
+    Py_buffer v[3];
+    int got = 0;
+    PyObject *result = NULL;
+    for (; got < 3; got++) {
+        if (get(objs[got], &v[got], got == 2 ? PyBUF_WRITABLE : 0, 2, "d", names[got]) < 0)
+            goto done;
+    }
+    if (v[1].shape[0] != v[0].shape[0] || v[1].shape[1] != v[0].shape[1]
+        || v[2].shape[0] != v[0].shape[0] || v[2].shape[1] != v[0].shape[1]) {
+        PyErr_SetString(PyExc_ValueError, "camera light: fwd, left and out differ in shape");
+        goto done;
+    }
+    const double *fwd = v[0].buf, *left = v[1].buf;
+    double *out = v[2].buf;
+    for (Py_ssize_t i = 0; i < v[0].shape[0] * v[0].shape[1]; i++) {
+        /* pose.x_m + c * fwd - s * left; pose.y_m + s * fwd + c * left (numpy's order) */
+        const double wx = (x + c * fwd[i]) - s * left[i];
+        const double wy = (y + s * fwd[i]) + c * left[i];
+        const double field = sin(wx * 2.1 + p[0]) * sin(wy * 1.7 + p[1])
+                             + 0.5 * sin((wx * 5.3 + wy * 3.1) + p[2]);
+        out[i] = (double)(float)(1.0 + variation * field / 1.5);
+    }
+    result = Py_NewRef(Py_None);
+done:
+    while (got-- > 0)
+        PyBuffer_Release(&v[got]);
+    return result;
+}
+
+/* place_segments(ends, x, y, c, s, limit, half_w, half_h, m_per_px, forward_m, scale): the
+ * segments (rows x1, y1, x2, y2 of the float64 array ends) of one painted line that come
+ * within ``limit`` of the view's centre, placed in the image as SimCamera._draw_lines does in
+ * Python (hal/sim/devices/camera_model.py), to the bit: the same double operations in the same
+ * order (SegmentSet.distances' projection, clip and libm hypot, which numpy's np.hypot calls;
+ * the rotation into the robot's frame; pixels; round-half-even fixed point as Python's round()
+ * is, nearbyint in the default rounding mode). Returns None when no segment is near, else
+ * ([((col1, row1), (col2, row2)), ...] in fixed point for cv2.line, min col, min row,
+ * max col, max row) over the ends' unrounded pixel positions. */
+static PyObject *fixed_point(double v)
+{
+    return PyLong_FromDouble(nearbyint(v)); /* raises on NaN or inf as round() does */
+}
+
+static PyObject *place_segments(PyObject *self, PyObject *args)
+{
+    PyObject *ends_obj;
+    double x, y, c, s, limit, half_w, half_h, mpp, forward, scale;
+    (void)self;
+    if (!PyArg_ParseTuple(args, "Odddddddddd", &ends_obj, &x, &y, &c, &s, &limit, &half_w,
+                          &half_h, &mpp, &forward, &scale))
+        return NULL;
+    Py_buffer v;
+    if (get(ends_obj, &v, 0, 2, "d", "ends") < 0)
+        return NULL;
+    PyObject *result = NULL, *placed = NULL;
+    if (v.shape[1] != 4) {
+        PyErr_SetString(PyExc_ValueError, "camera light: ends must be (n, 4): x1, y1, x2, y2");
+        goto done;
+    }
+    const double *e = v.buf;
+    const Py_ssize_t n = v.shape[0];
+    /* The view's centre, as Pose.to_world(forward_m, 0.0). */
+    const double cx = x + c * forward - s * 0.0, cy = y + s * forward + c * 0.0;
+    double lo_col = 0, lo_row = 0, hi_col = 0, hi_row = 0;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        const double x1 = e[4 * i], y1 = e[4 * i + 1], x2 = e[4 * i + 2], y2 = e[4 * i + 3];
+        const double ex = x2 - x1, ey = y2 - y1, length2 = ex * ex + ey * ey;
+        double t = 0.0;
+        if (length2 > 0) {
+            t = ((cx - x1) * ex + (cy - y1) * ey) / length2;
+            t = t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t);
+        }
+        if (!(hypot(x1 + t * ex - cx, y1 + t * ey - cy) < limit))
+            continue;
+        if (placed == NULL && (placed = PyList_New(0)) == NULL)
+            goto done;
+        PyObject *pts[2] = {NULL, NULL};
+        for (int k = 0; k < 2; k++) {
+            const double dx = (k ? x2 : x1) - x, dy = (k ? y2 : y1) - y;
+            const double fwd = c * dx + s * dy, left = -s * dx + c * dy;
+            const double col = half_w - left / mpp - 0.5;
+            const double row = half_h - (fwd - forward) / mpp - 0.5;
+            const int first = PyList_GET_SIZE(placed) == 0 && k == 0;
+            /* min()/max() over a list keep the first of equals: strict comparisons. */
+            if (first || col < lo_col)
+                lo_col = col;
+            if (first || row < lo_row)
+                lo_row = row;
+            if (first || col > hi_col)
+                hi_col = col;
+            if (first || row > hi_row)
+                hi_row = row;
+            PyObject *pc = fixed_point(col * scale), *pr = pc ? fixed_point(row * scale) : NULL;
+            pts[k] = pr ? PyTuple_Pack(2, pc, pr) : NULL;
+            Py_XDECREF(pc);
+            Py_XDECREF(pr);
+            if (pts[k] == NULL) {
+                Py_XDECREF(pts[0]);
+                goto done;
+            }
+        }
+        PyObject *pair = PyTuple_Pack(2, pts[0], pts[1]);
+        Py_DECREF(pts[0]);
+        Py_DECREF(pts[1]);
+        if (pair == NULL || PyList_Append(placed, pair) < 0) {
+            Py_XDECREF(pair);
+            goto done;
+        }
+        Py_DECREF(pair);
+    }
+    if (placed == NULL)
+        result = Py_NewRef(Py_None);
+    else
+        result = Py_BuildValue("(Odddd)", placed, lo_col, lo_row, hi_col, hi_row);
+done:
+    Py_XDECREF(placed);
+    PyBuffer_Release(&v);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"light", light, METH_VARARGS,
      "light(paint, texture, static_gain, ambient, noise, noise_row, noise_col, out) -> None"},
     {"light_rows", light_rows, METH_VARARGS,
      "light_rows(paint, texture, matrix, static_gain, ambient, noise, noise_row, noise_col, "
      "rows, out) -> None"},
+    {"ambient_coarse", ambient_coarse, METH_VARARGS,
+     "ambient_coarse(fwd, left, x, y, c, s, phases, variation, out) -> None"},
+    {"place_segments", place_segments, METH_VARARGS,
+     "place_segments(ends, x, y, c, s, limit, half_w, half_h, m_per_px, forward_m, scale) -> "
+     "None | (points, min_col, min_row, max_col, max_row)"},
     {NULL, NULL, 0, NULL},
 };
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import cv2
 import numpy as np
@@ -26,9 +26,15 @@ from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import PaintedLine, World
 from hal.sim.world.geometry import Pose, SegmentSet
 
+try:
+    from hal.sim.devices import _camera_light
+except ImportError:  # not built (no C compiler or Python headers): placed in Python, same ints
+    _camera_light = None  # type: ignore[assignment]
+
 U8Image = npt.NDArray[Any]  # uint8 BGR
 
 _DRAW_SHIFT = 4  # cv2 fixed-point bits: sub-pixel line positions
+_NOISE_DRAWS = 256  # noise offsets drawn at a time
 
 
 @dataclass(frozen=True, slots=True)
@@ -79,8 +85,25 @@ class CameraMount:
 
 
 @dataclass(frozen=True, slots=True)
-class _Shot:
-    """What the camera captured at one instant; rendered into an image on demand."""
+class _LinePaint:
+    """A painted line as the camera draws it: its segments, how near to the view's centre
+    they must come to be seen, its thickness (pixels), colour and anti-aliasing margin."""
+
+    line: PaintedLine
+    segments: SegmentSet
+    ends: npt.NDArray[np.float64]  # (n, 4) x1, y1, x2, y2, C-contiguous
+    limit_m: float
+    thickness: int
+    bgr: tuple[int, ...]
+    margin: float
+
+
+_Placed = tuple[list[tuple[tuple[int, int], tuple[int, int]]], float, float, float, float] | None
+
+
+class _Shot(NamedTuple):
+    """What the camera captured at one instant; rendered into an image on demand (a named
+    tuple: one is made 30 times a second, and a frozen dataclass is slower to make)."""
 
     seq: int
     t_s: float
@@ -116,10 +139,18 @@ class SimCamera(FrameSource[_Shot]):
         noise = np.clip(np.rint(self._rng.normal(
             0.0, self.mount.noise_std, (2 * self.height_px, 2 * self.width_px, 3))),
             -127, 127).astype(np.int8)
-        self._segments: dict[int, tuple[PaintedLine, SegmentSet]] = {}
+        self._segments: dict[int, _LinePaint] = {}
+        # How lines are placed: "c" (place_segments in _camera_light.c) or "python".
+        self.place_kernel = "c" if _camera_light is not None else "python"
         self._light = FloorLight(self.mount, texture, noise, self._rng.uniform(0, 2 * math.pi, 4))
+        self._offsets: list[tuple[int, int]] = []  # noise offsets drawn ahead, last one next
         self._paint_buf = np.empty((self.height_px, self.width_px, 3), np.uint8)
         self._paint_key: tuple[Any, ...] | None = None
+        # What the last paint left: the lines' box, the rows a band's blur took (top row,
+        # left column, their sharp pixels) and the box touched on which bare floor image.
+        self._drawn: tuple[int, int, int, int] | None = None
+        self._sharp: tuple[int, int, U8Image] | None = None
+        self._dirty: tuple[U8Image, tuple[int, int, int, int] | None] | None = None
         self._floor: tuple[tuple[int, int, int], U8Image] | None = None
         self.covered = False
 
@@ -167,7 +198,16 @@ class SimCamera(FrameSource[_Shot]):
         return self._floor[1]
 
     def _noise_offset(self) -> tuple[int, int]:
-        return int(self._rng.integers(0, self.height_px)), int(self._rng.integers(0, self.width_px))
+        """The next (row, column) of the noise bank to read a frame's noise at.
+
+        Drawn ahead, _NOISE_DRAWS pairs in one call: the generator gives the numbers that one
+        call a row and one a column gave (tests/hal/sim/devices/test_camera_lines.py), and
+        nothing else draws from it once the camera is made.
+        """
+        if not self._offsets:
+            drawn = self._rng.integers(0, (self.height_px, self.width_px), (_NOISE_DRAWS, 2))
+            self._offsets = [(int(r), int(c)) for r, c in drawn.tolist()][::-1]
+        return self._offsets.pop()
 
     def _render_shot(self, shot: _Shot) -> U8Image:
         if shot.covered:
@@ -205,66 +245,112 @@ class SimCamera(FrameSource[_Shot]):
         """
         whole = (pose, wheel_mps, self.world.floor_bgr, tuple(self.world.lines))
         paint = self._paint_buf
-        if self._paint_key in (whole, (*whole, band)):  # a whole paint serves any band
+        key = self._paint_key
+        if key in (whole, (*whole, band)):  # a whole paint serves any band
             return paint
-        np.copyto(paint, self._bare_floor())
-        drawn = self._draw_lines(paint, pose)
+        if band is None and key is not None and key[:4] == whole and self._sharp is not None:
+            # This shot's rows were painted (a recorder now wants the whole frame): the lines
+            # are drawn; the rows blurred for them are put back sharp and the whole box blurred.
+            y0, x0, sharp = self._sharp
+            paint[y0:y0 + sharp.shape[0], x0:x0 + sharp.shape[1]] = sharp
+            self._sharp = None
+            self._blur(paint, wheel_mps, self._drawn)
+            self._paint_key = whole
+            return paint
+        self._restore_floor(paint)
+        self._sharp = None
+        drawn = self._drawn = self._draw_lines(paint, pose)
         # Blurring the paint before lighting it is close enough: the light field is smooth.
         self._blur(paint, wheel_mps, drawn, band)
-        self._paint_key = whole if band is None else (*whole, band)
+        # Nothing blurred for the band alone (no blur, no lines): the paint is whole.
+        self._paint_key = whole if band is None or self._sharp is None else (*whole, band)
         return paint
+
+    def _restore_floor(self, paint: U8Image) -> None:
+        """The bare floor back in the paint buffer: only the box the last paint touched (lines
+        and blur stay inside it: ``_blur`` relies on that too), when on the same floor."""
+        floor = self._bare_floor()
+        dirty, self._dirty = self._dirty, None
+        if dirty is None or dirty[0] is not floor:
+            np.copyto(paint, floor)
+        elif dirty[1] is not None:
+            x0, y0, x1, y1 = dirty[1]
+            paint[y0:y1, x0:x1] = floor[y0:y1, x0:x1]
 
     def _draw_lines(self, image: U8Image, pose: Pose) -> tuple[int, int, int, int] | None:
         """Paint the lines near the view; returns the box (x0, y0, x1, y1) they touch, if any.
 
-        The few segments in view are placed with scalar arithmetic: numpy's per-call cost was
-        most of this method's time on a frame's handful of points (same floats either way).
+        The segments in view are found and placed in C (``place_segments`` in
+        hal/sim/devices/_camera_light.c: a frame's handful of points cost more in numpy calls
+        and Python arithmetic than in drawing), or by ``_place_segments`` here, the same ints
+        and floats; the anti-aliased lines are OpenCV's.
         """
         m = self.mount
-        mpp = m.m_per_px
-        cx, cy = pose.to_world(m.forward_m, 0.0)
-        reach_m = math.hypot(m.view_width_m, mpp * m.height_px) / 2
-        scale = 1 << _DRAW_SHIFT
         c, s = math.cos(pose.heading_rad), math.sin(pose.heading_rad)
-        half_w, half_h = m.width_px / 2, m.height_px / 2
         box: list[float] = []
         for line in self.world.lines:
-            segs = self._line_segments(line)
-            if segs.x1.shape[0] == 0:
+            paint = self._line_paint(line)
+            if paint.ends.shape[0] == 0:
                 continue
-            near = np.flatnonzero(segs.distances(cx, cy) < reach_m + line.width_m)
-            if near.shape[0] == 0:
+            if _camera_light is not None and self.place_kernel == "c":
+                placed = _camera_light.place_segments(
+                    paint.ends, pose.x_m, pose.y_m, c, s, paint.limit_m, m.width_px / 2,
+                    m.height_px / 2, m.m_per_px, m.forward_m, float(1 << _DRAW_SHIFT))
+            else:
+                placed = self._place_segments(paint, pose, c, s)
+            if placed is None:
                 continue
-            thickness = max(1, round(line.width_m / mpp))
-            colour = tuple(int(v) for v in line.bgr)
-            cols: list[float] = []
-            rows: list[float] = []
-            for x1, y1, x2, y2 in segs.ends[near].tolist():
-                ends = []
-                for x, y in ((x1, y1), (x2, y2)):
-                    dx, dy = x - pose.x_m, y - pose.y_m
-                    fwd, left = c * dx + s * dy, -s * dx + c * dy
-                    col = half_w - left / mpp - 0.5
-                    row = half_h - (fwd - m.forward_m) / mpp - 0.5
-                    cols.append(col)
-                    rows.append(row)
-                    ends.append((round(col * scale), round(row * scale)))
-                cv2.line(image, ends[0], ends[1], colour, thickness, cv2.LINE_AA, _DRAW_SHIFT)
-            margin = thickness / 2 + 3  # anti-aliasing reaches past the nominal width
-            box = _grow(box, min(cols) - margin, min(rows) - margin,
-                        max(cols) + margin, max(rows) + margin)
+            points, lo_col, lo_row, hi_col, hi_row = placed
+            for a, b in points:
+                cv2.line(image, a, b, paint.bgr, paint.thickness, cv2.LINE_AA, _DRAW_SHIFT)
+            margin = paint.margin
+            box = _grow(box, lo_col - margin, lo_row - margin, hi_col + margin, hi_row + margin)
         if not box:
             return None
         x0, y0 = max(0, math.floor(box[0])), max(0, math.floor(box[1]))
         x1, y1 = min(m.width_px, math.ceil(box[2]) + 1), min(m.height_px, math.ceil(box[3]) + 1)
         return (x0, y0, x1, y1) if x0 < x1 and y0 < y1 else None
 
-    def _line_segments(self, line: PaintedLine) -> SegmentSet:
+    def _place_segments(self, paint: _LinePaint, pose: Pose, c: float, s: float) -> _Placed:
+        """The segments of a line near the view in fixed-point pixels, and the box of their
+        unrounded ends (None: none near): ``place_segments`` of the C module, in Python."""
+        m = self.mount
+        mpp = m.m_per_px
+        cx, cy = pose.to_world(m.forward_m, 0.0)
+        near = np.flatnonzero(paint.segments.distances(cx, cy) < paint.limit_m)
+        if near.shape[0] == 0:
+            return None
+        scale = 1 << _DRAW_SHIFT
+        half_w, half_h = m.width_px / 2, m.height_px / 2
+        cols: list[float] = []
+        rows: list[float] = []
+        points = []
+        for x1, y1, x2, y2 in paint.ends[near].tolist():
+            ends = []
+            for x, y in ((x1, y1), (x2, y2)):
+                dx, dy = x - pose.x_m, y - pose.y_m
+                fwd, left = c * dx + s * dy, -s * dx + c * dy
+                col = half_w - left / mpp - 0.5
+                row = half_h - (fwd - m.forward_m) / mpp - 0.5
+                cols.append(col)
+                rows.append(row)
+                ends.append((round(col * scale), round(row * scale)))
+            points.append((ends[0], ends[1]))
+        return points, min(cols), min(rows), max(cols), max(rows)
+
+    def _line_paint(self, line: PaintedLine) -> _LinePaint:
         cached = self._segments.get(id(line))
-        if cached is None or cached[0] is not line:
-            cached = (line, SegmentSet(line.segments()))
+        if cached is None or cached.line is not line:
+            m = self.mount
+            segments = SegmentSet(line.segments())
+            reach_m = math.hypot(m.view_width_m, m.m_per_px * m.height_px) / 2
+            thickness = max(1, round(line.width_m / m.m_per_px))
+            cached = _LinePaint(line, segments, np.ascontiguousarray(segments.ends, np.float64),
+                                reach_m + line.width_m, thickness,
+                                tuple(int(v) for v in line.bgr),
+                                thickness / 2 + 3)  # anti-aliasing reaches past the width
             self._segments[id(line)] = cached
-        return cached[1]
+        return cached
 
     def _blur(self, image: U8Image, wheel_mps: tuple[float, float],
               drawn: tuple[int, int, int, int] | None,
@@ -282,6 +368,7 @@ class SimCamera(FrameSource[_Shot]):
         across_px = abs(yaw_rps) * m.forward_m * m.exposure_s / m.m_per_px
         # Odd box sizes: an even one has no centre pixel and shifts the image half a pixel.
         ky, kx = 1 + 2 * round(along_px / 2), 1 + 2 * round(across_px / 2)
+        self._dirty = (self._bare_floor(), drawn)
         if (kx == 1 and ky == 1) or drawn is None:
             return image
         # The box is grown by a kernel width of bare floor, so the mirrored border cv2 reads at
@@ -289,9 +376,13 @@ class SimCamera(FrameSource[_Shot]):
         x0, y0, x1, y1 = drawn
         x0, x1 = max(0, x0 - kx), min(m.width_px, x1 + kx)
         y0, y1 = max(0, y0 - ky), min(m.height_px, y1 + ky)
+        self._dirty = (self._bare_floor(), (x0, y0, x1, y1))
         if band is not None:
             y0, y1 = max(y0, band[0] - ky // 2), min(y1, band[1] + ky // 2 + 1)
-            if y0 >= y1:
+            y1 = max(y0, y1)
+            # Kept sharp: a whole frame of the same shot blurs them again (``_paint``).
+            self._sharp = (y0, x0, image[y0:y1, x0:x1].copy())
+            if y0 == y1:
                 return image
         region = image[y0:y1, x0:x1]
         region[:] = cv2.blur(region, (kx, ky))

@@ -102,6 +102,9 @@ class FloorLight:
         self._ambient_grid = (mount.forward_m + (h / 2 - rr - 0.5) * mpp,
                               (w / 2 - cc - 0.5) * mpp)
         self._phases = phases
+        self._coarse64 = np.empty((gh, gw), np.float64)
+        # How the coarse room light is worked out: "c" (_camera_light.ambient_coarse) or "numpy".
+        self.coarse_kernel = "c" if _camera_light is not None and self._coarse_agrees() else "numpy"
         self._ambient_x = _linear_taps(w, gw)  # (gw, w)
         self._ambient_y = np.ascontiguousarray(_linear_taps(h, gh).T)  # (h, gh)
         self._ambient_across: tuple[Pose, npt.NDArray[np.float64]] | None = None
@@ -216,7 +219,7 @@ class FloorLight:
         resized (``cv2.resize``, INTER_LINEAR)."""
         if self._ambient_pose != pose:
             m = self.mount
-            cv2.resize(self._ambient_coarse(pose), (m.width_px, m.height_px),
+            cv2.resize(self._ambient_coarse64(pose).astype(np.float32), (m.width_px, m.height_px),
                        dst=self._ambient_buf, interpolation=cv2.INTER_LINEAR)
             self._ambient_pose = pose
         return self._ambient_buf
@@ -233,12 +236,34 @@ class FloorLight:
         the one rounding is that of the two products' sum, as in OpenCV.
         """
         if self._ambient_across is None or self._ambient_across[0] != pose:
-            coarse = self._ambient_coarse(pose).astype(np.float64)
-            across = (coarse @ self._ambient_x).astype(np.float32)
+            across = (self._ambient_coarse64(pose) @ self._ambient_x).astype(np.float32)
             self._ambient_across = (pose, across.astype(np.float64))
         down = self._ambient_y[np.asarray(rows, np.intp)]
         out: F32Array = (down @ self._ambient_across[1]).astype(np.float32)
         return out
+
+    def _ambient_coarse64(self, pose: Pose) -> npt.NDArray[np.float64]:
+        """``_ambient_coarse(pose)`` in float64 (the same values), in C where that gives the
+        numpy steps' values here (libm's sin: numpy's float64 sin is it; checked at start)."""
+        if self.coarse_kernel != "c" or _camera_light is None:
+            return self._ambient_coarse(pose).astype(np.float64)
+        fwd, left = self._ambient_grid
+        p = self._phases
+        out = self._coarse64
+        _camera_light.ambient_coarse(fwd, left, pose.x_m, pose.y_m, math.cos(pose.heading_rad),
+                                     math.sin(pose.heading_rad),
+                                     (float(p[0]), float(p[1]), float(p[2]), float(p[3])),
+                                     self.mount.ambient_variation, out)
+        return out
+
+    def _coarse_agrees(self) -> bool:
+        """Whether the C room light is numpy's here, from a few poses far apart."""
+        self.coarse_kernel = "c"
+        for pose in (*_CHECK_POSES, Pose(3.3, 2.2, -0.4), Pose(-1e4, 2e3, 9.0)):
+            if not np.array_equal(self._ambient_coarse64(pose),
+                                  self._ambient_coarse(pose).astype(np.float64)):
+                return False
+        return True
 
     def _ambient_coarse(self, pose: Pose) -> F32Array:
         """The room light's field on the coarse grid seen from ``pose``."""

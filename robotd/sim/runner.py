@@ -21,7 +21,6 @@ from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
-import cv2
 import structlog
 
 from hal.looptime.timer_chain import timer_chain
@@ -39,6 +38,7 @@ from robotd.sim.checks import RobotRecord, failures, finished, summary_figures
 from robotd.sim.config import robot_settings
 from robotd.sim.console import SimConsole
 from robotd.sim.crash import DaemonKeeper
+from robotd.sim.process_tuning import simulator_process
 from robotd.sim.report import draw_trajectory, write_events
 from robotd.sim.rig import SimRig, open_sim_rig
 from robotd.sim.scenario import RobotSpec, Scenario, ScenarioError, load_scenario
@@ -100,6 +100,12 @@ def run_sim(args: argparse.Namespace) -> int:
 
 async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole,
                workdir: Path) -> SimResult | int:
+    with simulator_process():  # OpenCV on one thread, a lazier collector (process_tuning.py)
+        return await _simulate(args, scenario, console, workdir)
+
+
+async def _simulate(args: argparse.Namespace, scenario: Scenario, console: SimConsole,
+                    workdir: Path) -> SimResult | int:
     from robotd.daemon import Daemon
 
     loop = asyncio.get_running_loop()
@@ -117,9 +123,6 @@ async def _run(args: argparse.Namespace, scenario: Scenario, console: SimConsole
     def wall_clock() -> datetime:
         return origin + timedelta(seconds=loop.time())
 
-    # One loop simulates everything: OpenCV's worker threads only add CPU on the simulated
-    # cameras' 320 x 240 frames (~5-10 % of laundry's CPU; the same pixels either way).
-    cv2.setNumThreads(1)
     # --quiet prints the result only: the daemons' warnings (link.down as a robot shuts down...)
     # are in events.jsonl's story already; a crash still shows its traceback.
     configure_logging("critical" if console.quiet else "warning",

@@ -141,7 +141,8 @@ class SimCamera(FrameSource[_Shot]):
             -127, 127).astype(np.int8)
         self._segments: dict[int, _LinePaint] = {}
         # How lines are placed: "c" (place_segments in _camera_light.c) or "python".
-        self.place_kernel = "c" if _camera_light is not None else "python"
+        # (An extension built before place_segments was added has not got it: Python then.)
+        self.place_kernel = "c" if hasattr(_camera_light, "place_segments") else "python"
         self._light = FloorLight(self.mount, texture, noise, self._rng.uniform(0, 2 * math.pi, 4))
         self._offsets: list[tuple[int, int]] = []  # noise offsets drawn ahead, last one next
         self._paint_buf = np.empty((self.height_px, self.width_px, 3), np.uint8)

@@ -104,7 +104,9 @@ class FloorLight:
         self._phases = phases
         self._coarse64 = np.empty((gh, gw), np.float64)
         # How the coarse room light is worked out: "c" (_camera_light.ambient_coarse) or "numpy".
-        self.coarse_kernel = "c" if _camera_light is not None and self._coarse_agrees() else "numpy"
+        # (An extension built before ambient_coarse was added has not got it: numpy then.)
+        self.coarse_kernel = ("c" if hasattr(_camera_light, "ambient_coarse")
+                              and self._coarse_agrees() else "numpy")
         self._ambient_x = _linear_taps(w, gw)  # (gw, w)
         self._ambient_y = np.ascontiguousarray(_linear_taps(h, gh).T)  # (h, gh)
         self._ambient_across: tuple[Pose, npt.NDArray[np.float64]] | None = None

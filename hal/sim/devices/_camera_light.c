@@ -125,6 +125,30 @@ static int get(PyObject *obj, Py_buffer *view, int flags, int ndim, const char *
     return 0;
 }
 
+static void release(Py_buffer *views, int count)
+{
+    while (count-- > 0)
+        PyBuffer_Release(&views[count]);
+}
+
+/* The six arrays light() and light_rows() take, in this order: paint, texture, static gain,
+ * ambient, noise, out (writable). Returns how many were got: 6, or fewer with an exception set
+ * (the caller releases that many). */
+static int get_frame_buffers(PyObject *const objs[6], Py_buffer views[6])
+{
+    static const char *const names[6] = {"paint", "texture", "static gain", "ambient",
+                                         "noise", "out"};
+    static const int ndims[6] = {3, 2, 2, 2, 3, 3};
+    static const char *const formats[6] = {"B", "f", "f", "f", "b", "B"};
+    int got = 0;
+    for (; got < 6; got++) {
+        if (get(objs[got], &views[got], got == 5 ? PyBUF_WRITABLE : 0, ndims[got],
+                formats[got], names[got]) < 0)
+            break;
+    }
+    return got;
+}
+
 static PyObject *light(PyObject *self, PyObject *args)
 {
     PyObject *objs[6];
@@ -133,18 +157,11 @@ static PyObject *light(PyObject *self, PyObject *args)
     if (!PyArg_ParseTuple(args, "OOOOOiiO", &objs[0], &objs[1], &objs[2], &objs[3], &objs[4],
                           &oy, &ox, &objs[5]))
         return NULL;
-    static const char *const names[6] = {"paint", "texture", "static gain", "ambient",
-                                         "noise", "out"};
-    static const int ndims[6] = {3, 2, 2, 2, 3, 3};
-    static const char *const formats[6] = {"B", "f", "f", "f", "b", "B"};
     Py_buffer v[6];
-    int got = 0;
     PyObject *result = NULL;
-    for (; got < 6; got++) {
-        if (get(objs[got], &v[got], got == 5 ? PyBUF_WRITABLE : 0, ndims[got], formats[got],
-                names[got]) < 0)
-            goto done;
-    }
+    const int got = get_frame_buffers(objs, v);
+    if (got < 6)
+        goto done;
     const Py_ssize_t h = v[0].shape[0], w = v[0].shape[1];
     int ok = v[0].shape[2] == 3 && v[4].shape[2] == 3 && v[5].shape[2] == 3
              && v[5].shape[0] == h && v[5].shape[1] == w;
@@ -174,8 +191,7 @@ static PyObject *light(PyObject *self, PyObject *args)
     PyMem_Free(gain3);
     result = Py_NewRef(Py_None);
 done:
-    while (got-- > 0)
-        PyBuffer_Release(&v[got]);
+    release(v, got);
     return result;
 }
 
@@ -192,23 +208,16 @@ static PyObject *light_rows(PyObject *self, PyObject *args)
                           &m[3], &m[4], &m[5], &objs[2], &objs[3], &objs[4], &oy, &ox,
                           &rows_obj, &objs[5]))
         return NULL;
-    static const char *const names[6] = {"paint", "texture", "static gain", "ambient",
-                                         "noise", "out"};
-    static const int ndims[6] = {3, 2, 2, 2, 3, 3};
-    static const char *const formats[6] = {"B", "f", "f", "f", "b", "B"};
     Py_buffer v[6];
-    int got = 0;
     PyObject *result = NULL;
     Py_ssize_t *rows = NULL;
     float *gain3 = NULL;
     PyObject *seq = PySequence_Fast(rows_obj, "camera light: rows must be a sequence of ints");
     if (seq == NULL)
         return NULL;
-    for (; got < 6; got++) {
-        if (get(objs[got], &v[got], got == 5 ? PyBUF_WRITABLE : 0, ndims[got], formats[got],
-                names[got]) < 0)
-            goto done;
-    }
+    const int got = get_frame_buffers(objs, v);
+    if (got < 6)
+        goto done;
     const Py_ssize_t h = v[0].shape[0], w = v[0].shape[1], k = PySequence_Fast_GET_SIZE(seq);
     int ok = v[0].shape[2] == 3 && v[4].shape[2] == 3 && v[5].shape[2] == 3
              && v[5].shape[0] == k && v[5].shape[1] == w && v[1].shape[0] > 0
@@ -248,8 +257,7 @@ static PyObject *light_rows(PyObject *self, PyObject *args)
 done:
     PyMem_Free(rows);
     PyMem_Free(gain3);
-    while (got-- > 0)
-        PyBuffer_Release(&v[got]);
+    release(v, got);
     Py_DECREF(seq);
     return result;
 }
@@ -292,8 +300,7 @@ static PyObject *ambient_coarse(PyObject *self, PyObject *args)
     }
     result = Py_NewRef(Py_None);
 done:
-    while (got-- > 0)
-        PyBuffer_Release(&v[got]);
+    release(v, got);
     return result;
 }
 

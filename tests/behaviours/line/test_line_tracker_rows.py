@@ -9,6 +9,7 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 import pytest
+from camera_floor import loop_world
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -16,23 +17,15 @@ from behaviours.line.tracker import LineTracker, TrackerParams
 from hal.readings import Frame
 from hal.sim.devices.camera_model import CameraMount, SimCamera, _Shot
 from hal.sim.world.body import DiffDriveBody
-from hal.sim.world.floor_plan import PaintedLine, World
-from hal.sim.world.geometry import Pose, segments_array
+from hal.sim.world.floor_plan import PaintedLine
+from hal.sim.world.geometry import Pose
 
 KERNELS = ["numpy", pytest.param("c", marks=pytest.mark.skipif(
     importlib.util.find_spec("behaviours.line._line_scan") is None,
     reason="the C line scan was not built"))]
 
 
-def world() -> World:
-    lines = [PaintedLine("loop", ((0.5, 0.5), (3.5, 0.5), (3.5, 2.5), (0.5, 2.5)), "black",
-                         0.025, closed=True),
-             PaintedLine("spur", ((2.0, 0.5), (2.0, 2.5)), "red", 0.02),
-             PaintedLine("twin", ((0.5, 0.58), (3.5, 0.58)), "black", 0.02)]
-    return World(4.0, 3.0, segments_array([]), lines=lines)
-
-
-WORLD = world()
+WORLD = loop_world(PaintedLine("twin", ((0.5, 0.58), (3.5, 0.58)), "black", 0.02))
 
 
 class ShotPainter:

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from camera_floor import LOOP_AND_SPUR
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -120,9 +121,6 @@ def test_noise_offsets_drawn_ahead_are_those_drawn_one_by_one(
         assert cam._noise_offset() == expected
 
 
-LOOP = [PaintedLine("loop", ((0.5, 0.5), (3.5, 0.5), (3.5, 2.5), (0.5, 2.5)), "black", 0.025,
-                    closed=True),
-        PaintedLine("spur", ((2.0, 0.5), (2.0, 2.5)), "red", 0.02)]
 ROWS = [40, 70, 100, 130, 160, 190, 200, 210]
 shots = st.lists(st.tuples(
     st.builds(Pose, st.floats(0.3, 3.7), st.sampled_from([0.5, 2.5, 1.5]).flatmap(
@@ -137,14 +135,14 @@ def test_a_camera_reusing_its_paint_draws_what_a_fresh_one_draws(
         sequence: list[tuple[Pose, tuple[float, float], str]]) -> None:
     """Frames and rows drawn one after another (the floor put back where the last paint
     touched it, a whole frame after its rows reusing their lines) are a fresh camera's."""
-    used = camera(LOOP, Pose(1.0, 0.5, 0.0))
+    used = camera(list(LOOP_AND_SPUR), Pose(1.0, 0.5, 0.0))
     for i, (pose, wheel_mps, what) in enumerate(sequence):
         shot = _Shot(i, 0.0, pose, wheel_mps, (i, 2 * i))
-        fresh = camera(LOOP, pose)
+        fresh = camera(list(LOOP_AND_SPUR), pose)
         if what != "whole":
             assert np.array_equal(used._render_rows(shot, ROWS), fresh._render_rows(shot, ROWS))
         if what != "rows":
-            fresh = camera(LOOP, pose)
+            fresh = camera(list(LOOP_AND_SPUR), pose)
             assert np.array_equal(used._render_shot(shot), fresh._render_shot(shot))
 
 
@@ -154,7 +152,7 @@ def test_a_camera_reusing_its_paint_draws_what_a_fresh_one_draws(
                       st.floats(-4 * math.pi, 4 * math.pi)))
 def test_the_c_room_light_is_numpys(pose: Pose) -> None:
     """ambient_coarse in C gives _ambient_coarse's numpy values, to the bit."""
-    cam = camera(LOOP, pose)
+    cam = camera(list(LOOP_AND_SPUR), pose)
     light = cam._light
     assert light.coarse_kernel == "c"
     fast = light._ambient_coarse64(pose).copy()

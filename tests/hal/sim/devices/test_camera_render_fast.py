@@ -8,6 +8,7 @@ import math
 import cv2
 import numpy as np
 import pytest
+from camera_floor import loop_world
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -16,15 +17,7 @@ from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import PaintedLine, World
 from hal.sim.world.geometry import Pose, SegmentSet, segment_distances, segments_array
 
-
-def world() -> World:
-    lines = [PaintedLine("loop", ((0.5, 0.5), (3.5, 0.5), (3.5, 2.5), (0.5, 2.5)), "black",
-                         0.025, closed=True),
-             PaintedLine("spur", ((2.0, 0.5), (2.0, 2.5)), "red", 0.02)]
-    return World(4.0, 3.0, segments_array([]), lines=lines)
-
-
-WORLD = world()
+WORLD = loop_world()
 # Near the lines, where there is paint to light and blur (the view is 24 x 18 cm).
 poses = st.builds(lambda x, y, heading, near_spur: Pose(2.0 + (x - 2) / 20, 1.5 + y, heading)
                   if near_spur else Pose(x, 0.5 + y / 10, heading),

@@ -9,6 +9,7 @@ from collections.abc import Sequence
 
 import numpy as np
 import pytest
+from camera_floor import loop_world
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -17,22 +18,14 @@ from hal.sim import vclock
 from hal.sim.devices.camera_model import CameraMount, SimCamera, _Shot
 from hal.sim.devices.lighting.floor_light import FloorLight
 from hal.sim.world.body import DiffDriveBody
-from hal.sim.world.floor_plan import PaintedLine, World
-from hal.sim.world.geometry import Pose, segments_array
+from hal.sim.world.geometry import Pose
 
 C_BUILT = importlib.util.find_spec("hal.sim.devices._camera_light") is not None
 KERNELS = ["opencv", pytest.param("c", marks=pytest.mark.skipif(
     not C_BUILT, reason="the C lighting was not built"))]
 
 
-def world() -> World:
-    lines = [PaintedLine("loop", ((0.5, 0.5), (3.5, 0.5), (3.5, 2.5), (0.5, 2.5)), "black",
-                         0.025, closed=True),
-             PaintedLine("spur", ((2.0, 0.5), (2.0, 2.5)), "red", 0.02)]
-    return World(4.0, 3.0, segments_array([]), lines=lines)
-
-
-WORLD = world()
+WORLD = loop_world()
 # Near the lines (paint to light and blur), and anywhere on a wide floor (far texture tiles).
 poses = st.one_of(
     st.builds(lambda x, y, heading: Pose(x, 0.5 + y / 10, heading), st.floats(0.3, 3.7),

@@ -64,6 +64,9 @@ def main() -> int:
     import_wall = time.perf_counter() - t0_wall
     import_cpu = time.process_time() - t0_cpu
     print(f"imports: wall {import_wall * 1000:.0f} ms, cpu {import_cpu * 1000:.0f} ms")
+    from robotd.native import compiled_modules, stale_modules
+    print(f"compiled modules (mypyc, docs/native.md): {len(compiled_modules())}"
+          f"{', STALE: ' + ', '.join(map(str, stale_modules())) if stale_modules() else ''}")
 
     profiler = cProfile.Profile() if opts.profile else None
     medians: dict[str, tuple[float, float]] = {}

@@ -13,6 +13,7 @@ from pathlib import Path
 from robotd import __version__
 from robotd.config import ConfigError, Settings, load_config
 from robotd.config.overrides import overrides_path
+from robotd.native import stale_modules, warn_if_stale
 from robotd.probes import PROBES
 from robotd.profiles import PROFILES
 
@@ -131,6 +132,11 @@ def cmd_sim(args: argparse.Namespace) -> int:
         print(f"robotd sim: the simulator is not available in this installation ({exc})",
               file=sys.stderr)
         return 1
+    stale = stale_modules()
+    if stale:  # printed even with --quiet: the run would not be of the source
+        print(f"robotd sim: compiled modules older than their source run their last build: "
+              f"{', '.join(map(str, stale))} (scripts/bootstrap builds them again)",
+              file=sys.stderr)
     code: int = sim_runner.run_sim(args)
     return code
 
@@ -178,6 +184,7 @@ def cmd_run(args: argparse.Namespace) -> int:
               file=sys.stderr)
     settings = Settings(values, source=str(config_path))
     configure_logging(settings.get("logging.level"))
+    warn_if_stale()
     if settings.get("hal.backend") == "sim":
         print(f"{config_path}: hal.backend is 'sim': use `robotd sim` for the simulator",
               file=sys.stderr)

@@ -1,0 +1,16 @@
+"""A pytest plugin for the whole suite (pyproject.toml: -p native_guard): refuse to test compiled modules that are older than their source."""
+
+from __future__ import annotations
+
+import pytest
+
+from robotd.native import stale_modules
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    stale = stale_modules()
+    if stale:  # the tests would pass or fail on the last build, not on the code under review
+        names = ", ".join(map(str, stale))
+        pytest.exit(f"compiled modules older than their source: {names}; "
+                    "scripts/bootstrap builds them again (or scripts/test, which runs it)",
+                    returncode=2)

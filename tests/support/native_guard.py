@@ -1,4 +1,4 @@
-"""A pytest plugin for the whole suite (pyproject.toml: -p native_guard): refuse to test compiled modules that are older than their source."""
+"""Refuse to test compiled modules older than their source (a plugin: pyproject -p native_guard)."""
 
 from __future__ import annotations
 

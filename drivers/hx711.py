@@ -179,6 +179,7 @@ class Hx711:
                                     outlier_kg * abs(calibration_factor))
         self._lines: Hx711Lines | None = None
         self._task: asyncio.Task[None] | None = None
+        self._settle_timer: asyncio.TimerHandle | None = None
         self._latest: LatestValue[WeightReading] = LatestValue()
         self._discard_next = 1
         self.counts = dict.fromkeys(("reads", "accepted", "sck_high", "saturated", "outliers",
@@ -306,22 +307,31 @@ class Hx711:
                 gc.enable()
 
     async def _run(self) -> None:
-        while True:
-            try:
-                await self._read_next()
-            except Exception as exc:  # lgpio.error, OSError: the GPIO chip went away
-                self.counts["line_errors"] += 1
-                self.last_error = f"{type(exc).__name__}: {exc}"
-                log.warning("hx711.line_error", error=self.last_error, retry_s=self.timeout_s)
-                await asyncio.sleep(self.timeout_s)
+        from_s: float | None = None  # when to look at DOUT next (None: at once)
+        try:
+            while True:
+                try:
+                    from_s = await self._read_next(from_s)
+                except Exception as exc:  # lgpio.error, OSError: the GPIO chip went away
+                    self.counts["line_errors"] += 1
+                    self.last_error = f"{type(exc).__name__}: {exc}"
+                    log.warning("hx711.line_error", error=self.last_error,
+                                retry_s=self.timeout_s)
+                    from_s = None
+                    await asyncio.sleep(self.timeout_s)
+        finally:
+            if self._settle_timer is not None:  # stopped: the read in hand is not published
+                self._settle_timer.cancel()
+                self._settle_timer = None
 
-    async def _read_next(self) -> None:
-        """Wait for one conversion, read it, filter it and publish the weight."""
-        loop = asyncio.get_running_loop()
-        if not await self._wait_ready(self.timeout_s):
+    async def _read_next(self, from_s: float | None) -> float | None:
+        """Wait for one conversion (DOUT read first at ``from_s``) and read it; its weight is
+        published 80 % of a conversion period later. Returns when to look at DOUT next."""
+        assert self._lines is not None
+        if not await wait_dout_low(self._lines, self.timeout_s, from_s=from_s):
             self.counts["timeouts"] += 1
             log.warning("hx711.timeout", waited_s=self.timeout_s)
-            return
+            return None
         code: int | None = None
         try:
             code = self.read_once()
@@ -331,10 +341,18 @@ class Hx711:
             if exc.reason == "sck_high":
                 # The chip reset on power-down: it is back on A128 and settling.
                 self._discard_next = 1
-        # Sleep through most of the next conversion instead of polling for it.
-        await asyncio.sleep(self.period_s * 0.8)
-        if code is None:
-            return
+        # Sleep through most of the next conversion instead of polling for it. The reading
+        # is filtered and published then, from a loop timer: the task itself waits on for
+        # DOUT from that instant without waking in between (one wake-up per read, not three).
+        loop = asyncio.get_running_loop()
+        settle_s = loop.time() + self.period_s * 0.8
+        if code is not None:
+            self._settle_timer = loop.call_at(settle_s, self._settle, code)
+        return settle_s
+
+    def _settle(self, code: int) -> None:
+        """A read's code, a conversion period after the read: filter it, publish the weight."""
+        self._settle_timer = None
         if self._discard_next:
             # The gain pulses of this read apply from the next conversion on.
             self._discard_next -= 1
@@ -347,7 +365,8 @@ class Hx711:
         average = self.filter.average()
         assert average is not None
         kg = (average - self.tare_offset) / self.calibration_factor
-        self._latest.publish(WeightReading(kg=kg, raw=round(average), t_s=loop.time()))
+        t_s = asyncio.get_running_loop().time()
+        self._latest.publish(WeightReading(kg=kg, raw=round(average), t_s=t_s))
 
     def apply_setting(self, dotted: str, value: Any) -> None:
         """A tuned ``hx711.*`` value takes effect at once (tare, factor, windows)."""

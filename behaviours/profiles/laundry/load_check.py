@@ -171,7 +171,10 @@ class LoadCheck:
             return
         while True:
             try:
-                reading = await asyncio.wait_for(self.load_cell.next_reading(), self.stale_s)
+                # asyncio.timeout, not wait_for: wait_for runs next_reading() as a task of its
+                # own (Python 3.11), two more wake-ups per reading.
+                async with asyncio.timeout(self.stale_s):
+                    reading = await self.load_cell.next_reading()
             except (TimeoutError, DeviceUnavailable) as exc:
                 self._forget(exc)
                 if isinstance(exc, DeviceUnavailable):
@@ -181,7 +184,6 @@ class LoadCheck:
                 self.stale = False
                 log.info("load.readings_back")
             self.add(reading)
-            await asyncio.sleep(0)
 
     def _forget(self, exc: BaseException) -> None:
         if not self.stale:

@@ -73,32 +73,39 @@ def clock_out(lines: Hx711Lines, gain: Gain) -> int:
     Raises ReadDiscarded("sck_high") when a pulse stayed high beyond 60 us, and
     ReadDiscarded("saturated") for the codes the chip gives when the input is out of range.
     """
-    # The hot loop of a read: the line methods bound once, no call but theirs per pulse.
-    set_sck, read_dout, now_us = lines.set_sck, lines.read_dout, lines.now_us
+    # The hot loop of a read: the line methods bound once, no call but theirs per pulse, and
+    # one call per pulse where the lines offer it (hal.ports.SckPulse).
+    pulse_sck = getattr(lines, "pulse_sck", None) or _pulse_by_edges(lines)
+    read_dout = lines.read_dout
     raw = 0
     longest_us = 0
     for _ in range(24):
-        t0 = now_us()
-        set_sck(True)
-        set_sck(False)
-        high_us = now_us() - t0
-        if high_us > MAX_SCK_HIGH_US:
-            longest_us = max(longest_us, high_us)
+        high_us = pulse_sck()
+        longest_us = high_us if high_us > longest_us else longest_us  # max(), no call
         # DOUT changes on the rising edge and holds until the next one.
         raw = (raw << 1) | read_dout()
-    for _ in range(gain.pulses - 24):  # the gain pulses: no data
-        t0 = now_us()
-        set_sck(True)
-        set_sck(False)
-        high_us = now_us() - t0
-        if high_us > MAX_SCK_HIGH_US:
-            longest_us = max(longest_us, high_us)
+    for _ in range(gain.value - 24):  # the gain pulses: no data
+        high_us = pulse_sck()
+        longest_us = high_us if high_us > longest_us else longest_us
     if longest_us > MAX_SCK_HIGH_US:
         raise ReadDiscarded("sck_high", f"a clock pulse lasted {longest_us} us")
     code = to_signed24(raw)
     if code in (SATURATED_HIGH, SATURATED_LOW):
         raise ReadDiscarded("saturated", f"code {raw:06X}")
     return code
+
+
+def _pulse_by_edges(lines: Hx711Lines) -> Callable[[], int]:
+    """``SckPulse.pulse_sck`` for lines without it: PD_SCK high then low, its high time."""
+    set_sck, now_us = lines.set_sck, lines.now_us
+
+    def pulse_sck() -> int:
+        t0 = now_us()
+        set_sck(True)
+        set_sck(False)
+        return now_us() - t0
+
+    return pulse_sck
 
 
 class OutlierFilter:

@@ -161,13 +161,22 @@ class SimHx711Lines:
         return GAIN_BY_PULSES.get(self._pulses_per_read, ("A", 128))
 
     # --- Hx711Lines --------------------------------------------------------------------------
+    # The driver makes ~50 of these calls per conversion, all within one instant of the loop's
+    # clock: each works out the port's microseconds itself (``_tick``, inlined: a Python call
+    # less per access) and the loop's microseconds once per instant.
     def now_us(self) -> int:
         return self._tick()
 
     def read_dout(self) -> bool:
         if self._gpio_error is not None:
             raise self._gpio_error
-        now = self._tick()
+        clock_s = self.clock()  # _tick, inlined
+        if clock_s != self._clock_s:
+            self._clock_s = clock_s
+            self._clock_us = int(clock_s * 1_000_000)
+        now = self._now_us + self.call_us
+        clock_us = self._clock_us
+        self._now_us = now = now if now > clock_us else clock_us
         # ``powered_down`` with the time just taken (the clock cannot move in between).
         if (self._sck and now - self._rise_us > POWER_DOWN_US) or not self._connected:
             return True
@@ -198,6 +207,35 @@ class SimHx711Lines:
         if self._dout_waiters:
             self._arm_dout_alert()
 
+    def pulse_sck(self) -> int:
+        """``hal.ports.SckPulse``: what ``now_us``, ``set_sck(True)``, ``set_sck(False)``,
+        ``now_us`` do, in one call: PD_SCK's high time on the port's clock."""
+        call_us = self.call_us
+        pulses = self._pulses
+        if (self._gpio_error is not None or self._sck or not 1 <= pulses < 23
+                or self._glitch is not None or not 0 <= call_us <= POWER_DOWN_US):
+            t0_us = self._tick()
+            self.set_sck(True)
+            self.set_sck(False)
+            return self._tick() - t0_us
+        # A data bit's pulse (set_sck's fast case): four accesses call_us apart, from the
+        # later of this port's clock and the loop's (_tick, inlined).
+        clock_s = self.clock()
+        if clock_s != self._clock_s:
+            self._clock_s = clock_s
+            self._clock_us = int(clock_s * 1_000_000)
+        t0_us = self._now_us + call_us
+        clock_us = self._clock_us
+        t0_us = t0_us if t0_us > clock_us else clock_us  # max(), no call
+        self._rise_us = rise_us = t0_us + call_us
+        self.pulses_total += 1
+        self._pulses = pulses + 1
+        self._now_us = fall_us = rise_us + call_us
+        if self._dout_waiters:  # as set_sck(False) does
+            self._arm_dout_alert()
+        self._now_us = fall_us + call_us
+        return 3 * call_us
+
     def on_dout_low(self, callback: Callable[[], None]) -> Callable[[], None]:
         """``hal.ports.DoutAlert``: ``callback()`` once DOUT reads low (a loop timer).
 
@@ -220,8 +258,6 @@ class SimHx711Lines:
         return int(self.clock() * 1_000_000)
 
     def _tick(self) -> int:
-        # The driver makes ~125 of these calls per conversion, all within one instant of the
-        # loop's clock: its microseconds are worked out once per instant.
         clock_s = self.clock()
         if clock_s != self._clock_s:
             self._clock_s = clock_s

@@ -13,7 +13,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from hal.sim import vclock
-from hal.sim.devices.hx711_model import SimHx711Lines, _loop_s_reaching
+from hal.sim.devices.hx711_model import SimHx711Lines, _clamp_code, _loop_s_reaching
 
 
 class Bench:
@@ -238,7 +238,7 @@ class TestPulseSck:
     @example(steps=[("wait",)] + [("pulse",), ("read",)] * 25, call_us=1)
     @example(steps=[("glitch", 5, 80)] + [("pulse",), ("read",)] * 25 + [("advance", 0.1)]
              + [("pulse",)] * 27, call_us=1)
-    @given(steps=_PULSE_STEPS, call_us=st.sampled_from([0, 1, 3, 61]))
+    @given(steps=_PULSE_STEPS, call_us=st.sampled_from([-1, 0, 1, 3, 61]))
     def test_one_call_does_what_the_four_do(self, steps: list[tuple[object, ...]],
                                             call_us: int) -> None:
         """``pulse_sck()`` returns what ``now_us``, ``set_sck(True)``, ``set_sck(False)``,
@@ -287,6 +287,22 @@ class TestPulseSck:
                 assert _chip_state(fast) == _chip_state(plain)
 
         vclock.run(main())
+
+
+@example(code=float("nan"))
+@example(code=0x7FFFFF - 0.5)
+@example(code=-0x800000 + 0.5)
+@example(code=-0x800000 + 1.0)
+@given(st.one_of(st.floats(allow_nan=True, allow_infinity=True),
+                 st.floats(-0x800002, 0x800002)))
+def test_clamp_code_is_floor_then_the_24_bit_range(code: float) -> None:
+    """The code of a conversion is its value floored and clipped to 0x800000..0x7FFFFF, and
+    NaN the high limit: what ``int(max(MIN, min(MAX, floor(max(-1e12, min(1e12, v))))))``
+    with NaN checked first gives."""
+    expected = 0x7FFFFF if math.isnan(code) else int(
+        max(-0x800000, min(0x7FFFFF, math.floor(max(-1e12, min(1e12, code))))))
+    got = _clamp_code(code)
+    assert got == expected and type(got) is int
 
 
 @given(st.integers(0, 10**12))

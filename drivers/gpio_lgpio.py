@@ -72,6 +72,11 @@ class LgpioHx711Lines:
         write(handle, clock, 0)
         return time.monotonic_ns() // 1000 - t0_us
 
+    def pulse_sck_read(self) -> tuple[int, bool]:
+        """``hal.ports.SckPulse``: ``pulse_sck()``, then DOUT read."""
+        high_us = self.pulse_sck()
+        return high_us, bool(self._lg.gpio_read(self._handle, self._data))
+
     def read_dout(self) -> bool:
         return bool(self._lg.gpio_read(self._handle, self._data))
 

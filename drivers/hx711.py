@@ -74,16 +74,17 @@ def clock_out(lines: Hx711Lines, gain: Gain) -> int:
     ReadDiscarded("saturated") for the codes the chip gives when the input is out of range.
     """
     # The hot loop of a read: the line methods bound once, no call but theirs per pulse, and
-    # one call per pulse where the lines offer it (hal.ports.SckPulse).
+    # one call per bit where the lines offer it (hal.ports.SckPulse).
     pulse_sck = getattr(lines, "pulse_sck", None) or _pulse_by_edges(lines)
-    read_dout = lines.read_dout
+    pulse_sck_read = (getattr(lines, "pulse_sck_read", None)
+                      or _pulse_then_read(pulse_sck, lines.read_dout))
     raw = 0
     longest_us = 0
     for _ in range(24):
-        high_us = pulse_sck()
+        # DOUT changes on the rising edge and holds until the next one: read after the pulse.
+        high_us, bit = pulse_sck_read()
         longest_us = high_us if high_us > longest_us else longest_us  # max(), no call
-        # DOUT changes on the rising edge and holds until the next one.
-        raw = (raw << 1) | read_dout()
+        raw = (raw << 1) | bit
     for _ in range(gain.value - 24):  # the gain pulses: no data
         high_us = pulse_sck()
         longest_us = high_us if high_us > longest_us else longest_us
@@ -106,6 +107,16 @@ def _pulse_by_edges(lines: Hx711Lines) -> Callable[[], int]:
         return now_us() - t0
 
     return pulse_sck
+
+
+def _pulse_then_read(pulse_sck: Callable[[], int],
+                     read_dout: Callable[[], bool]) -> Callable[[], tuple[int, bool]]:
+    """``SckPulse.pulse_sck_read`` for lines without it."""
+    def pulse_sck_read() -> tuple[int, bool]:
+        high_us = pulse_sck()
+        return high_us, read_dout()
+
+    return pulse_sck_read
 
 
 class OutlierFilter:

@@ -47,14 +47,16 @@ class DoutAlert(Protocol):
 
 @runtime_checkable
 class SckPulse(Protocol):
-    """What ``Hx711Lines`` may also offer: one clock pulse in one call.
+    """What ``Hx711Lines`` may also offer: a clock pulse in one call.
 
     ``pulse_sck()`` does what ``t0 = now_us(); set_sck(True); set_sck(False)`` and then
     ``now_us() - t0`` do, and returns that: how long PD_SCK was high, in ``now_us``'s
-    microseconds. One call instead of four per bit (a read has 25 to 27 pulses).
+    microseconds. ``pulse_sck_read()`` then also does ``read_dout()`` and returns both. One
+    call per bit instead of four or five (a read has 25 to 27 pulses).
     """
 
     def pulse_sck(self) -> int: ...
+    def pulse_sck_read(self) -> tuple[int, bool]: ...
 
 
 @dataclass(frozen=True, slots=True)

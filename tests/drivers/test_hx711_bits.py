@@ -39,7 +39,8 @@ class RecordedLines:
 
 
 class PulsingLines(RecordedLines):
-    """The same recording, clocked by ``pulse_sck`` (``hal.ports.SckPulse``)."""
+    """The same recording, clocked by ``pulse_sck`` and ``pulse_sck_read``
+    (``hal.ports.SckPulse``)."""
 
     def __init__(self, code24: int, high_us: dict[int, int] | None = None) -> None:
         super().__init__(code24, high_us)
@@ -51,6 +52,10 @@ class PulsingLines(RecordedLines):
         self.set_sck(True)
         self.set_sck(False)
         return self.now_us() - t0
+
+    def pulse_sck_read(self) -> tuple[int, bool]:
+        high_us = self.pulse_sck()
+        return high_us, self.read_dout()
 
 
 class TestToSigned24:
@@ -104,8 +109,8 @@ class TestClockOut:
     def test_lines_with_pulse_sck_are_clocked_through_it(self, code24: int, gain: Gain,
                                                          long_pulse: int,
                                                          long_us: int) -> None:
-        """Lines that offer ``pulse_sck`` get one call per pulse and give the same code, or
-        the same discard, as clocking them edge by edge."""
+        """Lines that offer ``pulse_sck`` and ``pulse_sck_read`` get one call per pulse and
+        give the same code, or the same discard, as clocking them edge by edge."""
         def result(lines: RecordedLines) -> object:
             try:
                 return clock_out(lines, gain)

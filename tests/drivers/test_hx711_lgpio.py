@@ -82,12 +82,17 @@ class TestLgpioLines:
         assert isinstance(lines, SckPulse)
 
     def test_a_pulse_writes_the_clock_high_then_low(self) -> None:
-        """``pulse_sck`` drives PD_SCK high then low and returns a high time in us."""
+        """``pulse_sck`` drives PD_SCK high then low and returns a high time in us;
+        ``pulse_sck_read`` also reads DOUT."""
         lg = FakeLgpio()
         lines = LgpioHx711Lines(0, data_gpio=5, clock_gpio=6, lgpio_module=lg)
         high_us = lines.pulse_sck()
         assert lg.calls[-2:] == [("write", 6, 1), ("write", 6, 0)]
         assert 0 <= high_us < 1_000_000
+        lg.level = 0
+        high_us, dout = lines.pulse_sck_read()
+        assert lg.calls[-2:] == [("write", 6, 1), ("write", 6, 0)]
+        assert 0 <= high_us < 1_000_000 and dout is False
 
     def test_missing_chip_is_device_unavailable(self) -> None:
         """A chip that cannot be opened names /dev/gpiochipN."""

@@ -249,6 +249,31 @@ class SimHx711Lines:
         self._now_us = fall_us + call_us
         return fall_us + call_us - t0_us
 
+    def pulse_sck_read(self) -> tuple[int, bool]:
+        """``hal.ports.SckPulse``: ``pulse_sck()`` then ``read_dout()``, in one call."""
+        call_us = self.call_us
+        pulses = self._pulses
+        if (not 1 <= pulses < 24 or self._glitch is not None or self._gpio_error is not None
+                or self._sck or self._dout_waiters or not self._connected
+                or not 0 <= call_us <= POWER_DOWN_US):
+            high_us = self.pulse_sck()
+            return high_us, self.read_dout()
+        # A data bit: five accesses call_us apart (_tick, inlined), the bit on DOUT after it.
+        clock_s = self.clock()
+        if clock_s != self._clock_s:
+            self._clock_s = clock_s
+            self._clock_us = int(clock_s * 1_000_000)
+        t0_us = self._now_us + call_us
+        clock_us = self._clock_us
+        t0_us = t0_us if t0_us > clock_us else clock_us  # max(), no call
+        self._rise_us = t0_us + call_us
+        self.pulses_total += 1
+        self._pulses = pulses = pulses + 1
+        if pulses == 24:
+            self.reads_completed += 1
+        self._now_us = t0_us + 4 * call_us
+        return 3 * call_us, self._bits[pulses]
+
     def on_dout_low(self, callback: Callable[[], None]) -> Callable[[], None]:
         """``hal.ports.DoutAlert``: ``callback()`` once DOUT reads low (a loop timer).
 

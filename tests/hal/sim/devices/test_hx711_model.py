@@ -215,8 +215,8 @@ class TestDoutAlert:
 
 
 _PULSE_STEPS = st.lists(st.one_of(
-    st.tuples(st.just("pulse")), st.tuples(st.just("pulse")), st.tuples(st.just("pulse")),
-    st.tuples(st.just("read")),
+    st.tuples(st.just("pulse")), st.tuples(st.just("pulse_read")),
+    st.tuples(st.just("pulse_read")), st.tuples(st.just("read")),
     st.tuples(st.just("sck"), st.booleans()),
     st.tuples(st.just("advance"), st.sampled_from([1e-6, 5e-5, 1e-4, 0.002, 0.0125, 0.1])),
     st.tuples(st.just("glitch"), st.integers(0, 27), st.integers(0, 100)),
@@ -236,14 +236,17 @@ def _chip_state(chip: SimHx711Lines) -> tuple[object, ...]:
 class TestPulseSck:
     @settings(max_examples=200, deadline=None)
     @example(steps=[("wait",)] + [("pulse",), ("read",)] * 25, call_us=1)
+    @example(steps=[("pulse_read",)] * 24 + [("pulse",)] + [("advance", 0.1)]
+             + [("pulse_read",)] * 30, call_us=1)
     @example(steps=[("glitch", 5, 80)] + [("pulse",), ("read",)] * 25 + [("advance", 0.1)]
              + [("pulse",)] * 27, call_us=1)
     @given(steps=_PULSE_STEPS, call_us=st.sampled_from([-1, 0, 1, 3, 61]))
     def test_one_call_does_what_the_four_do(self, steps: list[tuple[object, ...]],
                                             call_us: int) -> None:
         """``pulse_sck()`` returns what ``now_us``, ``set_sck(True)``, ``set_sck(False)``,
-        ``now_us`` give and leaves the chip as they do, through whole reads, stray pulses,
-        SCK left high, glitches, a lost GPIO chip, a pulled wire and waiting readers."""
+        ``now_us`` give and leaves the chip as they do (``pulse_sck_read()``: and then
+        ``read_dout()``), through whole reads, stray pulses, SCK left high, glitches, a lost
+        GPIO chip, a pulled wire and waiting readers."""
         async def main() -> None:
             clock = {"s": 3.0}
             fast, plain = (SimHx711Lines(weight_kg=lambda: 2.5, sps=80, call_us=call_us,
@@ -278,6 +281,9 @@ class TestPulseSck:
                 got: tuple[object, object] = (None, None)
                 if name == "pulse":
                     got = outcome(fast.pulse_sck), outcome(partial(by_edges, plain))
+                elif name == "pulse_read":
+                    got = (outcome(fast.pulse_sck_read),
+                           outcome(lambda: (by_edges(plain), plain.read_dout())))
                 elif name == "read":
                     got = outcome(fast.read_dout), outcome(plain.read_dout)
                 elif name == "sck":

@@ -144,6 +144,8 @@ class LoadCheck:
         return LoadVerdict.UNLOADED if w.kg < self.min_kg else LoadVerdict.WAIT_UNLOAD
 
     def _check_alert(self) -> None:
+        if self._window[-1].kg < self.max_kg and not self._overweight:
+            return  # neither an alert nor an episode to end: no need for the spread
         w = self.weight()
         over = w.stable and w.kg is not None and w.kg >= self.max_kg
         if over and not self._overweight:

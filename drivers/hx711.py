@@ -139,9 +139,9 @@ class OutlierFilter:
         """Feed a code; False when it was rejected as an outlier."""
         # Every code enters the median window, so a real step change is accepted once it holds
         # for half the window.
-        self._recent.append(code)
-        median = statistics.median(self._recent)
-        if len(self._recent) >= 3 and abs(code - median) > self.outlier_counts:
+        recent = self._recent
+        recent.append(code)
+        if len(recent) >= 3 and abs(code - _median(recent)) > self.outlier_counts:
             return False
         self._accepted.append(code)
         return True
@@ -162,6 +162,13 @@ class OutlierFilter:
         """Restart the moving average; the median history stays, so the next code is still
         checked against the recent ones."""
         self._accepted.clear()
+
+
+def _median(codes: deque[int]) -> float:
+    """``statistics.median`` of a few codes, without its conversions (once per read)."""
+    ordered = sorted(codes)
+    mid = len(ordered) // 2
+    return ordered[mid] if len(ordered) % 2 else (ordered[mid - 1] + ordered[mid]) / 2
 
 
 class Hx711:

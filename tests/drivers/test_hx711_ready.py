@@ -171,3 +171,36 @@ class TestWaitDoutLow:
         while expected < start + timeout_s:
             expected += 0.002
         assert not ok and end == expected
+
+
+class TestWaitFrom:
+    @settings(max_examples=40, deadline=None)
+    @given(edges=st.booleans(), sps=st.sampled_from([10, 80]), start_s=st.floats(0.0, 0.6),
+           from_after_s=st.floats(0.0, 0.3), timeout_s=st.floats(0.0, 0.3),
+           cut=st.sampled_from([None, 0.05, 0.2]))
+    def test_waiting_from_a_later_instant_is_sleeping_until_it_then_waiting(
+            self, edges: bool, sps: int, start_s: float, from_after_s: float, timeout_s: float,
+            cut: float | None) -> None:
+        """``wait_dout_low(from_s=t)`` started early gives what sleeping until ``t`` and then
+        waiting gives: the same answer at the same instant, with the timeout counted from
+        ``t``, also when the DOUT wire is pulled in between."""
+        def timed(early: bool) -> tuple[bool, float]:
+            async def main() -> tuple[bool, float]:
+                loop = asyncio.get_running_loop()
+                sim = SimHx711Lines(weight_kg=lambda: 1.0, sps=sps, clock=loop.time)
+                lines = sim if edges else PollOnly(sim)
+                await asyncio.sleep(start_s)
+                from_s = loop.time() + from_after_s
+                if cut is not None:
+                    loop.call_at(loop.time() + cut, sim.disconnect)
+                if early:
+                    ok = await wait_dout_low(lines, timeout_s, from_s=from_s)
+                else:
+                    await asyncio.sleep(from_s - loop.time())
+                    ok = await wait_dout_low(lines, timeout_s)
+                return ok, loop.time()
+
+            result: tuple[bool, float] = vclock.run(main())
+            return result
+
+        assert timed(early=True) == timed(early=False)

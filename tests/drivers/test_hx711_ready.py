@@ -121,6 +121,17 @@ class TestEdgeWaitMatchesPolling:
         assert edged.published == polled.published
         assert edged.counts == polled.counts
 
+    def test_each_weight_is_published_most_of_a_period_after_its_read(self) -> None:
+        """A conversion read at t is filtered and published at t + 0.8 periods (the reader
+        sleeps through most of the next conversion), the first one after start-up dropped."""
+        for sps in (10, 80):
+            run = _run(True, sps, 3.0, {})
+            published_s = [t_s for t_s, _ in run.published]
+            assert len(published_s) >= 2 * sps
+            period_s = 1.0 / sps
+            assert published_s == [t + period_s * 0.8 for t in run.read_at_s[1:]][
+                :len(published_s)]
+
     @settings(max_examples=25, deadline=None)
     @example(sps=10, cut=1.0, cut_s=1.0, lost=3.0, lost_s=0.0, heavier=1.0, spike=1.0)
     @given(sps=st.sampled_from([10, 80]),

@@ -12,6 +12,7 @@ from functools import partial
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+from hal.ports import SckPulse
 from hal.sim import vclock
 from hal.sim.devices.hx711_model import SimHx711Lines, _clamp_code, _loop_s_reaching
 
@@ -234,6 +235,10 @@ def _chip_state(chip: SimHx711Lines) -> tuple[object, ...]:
 
 
 class TestPulseSck:
+    def test_the_sim_lines_offer_one_call_pulses(self) -> None:
+        """``SimHx711Lines`` is a ``hal.ports.SckPulse``."""
+        assert isinstance(SimHx711Lines(weight_kg=lambda: 0.0), SckPulse)
+
     @settings(max_examples=200, deadline=None)
     @example(steps=[("wait",)] + [("pulse",), ("read",)] * 25, call_us=1)
     @example(steps=[("pulse_read",)] * 24 + [("pulse",)] + [("advance", 0.1)]

@@ -73,32 +73,50 @@ def clock_out(lines: Hx711Lines, gain: Gain) -> int:
     Raises ReadDiscarded("sck_high") when a pulse stayed high beyond 60 us, and
     ReadDiscarded("saturated") for the codes the chip gives when the input is out of range.
     """
-    # The hot loop of a read: the line methods bound once, no call but theirs per pulse.
-    set_sck, read_dout, now_us = lines.set_sck, lines.read_dout, lines.now_us
+    # The hot loop of a read: the line methods bound once, no call but theirs per pulse, and
+    # one call per bit where the lines offer it (hal.ports.SckPulse).
+    pulse_sck = getattr(lines, "pulse_sck", None) or _pulse_by_edges(lines)
+    pulse_sck_read = (getattr(lines, "pulse_sck_read", None)
+                      or _pulse_then_read(pulse_sck, lines.read_dout))
     raw = 0
     longest_us = 0
     for _ in range(24):
-        t0 = now_us()
-        set_sck(True)
-        set_sck(False)
-        high_us = now_us() - t0
-        if high_us > MAX_SCK_HIGH_US:
-            longest_us = max(longest_us, high_us)
-        # DOUT changes on the rising edge and holds until the next one.
-        raw = (raw << 1) | read_dout()
-    for _ in range(gain.pulses - 24):  # the gain pulses: no data
-        t0 = now_us()
-        set_sck(True)
-        set_sck(False)
-        high_us = now_us() - t0
-        if high_us > MAX_SCK_HIGH_US:
-            longest_us = max(longest_us, high_us)
+        # DOUT changes on the rising edge and holds until the next one: read after the pulse.
+        high_us, bit = pulse_sck_read()
+        longest_us = high_us if high_us > longest_us else longest_us  # max(), no call
+        raw = (raw << 1) | bit
+    for _ in range(gain.value - 24):  # the gain pulses: no data
+        high_us = pulse_sck()
+        longest_us = high_us if high_us > longest_us else longest_us
     if longest_us > MAX_SCK_HIGH_US:
         raise ReadDiscarded("sck_high", f"a clock pulse lasted {longest_us} us")
     code = to_signed24(raw)
     if code in (SATURATED_HIGH, SATURATED_LOW):
         raise ReadDiscarded("saturated", f"code {raw:06X}")
     return code
+
+
+def _pulse_by_edges(lines: Hx711Lines) -> Callable[[], int]:
+    """``SckPulse.pulse_sck`` for lines without it: PD_SCK high then low, its high time."""
+    set_sck, now_us = lines.set_sck, lines.now_us
+
+    def pulse_sck() -> int:
+        t0 = now_us()
+        set_sck(True)
+        set_sck(False)
+        return now_us() - t0
+
+    return pulse_sck
+
+
+def _pulse_then_read(pulse_sck: Callable[[], int],
+                     read_dout: Callable[[], bool]) -> Callable[[], tuple[int, bool]]:
+    """``SckPulse.pulse_sck_read`` for lines without it."""
+    def pulse_sck_read() -> tuple[int, bool]:
+        high_us = pulse_sck()
+        return high_us, read_dout()
+
+    return pulse_sck_read
 
 
 class OutlierFilter:
@@ -121,9 +139,9 @@ class OutlierFilter:
         """Feed a code; False when it was rejected as an outlier."""
         # Every code enters the median window, so a real step change is accepted once it holds
         # for half the window.
-        self._recent.append(code)
-        median = statistics.median(self._recent)
-        if len(self._recent) >= 3 and abs(code - median) > self.outlier_counts:
+        recent = self._recent
+        recent.append(code)
+        if len(recent) >= 3 and abs(code - _median(recent)) > self.outlier_counts:
             return False
         self._accepted.append(code)
         return True
@@ -144,6 +162,13 @@ class OutlierFilter:
         """Restart the moving average; the median history stays, so the next code is still
         checked against the recent ones."""
         self._accepted.clear()
+
+
+def _median(codes: deque[int]) -> float:
+    """``statistics.median`` of a few codes, without its conversions (once per read)."""
+    ordered = sorted(codes)
+    mid = len(ordered) // 2
+    return ordered[mid] if len(ordered) % 2 else (ordered[mid - 1] + ordered[mid]) / 2
 
 
 class Hx711:
@@ -179,6 +204,7 @@ class Hx711:
                                     outlier_kg * abs(calibration_factor))
         self._lines: Hx711Lines | None = None
         self._task: asyncio.Task[None] | None = None
+        self._settle_timer: asyncio.TimerHandle | None = None
         self._latest: LatestValue[WeightReading] = LatestValue()
         self._discard_next = 1
         self.counts = dict.fromkeys(("reads", "accepted", "sck_high", "saturated", "outliers",
@@ -306,22 +332,31 @@ class Hx711:
                 gc.enable()
 
     async def _run(self) -> None:
-        while True:
-            try:
-                await self._read_next()
-            except Exception as exc:  # lgpio.error, OSError: the GPIO chip went away
-                self.counts["line_errors"] += 1
-                self.last_error = f"{type(exc).__name__}: {exc}"
-                log.warning("hx711.line_error", error=self.last_error, retry_s=self.timeout_s)
-                await asyncio.sleep(self.timeout_s)
+        from_s: float | None = None  # when to look at DOUT next (None: at once)
+        try:
+            while True:
+                try:
+                    from_s = await self._read_next(from_s)
+                except Exception as exc:  # lgpio.error, OSError: the GPIO chip went away
+                    self.counts["line_errors"] += 1
+                    self.last_error = f"{type(exc).__name__}: {exc}"
+                    log.warning("hx711.line_error", error=self.last_error,
+                                retry_s=self.timeout_s)
+                    from_s = None
+                    await asyncio.sleep(self.timeout_s)
+        finally:
+            if self._settle_timer is not None:  # stopped: the read in hand is not published
+                self._settle_timer.cancel()
+                self._settle_timer = None
 
-    async def _read_next(self) -> None:
-        """Wait for one conversion, read it, filter it and publish the weight."""
-        loop = asyncio.get_running_loop()
-        if not await self._wait_ready(self.timeout_s):
+    async def _read_next(self, from_s: float | None) -> float | None:
+        """Wait for one conversion (DOUT read first at ``from_s``) and read it; its weight is
+        published 80 % of a conversion period later. Returns when to look at DOUT next."""
+        assert self._lines is not None
+        if not await wait_dout_low(self._lines, self.timeout_s, from_s=from_s):
             self.counts["timeouts"] += 1
             log.warning("hx711.timeout", waited_s=self.timeout_s)
-            return
+            return None
         code: int | None = None
         try:
             code = self.read_once()
@@ -331,10 +366,18 @@ class Hx711:
             if exc.reason == "sck_high":
                 # The chip reset on power-down: it is back on A128 and settling.
                 self._discard_next = 1
-        # Sleep through most of the next conversion instead of polling for it.
-        await asyncio.sleep(self.period_s * 0.8)
-        if code is None:
-            return
+        # Sleep through most of the next conversion instead of polling for it. The reading
+        # is filtered and published then, from a loop timer: the task itself waits on for
+        # DOUT from that instant without waking in between (one wake-up per read, not three).
+        loop = asyncio.get_running_loop()
+        settle_s = loop.time() + self.period_s * 0.8
+        if code is not None:
+            self._settle_timer = loop.call_at(settle_s, self._settle, code)
+        return settle_s
+
+    def _settle(self, code: int) -> None:
+        """A read's code, a conversion period after the read: filter it, publish the weight."""
+        self._settle_timer = None
         if self._discard_next:
             # The gain pulses of this read apply from the next conversion on.
             self._discard_next -= 1
@@ -347,7 +390,8 @@ class Hx711:
         average = self.filter.average()
         assert average is not None
         kg = (average - self.tare_offset) / self.calibration_factor
-        self._latest.publish(WeightReading(kg=kg, raw=round(average), t_s=loop.time()))
+        t_s = asyncio.get_running_loop().time()
+        self._latest.publish(WeightReading(kg=kg, raw=round(average), t_s=t_s))
 
     def apply_setting(self, dotted: str, value: Any) -> None:
         """A tuned ``hx711.*`` value takes effect at once (tare, factor, windows)."""

@@ -45,6 +45,20 @@ class DoutAlert(Protocol):
     def on_dout_low(self, callback: Callable[[], None]) -> Callable[[], None]: ...
 
 
+@runtime_checkable
+class SckPulse(Protocol):
+    """What ``Hx711Lines`` may also offer: a clock pulse in one call.
+
+    ``pulse_sck()`` does what ``t0 = now_us(); set_sck(True); set_sck(False)`` and then
+    ``now_us() - t0`` do, and returns that: how long PD_SCK was high, in ``now_us``'s
+    microseconds. ``pulse_sck_read()`` then also does ``read_dout()`` and returns both. One
+    call per bit instead of four or five (a read has 25 to 27 pulses).
+    """
+
+    def pulse_sck(self) -> int: ...
+    def pulse_sck_read(self) -> tuple[int, bool]: ...
+
+
 @dataclass(frozen=True, slots=True)
 class IrEdge:
     """One level change on an IR receiver's pin: the level after it, and when (microseconds)."""

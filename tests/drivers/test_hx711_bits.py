@@ -38,6 +38,26 @@ class RecordedLines:
         return True
 
 
+class PulsingLines(RecordedLines):
+    """The same recording, clocked by ``pulse_sck`` and ``pulse_sck_read``
+    (``hal.ports.SckPulse``)."""
+
+    def __init__(self, code24: int, high_us: dict[int, int] | None = None) -> None:
+        super().__init__(code24, high_us)
+        self.pulse_calls = 0
+
+    def pulse_sck(self) -> int:
+        self.pulse_calls += 1
+        t0 = self.now_us()
+        self.set_sck(True)
+        self.set_sck(False)
+        return self.now_us() - t0
+
+    def pulse_sck_read(self) -> tuple[int, bool]:
+        high_us = self.pulse_sck()
+        return high_us, self.read_dout()
+
+
 class TestToSigned24:
     def test_twos_complement(self) -> None:
         """0x000001 is 1, 0xFFFFFF is -1, 0x800001 is the most negative legal code."""
@@ -83,6 +103,23 @@ class TestClockOut:
         assert clock_out(RecordedLines(0x01E240, {5: 59}), Gain.A128) == 123456
         with pytest.raises(ReadDiscarded):
             clock_out(RecordedLines(0x01E240, {5: 60}), Gain.A128)
+
+    @given(code24=st.integers(0, 0xFFFFFF), gain=st.sampled_from(Gain),
+           long_pulse=st.integers(1, 27), long_us=st.integers(0, 100))
+    def test_lines_with_pulse_sck_are_clocked_through_it(self, code24: int, gain: Gain,
+                                                         long_pulse: int,
+                                                         long_us: int) -> None:
+        """Lines that offer ``pulse_sck`` and ``pulse_sck_read`` get one call per pulse and
+        give the same code, or the same discard, as clocking them edge by edge."""
+        def result(lines: RecordedLines) -> object:
+            try:
+                return clock_out(lines, gain)
+            except ReadDiscarded as exc:
+                return str(exc)
+
+        pulsing = PulsingLines(code24, {long_pulse: long_us})
+        assert result(pulsing) == result(RecordedLines(code24, {long_pulse: long_us}))
+        assert pulsing.pulse_calls == gain.pulses
 
     @given(st.integers(-0x7FFFFF, 0x7FFFFE))
     def test_every_legal_code_round_trips(self, value: int) -> None:

@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import asyncio
 import random
+import statistics
+from collections import deque
 from typing import Any
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
-from drivers.hx711 import Gain, Hx711
+from drivers.hx711 import Gain, Hx711, _median
 from hal.devices import DeviceUnavailable, LoadCell
 from hal.sim import vclock
 from hal.sim.devices.hx711_model import SimHx711Lines
@@ -171,6 +175,14 @@ class TestHx711Driver:
             await hx.close()
 
         vclock.run(main())
+
+
+class TestMedian:
+    @given(st.lists(st.integers(-0x800000, 0x7FFFFF), min_size=1, max_size=9))
+    def test_is_the_statistics_median(self, codes: list[int]) -> None:
+        """The outlier filter's median is ``statistics.median``'s, value and type."""
+        got, expected = _median(deque(codes)), statistics.median(codes)
+        assert got == expected and type(got) is type(expected)
 
 
 class TestHx711FromSettings:

@@ -11,7 +11,7 @@ import pytest
 
 from drivers.gpio_lgpio import LgpioHx711Lines
 from hal.devices import DeviceUnavailable
-from hal.ports import DoutAlert, Hx711Lines
+from hal.ports import DoutAlert, Hx711Lines, SckPulse
 
 
 class FakeLgpio:
@@ -75,10 +75,24 @@ class TestLgpioLines:
         assert lg.calls == [("open", 0), ("out", 6, 0), ("alert", 5, 2), ("write", 6, 1),
                             ("cancel", 5), ("free", 6), ("free", 5), ("close", 7)]
 
-    def test_offers_both_ports(self) -> None:
-        """The lgpio lines are ``Hx711Lines`` and ``DoutAlert``."""
+    def test_offers_the_three_ports(self) -> None:
+        """The lgpio lines are ``Hx711Lines``, ``DoutAlert`` and ``SckPulse``."""
         lines = LgpioHx711Lines(0, 5, 6, lgpio_module=FakeLgpio())
         assert isinstance(lines, Hx711Lines) and isinstance(lines, DoutAlert)
+        assert isinstance(lines, SckPulse)
+
+    def test_a_pulse_writes_the_clock_high_then_low(self) -> None:
+        """``pulse_sck`` drives PD_SCK high then low and returns a high time in us;
+        ``pulse_sck_read`` also reads DOUT."""
+        lg = FakeLgpio()
+        lines = LgpioHx711Lines(0, data_gpio=5, clock_gpio=6, lgpio_module=lg)
+        high_us = lines.pulse_sck()
+        assert lg.calls[-2:] == [("write", 6, 1), ("write", 6, 0)]
+        assert 0 <= high_us < 1_000_000
+        lg.level = 0
+        high_us, dout = lines.pulse_sck_read()
+        assert lg.calls[-2:] == [("write", 6, 1), ("write", 6, 0)]
+        assert 0 <= high_us < 1_000_000 and dout is False
 
     def test_missing_chip_is_device_unavailable(self) -> None:
         """A chip that cannot be opened names /dev/gpiochipN."""

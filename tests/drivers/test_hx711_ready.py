@@ -121,6 +121,17 @@ class TestEdgeWaitMatchesPolling:
         assert edged.published == polled.published
         assert edged.counts == polled.counts
 
+    def test_each_weight_is_published_most_of_a_period_after_its_read(self) -> None:
+        """A conversion read at t is filtered and published at t + 0.8 periods (the reader
+        sleeps through most of the next conversion), the first one after start-up dropped."""
+        for sps in (10, 80):
+            run = _run(True, sps, 3.0, {})
+            published_s = [t_s for t_s, _ in run.published]
+            assert len(published_s) >= 2 * sps
+            period_s = 1.0 / sps
+            assert published_s == [t + period_s * 0.8 for t in run.read_at_s[1:]][
+                :len(published_s)]
+
     @settings(max_examples=25, deadline=None)
     @example(sps=10, cut=1.0, cut_s=1.0, lost=3.0, lost_s=0.0, heavier=1.0, spike=1.0)
     @given(sps=st.sampled_from([10, 80]),
@@ -171,3 +182,36 @@ class TestWaitDoutLow:
         while expected < start + timeout_s:
             expected += 0.002
         assert not ok and end == expected
+
+
+class TestWaitFrom:
+    @settings(max_examples=40, deadline=None)
+    @given(edges=st.booleans(), sps=st.sampled_from([10, 80]), start_s=st.floats(0.0, 0.6),
+           from_after_s=st.floats(0.0, 0.3), timeout_s=st.floats(0.0, 0.3),
+           cut=st.sampled_from([None, 0.05, 0.2]))
+    def test_waiting_from_a_later_instant_is_sleeping_until_it_then_waiting(
+            self, edges: bool, sps: int, start_s: float, from_after_s: float, timeout_s: float,
+            cut: float | None) -> None:
+        """``wait_dout_low(from_s=t)`` started early gives what sleeping until ``t`` and then
+        waiting gives: the same answer at the same instant, with the timeout counted from
+        ``t``, also when the DOUT wire is pulled in between."""
+        def timed(early: bool) -> tuple[bool, float]:
+            async def main() -> tuple[bool, float]:
+                loop = asyncio.get_running_loop()
+                sim = SimHx711Lines(weight_kg=lambda: 1.0, sps=sps, clock=loop.time)
+                lines = sim if edges else PollOnly(sim)
+                await asyncio.sleep(start_s)
+                from_s = loop.time() + from_after_s
+                if cut is not None:
+                    loop.call_at(loop.time() + cut, sim.disconnect)
+                if early:
+                    ok = await wait_dout_low(lines, timeout_s, from_s=from_s)
+                else:
+                    await asyncio.sleep(from_s - loop.time())
+                    ok = await wait_dout_low(lines, timeout_s)
+                return ok, loop.time()
+
+            result: tuple[bool, float] = vclock.run(main())
+            return result
+
+        assert timed(early=True) == timed(early=False)

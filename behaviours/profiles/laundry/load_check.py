@@ -144,6 +144,8 @@ class LoadCheck:
         return LoadVerdict.UNLOADED if w.kg < self.min_kg else LoadVerdict.WAIT_UNLOAD
 
     def _check_alert(self) -> None:
+        if self._window[-1].kg < self.max_kg and not self._overweight:
+            return  # neither an alert nor an episode to end: no need for the spread
         w = self.weight()
         over = w.stable and w.kg is not None and w.kg >= self.max_kg
         if over and not self._overweight:
@@ -169,19 +171,23 @@ class LoadCheck:
         """Consume the load cell's readings until cancelled."""
         if self.load_cell is None:
             return
+        loop = asyncio.get_running_loop()
         while True:
             try:
-                reading = await asyncio.wait_for(self.load_cell.next_reading(), self.stale_s)
+                # One timeout moved on by each reading, not one set up and torn down per
+                # reading (asyncio.wait_for, in Python 3.11, also ran each wait as a task).
+                async with asyncio.timeout(self.stale_s) as silence:
+                    while True:
+                        reading = await self.load_cell.next_reading()
+                        silence.reschedule(loop.time() + self.stale_s)
+                        if self.stale:
+                            self.stale = False
+                            log.info("load.readings_back")
+                        self.add(reading)
             except (TimeoutError, DeviceUnavailable) as exc:
                 self._forget(exc)
                 if isinstance(exc, DeviceUnavailable):
                     await asyncio.sleep(self.stale_s)
-                continue
-            if self.stale:
-                self.stale = False
-                log.info("load.readings_back")
-            self.add(reading)
-            await asyncio.sleep(0)
 
     def _forget(self, exc: BaseException) -> None:
         if not self.stale:

@@ -161,13 +161,22 @@ class SimHx711Lines:
         return GAIN_BY_PULSES.get(self._pulses_per_read, ("A", 128))
 
     # --- Hx711Lines --------------------------------------------------------------------------
+    # The driver makes ~50 of these calls per conversion, all within one instant of the loop's
+    # clock: each works out the port's microseconds itself (``_tick``, inlined: a Python call
+    # less per access) and the loop's microseconds once per instant.
     def now_us(self) -> int:
         return self._tick()
 
     def read_dout(self) -> bool:
         if self._gpio_error is not None:
             raise self._gpio_error
-        now = self._tick()
+        clock_s = self.clock()  # _tick, inlined
+        if clock_s != self._clock_s:
+            self._clock_s = clock_s
+            self._clock_us = int(clock_s * 1_000_000)
+        now = self._now_us + self.call_us
+        clock_us = self._clock_us
+        self._now_us = now = now if now > clock_us else clock_us
         # ``powered_down`` with the time just taken (the clock cannot move in between).
         if (self._sck and now - self._rise_us > POWER_DOWN_US) or not self._connected:
             return True
@@ -198,6 +207,73 @@ class SimHx711Lines:
         if self._dout_waiters:
             self._arm_dout_alert()
 
+    def pulse_sck(self) -> int:
+        """``hal.ports.SckPulse``: what ``now_us``, ``set_sck(True)``, ``set_sck(False)``,
+        ``now_us`` do, in one call: PD_SCK's high time on the port's clock."""
+        call_us = self.call_us
+        if self._gpio_error is not None or self._sck or call_us < 0:
+            t0_us = self._tick()
+            self.set_sck(True)
+            self.set_sck(False)
+            return self._tick() - t0_us
+        # Four accesses call_us apart, from the later of this port's clock and the loop's
+        # (_tick, inlined: the loop's clock cannot move within the call).
+        clock_s = self.clock()
+        if clock_s != self._clock_s:
+            self._clock_s = clock_s
+            self._clock_us = int(clock_s * 1_000_000)
+        t0_us = self._now_us + call_us
+        clock_us = self._clock_us
+        t0_us = t0_us if t0_us > clock_us else clock_us  # max(), no call
+        rise_us = t0_us + call_us
+        pulses = self._pulses
+        if 1 <= pulses < 24 and self._glitch is None:
+            # A data bit (set_sck's fast case): the next bit is on DOUT already.
+            self._rise_us = rise_us
+            self.pulses_total += 1
+            self._pulses = pulses + 1
+            if pulses == 23:
+                self.reads_completed += 1
+            fall_us = rise_us + call_us
+        else:
+            self._now_us = rise_us
+            self._sck = True
+            self._rise(rise_us)
+            self._sck = False
+            fall_us = self._now_us + call_us  # a glitch moves the port's clock on
+        self._now_us = fall_us
+        if fall_us - self._rise_us > POWER_DOWN_US:
+            self._reset(fall_us)
+        if self._dout_waiters:
+            self._arm_dout_alert()
+        self._now_us = fall_us + call_us
+        return fall_us + call_us - t0_us
+
+    def pulse_sck_read(self) -> tuple[int, bool]:
+        """``hal.ports.SckPulse``: ``pulse_sck()`` then ``read_dout()``, in one call."""
+        call_us = self.call_us
+        pulses = self._pulses
+        if (not 1 <= pulses < 24 or self._glitch is not None or self._gpio_error is not None
+                or self._sck or self._dout_waiters or not self._connected
+                or not 0 <= call_us <= POWER_DOWN_US):
+            high_us = self.pulse_sck()
+            return high_us, self.read_dout()
+        # A data bit: five accesses call_us apart (_tick, inlined), the bit on DOUT after it.
+        clock_s = self.clock()
+        if clock_s != self._clock_s:
+            self._clock_s = clock_s
+            self._clock_us = int(clock_s * 1_000_000)
+        t0_us = self._now_us + call_us
+        clock_us = self._clock_us
+        t0_us = t0_us if t0_us > clock_us else clock_us  # max(), no call
+        self._rise_us = t0_us + call_us
+        self.pulses_total += 1
+        self._pulses = pulses = pulses + 1
+        if pulses == 24:
+            self.reads_completed += 1
+        self._now_us = t0_us + 4 * call_us
+        return 3 * call_us, self._bits[pulses]
+
     def on_dout_low(self, callback: Callable[[], None]) -> Callable[[], None]:
         """``hal.ports.DoutAlert``: ``callback()`` once DOUT reads low (a loop timer).
 
@@ -220,8 +296,6 @@ class SimHx711Lines:
         return int(self.clock() * 1_000_000)
 
     def _tick(self) -> int:
-        # The driver makes ~125 of these calls per conversion, all within one instant of the
-        # loop's clock: its microseconds are worked out once per instant.
         clock_s = self.clock()
         if clock_s != self._clock_s:
             self._clock_s = clock_s
@@ -275,22 +349,29 @@ class SimHx711Lines:
     def _rise(self, now_us: int) -> None:
         self._rise_us = now_us
         self.pulses_total += 1
-        if self._pulses >= 24 and self._ready(now_us):
-            self._finish_read()
-        if self._pulses == 0:
-            if not self._ready(now_us):
-                return  # a stray pulse while no data is ready: ignored
-            self._last_read_index = self._conversion_index(now_us)
-            code = self._code() & 0xFFFFFF
-            self._bits = ((True,) + _BYTE_BITS[code >> 16] + _BYTE_BITS[(code >> 8) & 0xFF]
-                          + _BYTE_BITS[code & 0xFF])
-            self.reads_started += 1
-        self._pulses += 1
-        if self._pulses in GAIN_BY_PULSES:
-            self._pulses_per_read = self._pulses  # the chip counts them as they come
-        if self._pulses == 24:
+        pulses = self._pulses
+        if pulses == 0 or pulses >= 24:
+            # _conversion_index and _ready, worked out once (nothing here changes them)
+            first_us = self._first_ready_us
+            index = -1 if now_us < first_us else (now_us - first_us) // (1_000_000 // self.sps)
+            ready = index > self._last_read_index
+            if pulses and ready:
+                self._finish_read()
+                pulses = 0
+            if not pulses:
+                if not ready:
+                    return  # a stray pulse while no data is ready: ignored
+                self._last_read_index = index
+                code = self._code() & 0xFFFFFF
+                self._bits = ((True,) + _BYTE_BITS[code >> 16] + _BYTE_BITS[(code >> 8) & 0xFF]
+                              + _BYTE_BITS[code & 0xFF])
+                self.reads_started += 1
+        self._pulses = pulses = pulses + 1
+        if pulses in GAIN_BY_PULSES:
+            self._pulses_per_read = pulses  # the chip counts them as they come
+        if pulses == 24:
             self.reads_completed += 1
-        if self._glitch is not None and self._pulses == self._glitch[0]:
+        if self._glitch is not None and pulses == self._glitch[0]:
             self._now_us += self._glitch[1]
             self._glitch = None
 
@@ -316,6 +397,14 @@ class SimHx711Lines:
         code = (self.offset_counts * gain / 128 + signal + self._spike_counts
                 + self.rng.gauss(0, self.noise_counts))
         self._spike_counts = 0
-        if math.isnan(code):
-            return CODE_MAX  # a load that is not a number: treated as an input out of range
-        return int(max(CODE_MIN, min(CODE_MAX, math.floor(max(-1e12, min(1e12, code))))))
+        return _clamp_code(code)
+
+
+def _clamp_code(code: float) -> int:
+    """The 24-bit code for a conversion's value: floored, clipped to the chip's range; a
+    value that is not a number (a load that is not one) reads as out of range, high."""
+    # Comparisons rather than math.isnan, max() and min(): once per conversion, in the sim's
+    # hot path. NaN fails the first comparison.
+    if code < CODE_MAX:
+        return math.floor(code) if code >= CODE_MIN + 1 else CODE_MIN
+    return CODE_MAX

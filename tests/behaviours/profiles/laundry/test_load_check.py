@@ -6,6 +6,8 @@ import asyncio
 import random
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from behaviours.profiles.laundry.load_check import LoadCheck, LoadVerdict
 from drivers.hx711 import Hx711
@@ -61,6 +63,41 @@ class TestLoadCheck:
         _feed(check, [5.0] * 30, t0_s=3.0)
         _feed(check, [11.0] * 30, t0_s=6.0)
         assert alerts == [12.0, 11.0]
+
+    @settings(max_examples=150, deadline=None)
+    @given(steps=st.lists(st.tuples(
+        st.sampled_from([0.0, 4.2, 9.97, 10.0, 10.02, 12.0, float("nan")]),
+        st.sampled_from([0.05, 0.1, 0.4, 1.5]),
+        st.sampled_from([None, 9.0, 10.0, 11.0])), max_size=80))
+    def test_alerts_as_the_check_without_its_shortcut(
+            self, steps: list[tuple[float, float, float | None]]) -> None:
+        """The alert check skips the spread when the newest weight is below max_kg and no
+        episode is open: the alerts and the episode state are those of the full check,
+        through loads around max_kg, gaps, NaN and max_kg tuned on the way."""
+        class FullCheck(LoadCheck):
+            def _check_alert(self) -> None:  # as it was, without the shortcut
+                w = self.weight()
+                over = w.stable and w.kg is not None and w.kg >= self.max_kg
+                if over and not self._overweight:
+                    assert w.kg is not None
+                    for callback in list(self._alert_listeners):
+                        callback(w.kg)
+                if w.stable:
+                    self._overweight = over
+
+        checks = (LoadCheck(min_kg=0.5, max_kg=10.0), FullCheck(min_kg=0.5, max_kg=10.0))
+        alerts: tuple[list[float], list[float]] = ([], [])
+        for check, seen in zip(checks, alerts, strict=True):
+            check.on_overweight(seen.append)
+        t_s = 0.0
+        for kg, dt_s, max_kg in steps:
+            t_s += dt_s
+            for check in checks:
+                if max_kg is not None:
+                    check.set_thresholds(max_kg=max_kg)
+                check.add(WeightReading(kg, 0, t_s))
+            assert checks[0]._overweight == checks[1]._overweight
+        assert alerts[0] == alerts[1]
 
     def test_thresholds_are_checked_and_tunable(self) -> None:
         """min >= max is refused; tuning weight.max_kg applies to the next verdict."""

@@ -6,12 +6,15 @@ import asyncio
 import itertools
 import math
 import random
+from collections.abc import Callable
+from functools import partial
 
-from hypothesis import given
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+from hal.ports import SckPulse
 from hal.sim import vclock
-from hal.sim.devices.hx711_model import SimHx711Lines, _loop_s_reaching
+from hal.sim.devices.hx711_model import SimHx711Lines, _clamp_code, _loop_s_reaching
 
 
 class Bench:
@@ -210,6 +213,107 @@ class TestDoutAlert:
 
         calls, _ = vclock.run(main())
         assert calls == ["wire 1.0", "lost"]
+
+
+_PULSE_STEPS = st.lists(st.one_of(
+    st.tuples(st.just("pulse")), st.tuples(st.just("pulse_read")),
+    st.tuples(st.just("pulse_read")), st.tuples(st.just("read")),
+    st.tuples(st.just("sck"), st.booleans()),
+    st.tuples(st.just("advance"), st.sampled_from([1e-6, 5e-5, 1e-4, 0.002, 0.0125, 0.1])),
+    st.tuples(st.just("glitch"), st.integers(0, 27), st.integers(0, 100)),
+    st.tuples(st.sampled_from(["wait", "lose", "restore", "disconnect", "connect"]))),
+    max_size=120)
+
+
+def _chip_state(chip: SimHx711Lines) -> tuple[object, ...]:
+    timer = chip._dout_timer
+    return (chip._now_us, chip._rise_us, chip._sck, chip._pulses, chip._pulses_per_read,
+            chip._last_read_index, chip._first_ready_us, chip._glitch, chip.pulses_total,
+            chip.reads_started, chip.reads_completed, chip.power_downs,
+            tuple(chip.pulse_counts), len(chip._dout_waiters),
+            None if timer is None else getattr(timer, "_when", "soon"))
+
+
+class TestPulseSck:
+    def test_the_sim_lines_offer_one_call_pulses(self) -> None:
+        """``SimHx711Lines`` is a ``hal.ports.SckPulse``."""
+        assert isinstance(SimHx711Lines(weight_kg=lambda: 0.0), SckPulse)
+
+    @settings(max_examples=200, deadline=None)
+    @example(steps=[("wait",)] + [("pulse",), ("read",)] * 25, call_us=1)
+    @example(steps=[("pulse_read",)] * 24 + [("pulse",)] + [("advance", 0.1)]
+             + [("pulse_read",)] * 30, call_us=1)
+    @example(steps=[("glitch", 5, 80)] + [("pulse",), ("read",)] * 25 + [("advance", 0.1)]
+             + [("pulse",)] * 27, call_us=1)
+    @given(steps=_PULSE_STEPS, call_us=st.sampled_from([-1, 0, 1, 3, 61]))
+    def test_one_call_does_what_the_four_do(self, steps: list[tuple[object, ...]],
+                                            call_us: int) -> None:
+        """``pulse_sck()`` returns what ``now_us``, ``set_sck(True)``, ``set_sck(False)``,
+        ``now_us`` give and leaves the chip as they do (``pulse_sck_read()``: and then
+        ``read_dout()``), through whole reads, stray pulses, SCK left high, glitches, a lost
+        GPIO chip, a pulled wire and waiting readers."""
+        async def main() -> None:
+            clock = {"s": 3.0}
+            fast, plain = (SimHx711Lines(weight_kg=lambda: 2.5, sps=80, call_us=call_us,
+                                         rng=random.Random(7), clock=lambda: clock["s"])
+                           for _ in range(2))
+
+            def by_edges(chip: SimHx711Lines) -> int:
+                t0 = chip.now_us()
+                chip.set_sck(True)
+                chip.set_sck(False)
+                return chip.now_us() - t0
+
+            def outcome(do: Callable[[], object]) -> object:
+                try:
+                    return do()
+                except OSError as exc:
+                    return exc.errno
+
+            clock["s"] += 0.06  # the chips have settled: a conversion is ready
+            for name, *args in steps:
+                if name == "advance":
+                    clock["s"] += float(args[0])  # type: ignore[arg-type]
+                    continue
+                for chip in (fast, plain):
+                    if name == "glitch":
+                        chip.glitch_next_read(*args)  # type: ignore[arg-type]
+                    elif name == "wait":
+                        chip.on_dout_low(lambda: None)
+                    elif name in ("lose", "restore", "disconnect", "connect"):
+                        getattr(chip, {"lose": "lose_gpio", "restore": "restore_gpio"}
+                                .get(name, name))()
+                got: tuple[object, object] = (None, None)
+                if name == "pulse":
+                    got = outcome(fast.pulse_sck), outcome(partial(by_edges, plain))
+                elif name == "pulse_read":
+                    got = (outcome(fast.pulse_sck_read),
+                           outcome(lambda: (by_edges(plain), plain.read_dout())))
+                elif name == "read":
+                    got = outcome(fast.read_dout), outcome(plain.read_dout)
+                elif name == "sck":
+                    got = (outcome(partial(fast.set_sck, bool(args[0]))),
+                           outcome(partial(plain.set_sck, bool(args[0]))))
+                assert got[0] == got[1]
+                assert _chip_state(fast) == _chip_state(plain)
+
+        vclock.run(main())
+
+
+@example(code=float("nan"))
+@example(code=0x7FFFFF - 0.5)
+@example(code=-0x800000 + 0.5)
+@example(code=-0x800000 + 1.0)
+@given(st.one_of(st.floats(allow_nan=True, allow_infinity=True),
+                 st.floats(-0x800002, 0x800002)))
+def test_clamp_code_is_floor_then_the_24_bit_range(code: float) -> None:
+    """The code of a conversion is its value floored and clipped to 0x800000..0x7FFFFF, and
+    NaN the high limit: what ``int(max(MIN, min(MAX, floor(max(-1e12, min(1e12, v))))))``
+    with NaN checked first gives."""
+    expected = 0x7FFFFF if math.isnan(code) else int(
+        max(-0x800000, min(0x7FFFFF, math.floor(max(-1e12, min(1e12, code))))))
+    got = _clamp_code(code)
+    assert got == expected and type(got) is int
 
 
 @given(st.integers(0, 10**12))

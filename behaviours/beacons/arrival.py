@@ -90,7 +90,7 @@ class Arrival:
         reached: set[str] = set()
         above_since: dict[str, float] = {}
         below_since: dict[str, float] = {}
-        for b in self.tracker.tracked():
+        for b in self.tracker.beacons():  # each beacon on its own: no order needed
             config = b.config
             if config is None or not config.is_navigation_target:
                 continue

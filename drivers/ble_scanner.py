@@ -256,7 +256,13 @@ class BleBeaconScanner:
                 log.info("ble.recovered", after_error=self.last_error)
                 self.last_error = None
         try:
-            frame = self._frame(adv.manufacturer_data)
+            manufacturer_data = adv.manufacturer_data
+            data = manufacturer_data.get(APPLE_COMPANY_ID) \
+                if type(manufacturer_data) is dict else None
+            # A payload seen before gives its frame here; ``_frame`` parses and keeps the rest.
+            frame = self._frames.get(data) if type(data) is bytes else None
+            if frame is None:
+                frame = self._frame(manufacturer_data)
             if frame is None:
                 counts["not_ibeacon"] += 1
                 return

@@ -95,7 +95,9 @@ class SimBleAir:
     params: BleAirParams = field(default_factory=BleAirParams)
     counts: dict[str, int] = field(default_factory=lambda: dict.fromkeys(
         ("sent", "dropped", "too_weak", "delivered", "starts", "stops", "start_failures"), 0))
-    _listening: list[SimScannerBackend] = field(default_factory=list)
+    # Replaced, never changed in place: an advert goes to the scanners listening when it
+    # was sent, without a copy per advert.
+    _listening: tuple[SimScannerBackend, ...] = ()
     _stalled: list[SimScannerBackend] = field(default_factory=list)
     _muted: set[str] = field(default_factory=set)
     _powered: bool = True
@@ -123,12 +125,12 @@ class SimBleAir:
             msg = "Bluetooth adapter is powered off"
             raise BleakBluetoothNotAvailableError(msg, BleakBluetoothNotAvailableReason.POWERED_OFF)
         if backend not in self._listening:
-            self._listening.append(backend)
+            self._listening = (*self._listening, backend)
 
     def detach(self, backend: SimScannerBackend) -> None:
         self.counts["stops"] += 1
         if backend in self._listening:
-            self._listening.remove(backend)
+            self._listening = tuple(b for b in self._listening if b is not backend)
         if backend in self._stalled:
             self._stalled.remove(backend)
 
@@ -197,7 +199,7 @@ class SimBleAir:
                                           -127 if rssi < -127 else 20 if rssi > 20 else rssi))
 
     def _deliver(self, mac: str, adv: AdvertisementData) -> None:
-        for backend in list(self._listening):
+        for backend in self._listening:
             if backend not in self._stalled:
                 self.counts["delivered"] += 1
                 backend.deliver(mac, adv)

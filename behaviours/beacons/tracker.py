@@ -175,7 +175,7 @@ class BeaconTracker:
             b.rssi_dbm = s.rssi_dbm
             b.tx_power_dbm = s.tx_power_dbm
             b.path_loss_exponent = self.path_loss_exponent
-            if t_s > b.last_seen_s:
+            if t_s > b.last_seen_s:  # noqa: PLR1730 (no max() call, see above)
                 b.last_seen_s = t_s
             b.sightings += 1
         if t_s >= self._shown_s + _SHOW_PERIOD_S and self.telemetry.enabled:

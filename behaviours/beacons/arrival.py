@@ -126,10 +126,38 @@ class Arrival:
         return in_target
 
     async def run(self, period_s: float = 0.1) -> None:
-        """Re-evaluate every ``period_s`` until cancelled."""
-        while True:
-            await asyncio.sleep(period_s)
-            self.update()
+        """Re-evaluate every ``period_s`` until cancelled.
+
+        Paced exactly as ``while True: await asyncio.sleep(period_s); self.update()`` is (the
+        update one loop turn after its timer, the next timer set from there, an exception
+        from ``update`` raised here), but with a timer and a ready callback per period
+        instead of a sleep's future, the task's wake-up and a coroutine resume: ten times a
+        second a robot, that was ~5 us each in the simulator.
+        """
+        loop = asyncio.get_running_loop()
+        failed: asyncio.Future[None] = loop.create_future()
+        pending: asyncio.Handle
+
+        def due() -> None:  # where the sleep's timer set its future
+            nonlocal pending
+            pending = loop.call_soon(tick)  # where the future woke the task
+
+        def tick() -> None:
+            nonlocal pending
+            if failed.done():  # cancelled since the timer: a woken task would not update
+                return
+            try:
+                self.update()
+            except Exception as exc:
+                failed.set_exception(exc)
+                return
+            pending = loop.call_later(period_s, due)
+
+        pending = loop.call_later(period_s, due)
+        try:
+            await failed
+        finally:
+            pending.cancel()
 
     def status(self) -> dict[str, Any]:
         return {"is_in_target": self._in_target, "reached": self.reached,

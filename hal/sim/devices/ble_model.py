@@ -249,7 +249,9 @@ class SimBleAir:
                 if mac not in self._muted:
                     self.advertise(found)
             finally:
-                next_s = due_s + found.interval_s + self.rng.uniform(0, ADV_DELAY_MAX_S)
+                # uniform(0, max) is 0 + (max - 0) * random(), its documented formula: the
+                # same float without the call (one an advert).
+                next_s = due_s + found.interval_s + ADV_DELAY_MAX_S * self.rng.random()
                 timers[mac] = loop.call_at(next_s, advert_due, mac, next_s)
 
         try:

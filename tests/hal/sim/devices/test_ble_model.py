@@ -15,7 +15,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from hal.sim import vclock
-from hal.sim.devices.ble_model import BleAirParams, SimBleAir, _advert
+from hal.sim.devices.ble_model import ADV_DELAY_MAX_S, BleAirParams, SimBleAir, _advert
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import World
 from hal.sim.world.geometry import Pose
@@ -190,6 +190,14 @@ class TestAdvertFastPaths:
         assert adv == AdvertisementData(local_name=None, manufacturer_data=data,
                                         service_data={}, service_uuids=[], tx_power=None,
                                         rssi=rssi_dbm, platform_data=())
+
+    @given(st.integers(0, 2**64))
+    def test_the_advert_delay_draw_is_uniforms(self, seed: int) -> None:
+        """The advDelay drawn as ADV_DELAY_MAX_S * random() is rng.uniform(0, ADV_DELAY_MAX_S)
+        of the same generator, float for float."""
+        plain, fast = random.Random(seed), random.Random(seed)
+        for _ in range(20):
+            assert ADV_DELAY_MAX_S * fast.random() == plain.uniform(0, ADV_DELAY_MAX_S)
 
     def test_rssi_is_clamped_to_what_hci_reports(self) -> None:
         """Adverts carry -127..+20 dBm whatever the model says (a beacon on the antenna, or

@@ -134,6 +134,9 @@ class Arrival:
         instead of a sleep's future, the task's wake-up and a coroutine resume: ten times a
         second a robot, that was ~5 us each in the simulator.
         """
+        if not period_s > 0:  # 0 would update at every loop turn and never let time move
+            msg = f"Arrival.run: period_s must be > 0 s, got {period_s}"
+            raise ValueError(msg)
         loop = asyncio.get_running_loop()
         failed: asyncio.Future[None] = loop.create_future()
         pending: asyncio.Handle

@@ -6,6 +6,7 @@ import asyncio
 import math
 import random
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -326,3 +327,9 @@ class TestArrivalPacing:
         and an exception from update ends the run with it, as a sleeping loop's would."""
         assert _timeline(_Logged, period_s, others, cancel_s, fail_at) == \
             _timeline(_SleepPaced, period_s, others, cancel_s, fail_at)
+
+    @pytest.mark.parametrize("period_s", [0.0, -0.1, math.nan])
+    def test_a_period_that_is_not_positive_is_refused(self, period_s: float) -> None:
+        """run() needs a period > 0 s (0 would take every loop turn and stop virtual time)."""
+        with pytest.raises(ValueError, match="period_s"):
+            vclock.run(Arrival(_tracker()).run(period_s))

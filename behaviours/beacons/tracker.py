@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import math
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, ValuesView
 from dataclasses import dataclass
 from typing import Any
 
@@ -81,11 +81,18 @@ class TrackedBeacon:
     tx_power_dbm: int
     rssi_dbm: int
     smoothed_rssi_dbm: float
-    distance_m: float
+    path_loss_exponent: float  # the tracker's, as of the last sighting or tuning
     first_seen_s: float
     last_seen_s: float
     sightings: int = 1
     config: BeaconConfig | None = None
+    label: str = ""  # the live view's name, ``b<major>_<minor>``
+
+    @property
+    def distance_m(self) -> float:
+        """Estimated from the smoothed RSSI when read: adverts move the RSSI ten times a
+        second a beacon, the distance is read once or twice a second."""
+        return distance_m(self.tx_power_dbm, self.smoothed_rssi_dbm, self.path_loss_exponent)
 
     @property
     def is_navigation_target(self) -> bool:
@@ -143,39 +150,50 @@ class BeaconTracker:
             raise ValueError(msg)
         self.path_loss_exponent = n
         for b in self._beacons.values():
-            b.distance_m = distance_m(b.tx_power_dbm, b.smoothed_rssi_dbm, n)
+            b.path_loss_exponent = n
 
     def add_sighting(self, s: BeaconSighting) -> None:
-        mac = s.mac.upper()
-        b = self._beacons.get(mac)
+        mac = s.mac
+        b = self._beacons.get(mac)  # the keys are upper case: a hit means mac already is
+        if b is None:
+            mac = mac.upper()
+            b = self._beacons.get(mac)
+        t_s = s.t_s
         if b is None:
             b = TrackedBeacon(mac, s.uuid, s.major, s.minor, s.tx_power_dbm, s.rssi_dbm,
-                              float(s.rssi_dbm), 0.0, s.t_s, s.t_s,
-                              config=self._configs.get(mac))
+                              float(s.rssi_dbm), self.path_loss_exponent, t_s, t_s,
+                              config=self._configs.get(mac), label=f"b{s.major}_{s.minor}")
             self._beacons[mac] = b
             log.info("beacon.found", mac=mac, major=s.major, minor=s.minor, rssi_dbm=s.rssi_dbm)
         else:
-            dt_s = max(0.0, s.t_s - b.last_seen_s)
+            # max(0.0, ...) and max(last, t) below as conditionals: the same values, no calls
+            dt_s = t_s - b.last_seen_s
+            if not dt_s > 0.0:
+                dt_s = 0.0
             weight = 1.0 if self.smoothing_s <= 0 else 1 - math.exp(-dt_s / self.smoothing_s)
             b.smoothed_rssi_dbm += (s.rssi_dbm - b.smoothed_rssi_dbm) * weight
             b.rssi_dbm = s.rssi_dbm
             b.tx_power_dbm = s.tx_power_dbm
-            b.last_seen_s = max(b.last_seen_s, s.t_s)
+            b.path_loss_exponent = self.path_loss_exponent
+            if t_s > b.last_seen_s:  # noqa: PLR1730 (no max() call, see above)
+                b.last_seen_s = t_s
             b.sightings += 1
-        b.distance_m = distance_m(b.tx_power_dbm, b.smoothed_rssi_dbm, self.path_loss_exponent)
-        if self.telemetry.enabled and s.t_s >= self._shown_s + _SHOW_PERIOD_S:
-            self._shown_s = s.t_s
+        if t_s >= self._shown_s + _SHOW_PERIOD_S and self.telemetry.enabled:
+            self._shown_s = t_s
             self._show()
 
     def _show(self) -> None:
         """The live view's ``beacons``: smoothed RSSI and distance per ``b<major>_<minor>``
         (a plot's path: ``/beacons.rssi_dbm.b1_101``), and the navigation targets."""
-        tracked = self.tracked()
-        self.telemetry.values(
-            "beacons", rssi_dbm={f"b{b.major}_{b.minor}": round(b.smoothed_rssi_dbm, 1)
-                                 for b in tracked},
-            distance_m={f"b{b.major}_{b.minor}": round(b.distance_m, 2) for b in tracked},
-            targets=[f"b{b.major}_{b.minor}" for b in tracked if b.is_navigation_target])
+        rssi_dbm: dict[str, float] = {}
+        distance: dict[str, float] = {}
+        targets: list[str] = []
+        for b in self.tracked():
+            rssi_dbm[b.label] = round(b.smoothed_rssi_dbm, 1)
+            distance[b.label] = round(b.distance_m, 2)
+            if b.is_navigation_target:
+                targets.append(b.label)
+        self.telemetry.values("beacons", rssi_dbm=rssi_dbm, distance_m=distance, targets=targets)
 
     def prune(self, now_s: float | None = None) -> list[str]:
         """Forget beacons silent for longer than the removal timeout; returns their MACs."""
@@ -212,6 +230,10 @@ class BeaconTracker:
     def tracked(self) -> list[TrackedBeacon]:
         """Tracked beacons, strongest first."""
         return sorted(self._beacons.values(), key=lambda b: -b.smoothed_rssi_dbm)
+
+    def beacons(self) -> ValuesView[TrackedBeacon]:
+        """Tracked beacons in no particular order (``tracked()`` sorts them)."""
+        return self._beacons.values()
 
     def configs(self) -> list[BeaconConfig]:
         return list(self._configs.values())

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 from typing import Any
 
 import pytest
@@ -14,10 +15,12 @@ from hypothesis import strategies as st
 
 from drivers.ble_scanner import (
     FRAME_CACHE_SIZE,
+    SIGHTING_FIELDS,
     BleBeaconScanner,
     IBeaconFrame,
     MalformedAdvert,
     build_ibeacon,
+    new_sighting,
     parse_ibeacon,
     valid_rssi_dbm,
 )
@@ -252,3 +255,39 @@ class TestParsedOncePerPayload:
         minors, cached = vclock.run(main())
         assert minors == list(range(3000))
         assert cached <= FRAME_CACHE_SIZE
+
+
+class TestNewSighting:
+    @given(st.text(max_size=20), st.text(max_size=40), st.integers(0, 65535),
+           st.integers(0, 65535), st.integers(-127, 20), st.integers(-128, 127),
+           st.floats(allow_nan=False))
+    def test_equals_the_constructor(self, mac: str, uuid: str, major: int, minor: int,
+                                    rssi_dbm: int, tx_power_dbm: int, t_s: float) -> None:
+        """new_sighting gives what BeaconSighting(...) gives: equal, same hash and repr,
+        still frozen."""
+        args = (mac, uuid, major, minor, rssi_dbm, tx_power_dbm, t_s)
+        fast, plain = new_sighting(*args), BeaconSighting(*args)
+        assert type(fast) is BeaconSighting
+        assert (fast, hash(fast), repr(fast)) == (plain, hash(plain), repr(plain))
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            fast.rssi_dbm = 0  # type: ignore[misc]
+
+    def test_sets_every_field_of_the_dataclass(self) -> None:
+        """A field added to BeaconSighting (or a __post_init__) must be added here too."""
+        assert tuple(f.name for f in dataclasses.fields(BeaconSighting)) == SIGHTING_FIELDS
+        assert not hasattr(BeaconSighting, "__post_init__")
+
+    def test_sightings_carry_the_loop_time_of_their_advert(self) -> None:
+        """t_s is the event loop's time when bleak called back, and the MAC is upper case."""
+        async def main() -> list[tuple[str, float]]:
+            driver, made = _scanner()
+            seen: list[BeaconSighting] = []
+            driver.on_sighting(seen.append)
+            await driver.start()
+            for _ in range(3):
+                await asyncio.sleep(0.25)
+                made[0].play("aa:00:00:00:00:01", ESTIMOTE_12345_54321)
+            await driver.close()
+            return [(s.mac, s.t_s) for s in seen]
+
+        assert vclock.run(main()) == [("AA:00:00:00:00:01", t) for t in (0.25, 0.5, 0.75)]

@@ -39,6 +39,7 @@ from hal.tasks import cancel_and_wait
 
 APPLE_COMPANY_ID = 0x004C
 ADV_DELAY_MAX_S = 0.010  # BLE adds a random 0-10 ms to every advertising interval
+_new_tuple = tuple.__new__
 
 
 @dataclass(frozen=True, slots=True)
@@ -94,7 +95,9 @@ class SimBleAir:
     params: BleAirParams = field(default_factory=BleAirParams)
     counts: dict[str, int] = field(default_factory=lambda: dict.fromkeys(
         ("sent", "dropped", "too_weak", "delivered", "starts", "stops", "start_failures"), 0))
-    _listening: list[SimScannerBackend] = field(default_factory=list)
+    # Replaced, never changed in place: an advert goes to the scanners listening when it
+    # was sent, without a copy per advert.
+    _listening: tuple[SimScannerBackend, ...] = ()
     _stalled: list[SimScannerBackend] = field(default_factory=list)
     _muted: set[str] = field(default_factory=set)
     _powered: bool = True
@@ -122,12 +125,12 @@ class SimBleAir:
             msg = "Bluetooth adapter is powered off"
             raise BleakBluetoothNotAvailableError(msg, BleakBluetoothNotAvailableReason.POWERED_OFF)
         if backend not in self._listening:
-            self._listening.append(backend)
+            self._listening = (*self._listening, backend)
 
     def detach(self, backend: SimScannerBackend) -> None:
         self.counts["stops"] += 1
         if backend in self._listening:
-            self._listening.remove(backend)
+            self._listening = tuple(b for b in self._listening if b is not backend)
         if backend in self._stalled:
             self._stalled.remove(backend)
 
@@ -168,8 +171,9 @@ class SimBleAir:
         """Noise-free mean RSSI at the body's position."""
         p = self.params
         pose = self.body.pose
-        distance_m = max(p.min_distance_m, math.hypot(beacon.x_m - pose.x_m,
-                                                      beacon.y_m - pose.y_m))
+        distance_m = math.hypot(beacon.x_m - pose.x_m, beacon.y_m - pose.y_m)
+        if not distance_m > p.min_distance_m:  # max(min_distance_m, distance_m), without a call
+            distance_m = p.min_distance_m
         rssi = beacon.tx_power_dbm - 10 * p.path_loss_exponent * math.log10(distance_m)
         if p.wall_loss_db:
             rssi -= p.wall_loss_db * segments_crossed(self.body.world.walls, pose.x_m,
@@ -179,22 +183,23 @@ class SimBleAir:
     def advertise(self, beacon: SimBeacon) -> None:
         """One advert from ``beacon`` through the air to every listening scanner."""
         p = self.params
-        self.counts["sent"] += 1
+        counts = self.counts
+        counts["sent"] += 1
         if not self._powered or self.rng.random() < p.drop_prob:
-            self.counts["dropped"] += 1
+            counts["dropped"] += 1
             return
         rssi = round(self.rssi_dbm(beacon) + self.rng.gauss(0, p.noise_db))
         if rssi < p.sensitivity_dbm:
-            self.counts["too_weak"] += 1
+            counts["too_weak"] += 1
             return
         cached = self._payloads.get(beacon.mac)
         if cached is None or cached[0] is not beacon:
             cached = self._payloads[beacon.mac] = (beacon, ibeacon_payload(beacon))
         self._deliver(beacon.mac, _advert({APPLE_COMPANY_ID: cached[1]},
-                                          -127 if rssi < -127 else min(20, rssi)))
+                                          -127 if rssi < -127 else 20 if rssi > 20 else rssi))
 
     def _deliver(self, mac: str, adv: AdvertisementData) -> None:
-        for backend in list(self._listening):
+        for backend in self._listening:
             if backend not in self._stalled:
                 self.counts["delivered"] += 1
                 backend.deliver(mac, adv)
@@ -226,15 +231,16 @@ class SimBleAir:
                 now = loop.time()
                 for beacon in known:
                     if beacon.mac not in timers:
-                        timers[beacon.mac] = loop.call_at(
-                            now + self.rng.uniform(0, beacon.interval_s), advert_due,
-                            beacon.mac)
+                        first_s = now + self.rng.uniform(0, beacon.interval_s)
+                        timers[beacon.mac] = loop.call_at(first_s, advert_due, beacon.mac,
+                                                          first_s)
             if self._extra:
                 self._deliver_extra()
 
-        def advert_due(mac: str) -> None:
-            due_s = timers[mac].when()
-            schedule_new()  # ``mac`` is still in ``timers``: only new beacons get a first time
+        def advert_due(mac: str, due_s: float) -> None:
+            # ``schedule_new`` inlined to its test: it has work only when the list changed.
+            if world.beacons != known or self._extra:
+                schedule_new()  # ``mac`` is still in ``timers``: only new beacons get a time
             found = by_mac.get(mac)
             if found is None:
                 del timers[mac]
@@ -243,8 +249,10 @@ class SimBleAir:
                 if mac not in self._muted:
                     self.advertise(found)
             finally:
-                timers[mac] = loop.call_at(due_s + found.interval_s
-                                           + self.rng.uniform(0, ADV_DELAY_MAX_S), advert_due, mac)
+                # uniform(0, max) is 0 + (max - 0) * random(), its documented formula: the
+                # same float without the call (one an advert).
+                next_s = due_s + found.interval_s + ADV_DELAY_MAX_S * self.rng.random()
+                timers[mac] = loop.call_at(next_s, advert_due, mac, next_s)
 
         try:
             schedule_new()
@@ -270,6 +278,7 @@ class SimBleAir:
 
 
 def _advert(manufacturer_data: dict[int, bytes], rssi_dbm: int) -> AdvertisementData:
-    # Positional (local_name, manufacturer_data, service_data, service_uuids, tx_power, rssi,
-    # platform_data): a NamedTuple built from keywords costs twice as much.
-    return AdvertisementData(None, manufacturer_data, {}, [], None, rssi_dbm, ())
+    # (local_name, manufacturer_data, service_data, service_uuids, tx_power, rssi,
+    # platform_data) straight to tuple.__new__, as the NamedTuple's generated __new__ does,
+    # without its Python frame (one an advert).
+    return _new_tuple(AdvertisementData, (None, manufacturer_data, {}, [], None, rssi_dbm, ()))

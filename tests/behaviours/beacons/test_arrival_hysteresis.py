@@ -6,6 +6,7 @@ import asyncio
 import math
 import random
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -254,3 +255,81 @@ class TestArrivalEntryHold:
         assert None not in held and None not in bare
         assert max(d for d in held if d is not None) <= 0.45
         assert max(d for d in bare if d is not None) > 1.0
+
+
+class _Logged(Arrival):
+    """Arrival whose updates are written into a shared log (what ran, in which order)."""
+
+    def __init__(self, log: list[tuple[str, float]], *, fail_at: int = -1) -> None:
+        super().__init__(_tracker())
+        self.log = log
+        self.fail_at = fail_at
+
+    def update(self) -> bool:
+        self.log.append(("update", asyncio.get_running_loop().time()))
+        if len(self.log) == self.fail_at:
+            raise RuntimeError("update failed")
+        return super().update()
+
+
+class _SleepPaced(_Logged):
+    """The plain loop ``Arrival.run`` stands for."""
+
+    async def run(self, period_s: float = 0.1) -> None:
+        while True:
+            await asyncio.sleep(period_s)
+            self.update()
+
+
+def _timeline(cls: type[_Logged], period_s: float, others: list[float], cancel_s: float,
+              fail_at: int) -> tuple[list[tuple[str, float]], str]:
+    """Updates, other tasks' sleeps and bare timers interleaved, until a timer cancels."""
+    log: list[tuple[str, float]] = []
+
+    async def sleeper(name: str, every_s: float) -> None:
+        while True:
+            await asyncio.sleep(every_s)
+            log.append((name, asyncio.get_running_loop().time()))
+
+    async def main() -> str:
+        loop = asyncio.get_running_loop()
+        arrival = cls(log, fail_at=fail_at)
+        task = asyncio.create_task(arrival.run(period_s))
+        helpers = [asyncio.create_task(sleeper(f"task{i}", s)) for i, s in enumerate(others)]
+        for i, s in enumerate(others):
+            for k in range(1, 6):
+                loop.call_at(k * s, lambda name=f"timer{i}": log.append(
+                    (name, asyncio.get_running_loop().time())))
+        loop.call_at(cancel_s, task.cancel)
+        try:
+            await task
+            outcome = "returned"
+        except asyncio.CancelledError:
+            outcome = "cancelled"
+        except RuntimeError as exc:
+            outcome = str(exc)
+        for helper in helpers:
+            helper.cancel()
+        return outcome
+
+    return log, vclock.run(main())
+
+
+class TestArrivalPacing:
+    @settings(max_examples=60, deadline=None)
+    @given(st.sampled_from([0.05, 0.1, 0.2, 0.3]),
+           st.lists(st.sampled_from([0.05, 0.1, 0.2, 0.25]), max_size=3),
+           st.sampled_from([0.1, 0.2, 0.3, 0.45, 0.6, 1.0]), st.integers(-1, 12))
+    def test_runs_as_the_sleeping_loop_would(self, period_s: float, others: list[float],
+                                             cancel_s: float, fail_at: int) -> None:
+        """Updates come at the same instants, in the same order among other tasks and
+        timers due then, stop when the run is cancelled (also from a timer due with one),
+        and an exception from update ends the run with it, as a sleeping loop's would."""
+        assert _timeline(_Logged, period_s, others, cancel_s, fail_at) == \
+            _timeline(_SleepPaced, period_s, others, cancel_s, fail_at)
+
+    @pytest.mark.parametrize("period_s", [0.0, -0.1, math.nan])
+    def test_a_period_that_is_not_positive_is_refused(self, period_s: float) -> None:
+        """run() needs a period > 0 s (0 would take every loop turn and stop virtual time)."""
+        with pytest.raises(ValueError, match="period_s"):
+            vclock.run(Arrival(_tracker()).run(period_s))

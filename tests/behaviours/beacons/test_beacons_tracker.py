@@ -7,8 +7,11 @@ import json
 import math
 import random
 import statistics
+from typing import Any
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from behaviours.beacons.tracker import BeaconConfig, BeaconTracker, distance_m
 from drivers.ble_scanner import BleBeaconScanner
@@ -174,3 +177,80 @@ class TestClosedLoop:
             return kept, gone
 
         assert vclock.run(main()) == (True, True)
+
+
+class RecordingTelemetry:
+    """An enabled ``Telemetry`` that keeps what ``values`` was given."""
+
+    enabled = True
+
+    def __init__(self) -> None:
+        self.values_calls: list[tuple[str, dict[str, Any]]] = []
+
+    def values(self, topic: str, /, **fields: Any) -> None:
+        self.values_calls.append((topic, fields))
+
+
+# One step of a tracker's life: a sighting (mac index, rssi, dt, tx power), a tuning of n, or
+# n set on the attribute alone (no recomputation then: the next sighting of a beacon uses it).
+_STEPS = st.one_of(
+    st.tuples(st.just("see"), st.integers(0, 2), st.integers(-100, -30),
+              st.floats(-0.2, 2.0), st.integers(-70, -50)),
+    st.tuples(st.just("tune"), st.floats(1.0, 4.0)),
+    st.tuples(st.just("set"), st.floats(1.0, 4.0)))
+_MACS = ("C3:00:00:00:00:01", "c3:00:00:00:00:01", "C3:00:00:00:00:02")
+
+
+class TestTrackerShortcuts:
+    @given(st.lists(_STEPS, max_size=40), st.sampled_from([0.0, 0.5, 1.0]))
+    def test_tracked_state_is_what_the_plain_update_gives(
+            self, steps: list[tuple[Any, ...]], smoothing_s: float) -> None:
+        """Smoothed RSSI, last seen, sightings and the distance (worked out when read) are
+        what a plain update per sighting gives: max() for times, the distance with the n in
+        force at the beacon's last sighting or tuning; a MAC in either case is one beacon."""
+        tracker = BeaconTracker(smoothing_s=smoothing_s, clock=lambda: 0.0)
+        model: dict[str, list[Any]] = {}  # mac -> [rssi, smoothed, last, count, tx, n]
+        t_s = 0.0
+        for step in steps:
+            if step[0] == "see":
+                _, i, rssi, dt_s, tx = step
+                t_s += dt_s
+                mac = _MACS[i]
+                tracker.add_sighting(BeaconSighting(mac, UUID, 1, i, rssi, tx, t_s))
+                m = model.get(mac.upper())
+                if m is None:
+                    model[mac.upper()] = [rssi, float(rssi), t_s, 1, tx,
+                                          tracker.path_loss_exponent]
+                    continue
+                gap_s = max(0.0, t_s - m[2])
+                weight = 1.0 if smoothing_s <= 0 else 1 - math.exp(-gap_s / smoothing_s)
+                m[1] += (rssi - m[1]) * weight
+                m[0], m[2], m[3], m[4] = rssi, max(m[2], t_s), m[3] + 1, tx
+                m[5] = tracker.path_loss_exponent
+            elif step[0] == "tune":
+                tracker.set_path_loss_exponent(step[1])
+                for m in model.values():
+                    m[5] = step[1]
+            else:
+                tracker.path_loss_exponent = step[1]
+        got = {b.mac: [b.rssi_dbm, b.smoothed_rssi_dbm, b.last_seen_s, b.sightings,
+                       b.tx_power_dbm, b.distance_m] for b in tracker.tracked()}
+        assert got == {mac: [*m[:5], distance_m(m[4], m[1], m[5])] for mac, m in model.items()}
+        assert sorted(tracker.beacons(), key=lambda b: b.mac) == sorted(
+            tracker.tracked(), key=lambda b: b.mac)
+
+    def test_the_live_view_gets_rssi_distance_and_targets_twice_a_second(self) -> None:
+        """``beacons`` values: per b<major>_<minor>, strongest first, at most every 0.5 s."""
+        tracker = BeaconTracker(clock=lambda: 0.0)
+        telemetry = RecordingTelemetry()
+        tracker.telemetry = telemetry
+        tracker.apply_config([BeaconConfig(mac="C3:00:00:00:00:01", is_navigation_target=True)])
+        tracker.add_sighting(BeaconSighting("c3:00:00:00:00:01", UUID, 1, 101, -79, -59, 0.0))
+        tracker.add_sighting(BeaconSighting(MAC, UUID, 1, 103, -59, -59, 0.2))
+        tracker.add_sighting(BeaconSighting(MAC, UUID, 1, 103, -59, -59, 0.5))
+        assert telemetry.values_calls == [
+            ("beacons", {"rssi_dbm": {"b1_101": -79.0}, "distance_m": {"b1_101": 10.0},
+                         "targets": ["b1_101"]}),
+            ("beacons", {"rssi_dbm": {"b1_103": -59.0, "b1_101": -79.0},
+                         "distance_m": {"b1_103": 1.0, "b1_101": 10.0},
+                         "targets": ["b1_101"]})]

@@ -11,9 +11,11 @@ import statistics
 from bleak import BleakScanner
 from bleak.backends.device import BLEDevice
 from bleak.backends.scanner import AdvertisementData
+from hypothesis import given
+from hypothesis import strategies as st
 
 from hal.sim import vclock
-from hal.sim.devices.ble_model import BleAirParams, SimBleAir
+from hal.sim.devices.ble_model import ADV_DELAY_MAX_S, BleAirParams, SimBleAir, _advert
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.floor_plan import World
 from hal.sim.world.geometry import Pose
@@ -163,3 +165,46 @@ class TestSimBleAir:
         assert first_adverts and max(first_adverts) < 2.2  # gone at its next advert
         assert {m for t, m in second_adverts if t < 3.0} == {104}
         assert {m for t, m in second_adverts if t > 3.2} == {105}
+
+
+class TestAdvertFastPaths:
+    @given(st.floats(-2.0, 12.0), st.floats(-1.0, 5.0), st.floats(0.0, 2.0),
+           st.floats(1.0, 4.0), st.integers(-100, 10))
+    def test_rssi_is_the_plain_log_distance_formula(self, x_m: float, y_m: float,
+                                                    min_distance_m: float, n: float,
+                                                    tx_power_dbm: int) -> None:
+        """rssi_dbm gives, bit for bit, tx - 10 n log10(max(min distance, distance)), also
+        within the minimum distance of the beacon."""
+        air = _air(params=BleAirParams(path_loss_exponent=n, min_distance_m=min_distance_m))
+        air.body.pose = Pose(x_m, y_m, 0.0)
+        beacon = dataclasses.replace(air.body.world.beacons[0], tx_power_dbm=tx_power_dbm)
+        d = max(min_distance_m, math.hypot(beacon.x_m - x_m, beacon.y_m - y_m))
+        assert air.rssi_dbm(beacon) == beacon.tx_power_dbm - 10 * n * math.log10(d)
+
+    @given(st.integers(-300, 300))
+    def test_adverts_are_the_namedtuple_bleak_builds(self, rssi_dbm: int) -> None:
+        """An advert is an AdvertisementData equal to one built field by field."""
+        data = {0x004C: b"\x02\x15" + bytes(21)}
+        adv = _advert(data, rssi_dbm)
+        assert type(adv) is AdvertisementData
+        assert adv == AdvertisementData(local_name=None, manufacturer_data=data,
+                                        service_data={}, service_uuids=[], tx_power=None,
+                                        rssi=rssi_dbm, platform_data=())
+
+    @given(st.integers(0, 2**64))
+    def test_the_advert_delay_draw_is_uniforms(self, seed: int) -> None:
+        """The advDelay drawn as ADV_DELAY_MAX_S * random() is rng.uniform(0, ADV_DELAY_MAX_S)
+        of the same generator, float for float."""
+        plain, fast = random.Random(seed), random.Random(seed)
+        for _ in range(20):
+            assert ADV_DELAY_MAX_S * fast.random() == plain.uniform(0, ADV_DELAY_MAX_S)
+
+    def test_rssi_is_clamped_to_what_hci_reports(self) -> None:
+        """Adverts carry -127..+20 dBm whatever the model says (a beacon on the antenna, or
+        far beyond the floor with no sensitivity floor)."""
+        near = _air(params=BleAirParams(noise_db=0.0, drop_prob=0.0, min_distance_m=1e-9))
+        near.body.pose = Pose(1.0, 2.0, 0.0)
+        far = _air(params=BleAirParams(noise_db=0.0, drop_prob=0.0, sensitivity_dbm=-1000,
+                                       path_loss_exponent=40.0))
+        assert {a.rssi for _, a in _collect(near, 0.5)} == {20}
+        assert {a.rssi for _, a in _collect(far, 0.5)} == {-127}

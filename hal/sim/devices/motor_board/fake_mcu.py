@@ -394,7 +394,7 @@ class FakeMcu(DockInputs):
         await timer_chain(send, max(0.0, next_s - loop.time()))
 
     def _telemetry_line(self, name: str, crc: bool) -> bytes:
-        """One telemetry line, framed; its CRC joined from the name's and the fields'."""
+        """One telemetry line, framed; its CRC continued from the name's over the fields."""
         if name == "ENCODER":
             left, right = self.plant.encoder_ticks()
             fields = b"%d,%d" % (left - self._tick_offset[0], right - self._tick_offset[1])
@@ -406,5 +406,4 @@ class FakeMcu(DockInputs):
         head, head_crc = _TELEMETRY_HEADS[name]
         if not crc:
             return b"%s%s\n" % (head, fields)
-        return b"%s%s*%02X\n" % (head, fields,
-                                   crc8_join(head_crc, crc8_fast(fields), len(fields)))
+        return b"%s%s*%02X\n" % (head, fields, crc8_fast(fields, head_crc))

@@ -7,7 +7,9 @@ command's BODY is ``#SEQ PAYLOAD``. Framing ``plain``: the seed's bare lines. A 
 
 from __future__ import annotations
 
+import functools
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import StrEnum
 from typing import NamedTuple
@@ -77,6 +79,11 @@ _FORBIDDEN = re.compile(r"[\n\r*#]")
 _TELEMETRY_NAME = re.compile(r"[A-Z][A-Z0-9_]*")
 _NAMES_KEPT = 64
 _names_seen: set[str] = set()  # telemetry names found well-formed (ENCODER, IR, BAT, ...)
+# Telemetry(name, fields) without the generated __new__'s Python frame (forty lines a second).
+_new_telemetry: Callable[[tuple[str, tuple[str, ...]]], Telemetry] = functools.partial(
+    tuple.__new__, Telemetry)
+# "00".."FF" -> 0..255: the CRC characters of a received line.
+_HEX_PAIRS = {f"{value:02X}": value for value in range(256)}
 
 
 def check_payload(payload: str, framing: Framing) -> None:
@@ -158,13 +165,19 @@ def parse_line(raw: bytes, framing: Framing) -> Line:
     if not text.isprintable():
         return Garbled("control characters", raw)
     if framing is Framing.CRC:
-        body, star, check = text.rpartition("*")
-        if not star or len(check) != 2:
-            return Garbled("no CRC", raw)
-        try:
-            expected = int(check, 16)
-        except ValueError:
-            return Garbled("CRC is not hex", raw)
+        # The usual line ends in "*CC" (uppercase, as sent): its value from a table, without
+        # rpartition's three strings; anything else goes the long way, with int()'s rules.
+        expected = _HEX_PAIRS.get(text[-2:], -1) if text[-3:-2] == "*" else -1
+        if expected >= 0:
+            body = text[:-3]
+        else:
+            body, star, check = text.rpartition("*")
+            if not star or len(check) != 2:
+                return Garbled("no CRC", raw)
+            try:
+                expected = int(check, 16)
+            except ValueError:
+                return Garbled("CRC is not hex", raw)
         if crc8(raw[:len(body)]) != expected:  # ASCII: the body's bytes are raw's first ones
             return Garbled("CRC mismatch", raw)
         text = body
@@ -177,6 +190,12 @@ def parse_line(raw: bytes, framing: Framing) -> Line:
 
 
 def _parse_body(text: str, raw: bytes) -> Line:
+    if text[:1] != "#":
+        # Telemetry of a kind seen before, most lines: straight to it. No reply word is
+        # ever in _names_seen (ACK has no colon; NAK: and HELLO: lines are replies below).
+        name, colon, rest = text.partition(":")
+        if colon and name in _names_seen:
+            return _new_telemetry((name, tuple(rest.split(",")) if rest else ()))
     seq: int | None = None
     if text.startswith("#"):
         # ``#SEQ REST``: 1-3 digits, then one space.

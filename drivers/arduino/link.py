@@ -324,8 +324,8 @@ class ArduinoLink:
                 log.exception("link.callback_failed", callback=repr(callback))
 
     # -- telemetry ---------------------------------------------------------------------------
-    def _on_telemetry(self, line: Telemetry) -> None:
-        now = asyncio.get_running_loop().time()
+    def _on_telemetry(self, line: Telemetry, now: float) -> None:
+        """A telemetry line, received at loop time ``now``."""
         try:
             reading = interpret(line, now)
         except TelemetryError as exc:

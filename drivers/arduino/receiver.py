@@ -98,10 +98,14 @@ class LineReceiver(asyncio.Protocol):
         if type(data) is not bytes:
             data = bytes(data)
         try:
-            if not self._buffer and not self._discarding and data.find(b"\n") == len(data) - 1:
+            if self._buffer or self._discarding or not data.endswith(b"\n"):
+                self._split(data)
+            elif data.find(b"\n") == len(data) - 1:
                 self._line(data[:-1])  # the usual chunk: exactly one whole line
-                return
-            self._split(data)
+            else:
+                # A telemetry tick's few whole lines: split as they are, no buffer between.
+                for raw in data[:-1].split(b"\n"):
+                    self._line(raw)
         except Exception as exc:
             self._end(exc)
 
@@ -125,12 +129,12 @@ class LineReceiver(asyncio.Protocol):
             self._discarding = True
 
     def _line(self, raw: bytes) -> None:
-        if len(raw) >= MAX_LINE_BYTES:  # with its '\n', longer than a line may be
-            self._counters.overlong += 1
-            return
         # Lines repeat (an ACK per SEQ, IR and BAT values, ENCODER at rest): parse each once.
         line = self._parsed.get(raw)
         if line is None:
+            if len(raw) >= MAX_LINE_BYTES:  # with its '\n', longer than a line may be
+                self._counters.overlong += 1  # (never remembered, so looked at here)
+                return
             line = parse_line(raw, self._framing)
             if len(self._parsed) >= PARSED_LINES_KEPT:
                 self._parsed.clear()

@@ -73,14 +73,14 @@ class Session:
     """Serves one open port until it breaks; ``broken`` then holds why (LinkBroken, OSError)."""
 
     def __init__(self, streams: StreamPair, config: LinkConfig, outbox: Outbox,
-                 counters: LinkCounters, on_telemetry: Callable[[Telemetry], None],
+                 counters: LinkCounters, on_telemetry: Callable[[Telemetry, float], None],
                  next_seq: int) -> None:
         self.reader, self.writer = streams
         self.config = config
         self.framing = config.framing
         self.outbox = outbox
         self.counters = counters
-        self.on_telemetry = on_telemetry
+        self.on_telemetry = on_telemetry  # each telemetry line, with the loop time it came
         self.next_seq = next_seq
         self.inflight: InFlight | None = None
         self._events: list[Event] = []
@@ -166,6 +166,12 @@ class Session:
 
     # -- receiving ---------------------------------------------------------------------------
     def _on_line(self, line: Line) -> None:
+        if isinstance(line, Telemetry):  # most lines: looked at first
+            self.last_rx_s = now = self._loop.time()
+            if self.inflight is not None:
+                self._post(Evidence(definite=line.name == "BOOT", intact=True))
+            self.on_telemetry(line, now)
+            return
         if isinstance(line, Garbled):
             self.counters.crc_errors += 1
             log.debug("link.garbled", reason=line.reason, raw=line.raw)
@@ -175,10 +181,6 @@ class Session:
         if isinstance(line, Unparsed):
             self.counters.unparsed += 1
             log.info("link.unparsed", reason=line.reason, raw=line.raw)
-        elif isinstance(line, Telemetry):
-            if self.inflight is not None:
-                self._post(Evidence(definite=line.name == "BOOT", intact=True))
-            self.on_telemetry(line)
         else:
             self._on_reply(line)
 

@@ -7,11 +7,14 @@ from hypothesis import given
 from hypothesis import strategies as st
 from serial_frames import frame_body
 
+from drivers.arduino import framing as framing_module
+from drivers.arduino.crc8 import crc8
 from drivers.arduino.framing import (
     Ack,
     Framing,
     Garbled,
     Hello,
+    Line,
     Nak,
     Telemetry,
     Unparsed,
@@ -86,6 +89,105 @@ class TestParseLine:
     def test_garbage_never_raises(self, raw: bytes, framing: Framing) -> None:
         """Any bytes at all give a Line, never an exception."""
         parse_line(raw, framing)
+
+
+def parse_line_long_way(raw: bytes, framing: Framing) -> Line:
+    """``parse_line`` without its shortcuts (the CRC characters' table, telemetry of a known
+    name first): the rules as written before them, to hold the shortcuts to."""
+    raw = raw.rstrip(b"\r")
+    try:
+        text = raw.decode("ascii")
+    except UnicodeDecodeError:
+        return Garbled("not ASCII", raw)
+    if not text.isprintable():
+        return Garbled("control characters", raw)
+    if framing is Framing.CRC:
+        body, star, check = text.rpartition("*")
+        if not star or len(check) != 2:
+            return Garbled("no CRC", raw)
+        try:
+            expected = int(check, 16)
+        except ValueError:
+            return Garbled("CRC is not hex", raw)
+        if crc8(raw[:len(body)]) != expected:
+            return Garbled("CRC mismatch", raw)
+        text = body
+    else:
+        body, star, check = text.rpartition("*")
+        if star and len(check) == 2 and check == f"{crc8(body.encode('ascii')):02X}":
+            text = body
+    seq: int | None = None
+    if text.startswith("#"):
+        space = text.find(" ")
+        digits = text[1:space]
+        if 0 < space <= 4 and digits.isdigit():
+            seq = int(digits)
+            if seq >= 256:
+                return Unparsed(f"SEQ {seq} out of range", raw)
+            text = text[space + 1:]
+    if text == "ACK":
+        return Ack(seq)
+    if text.startswith("NAK:"):
+        reason = text[4:]
+        if reason in ("CRC", "PARSE", "RANGE"):
+            return Nak(seq, reason)
+        return Unparsed(f"unknown NAK reason {reason!r}", raw)
+    if text.startswith("HELLO:"):
+        firmware, comma, version = text[6:].rpartition(",")
+        if not comma or not version.isdigit():
+            return Unparsed("HELLO needs <firmware>,<protocol version>", raw)
+        return Hello(seq, firmware, int(version))
+    if seq is not None:
+        return Unparsed(f"unknown reply {text!r}", raw)
+    name, colon, rest = text.partition(":")
+    if not colon or framing_module._TELEMETRY_NAME.fullmatch(name) is None:
+        return Unparsed(f"not a reply or telemetry: {text!r}", raw)
+    return Telemetry(name, tuple(rest.split(",")) if rest else ())
+
+
+_WORDS = st.sampled_from(["ENCODER", "IR", "BAT", "ACK", "NAK", "HELLO", "X1", "a", ""])
+_FIELDS = st.none() | st.lists(st.sampled_from(["0", "-3", "12", "", " 7", "x", "CRC"]),
+                               max_size=3)
+# Mostly telemetry-shaped (no SEQ), a word, and fields after a colon or none at all.
+_BODIES = st.builds(
+    lambda seq, word, fields: (seq + word + ("" if fields is None else ":" + ",".join(fields))
+                               ).encode("ascii"),
+    st.sampled_from(["", "", "", "#0 ", "#17 ", "#255 ", "#256 ", "#x ", "#"]), _WORDS, _FIELDS)
+
+
+def _checks(body: bytes) -> st.SearchStrategy[bytes]:
+    """The right CRC characters half the time, else damaged, lowercase or not hex at all."""
+    good = b"*%02X" % crc8(body)
+    return st.just(good) | st.sampled_from([
+        b"*%02x" % crc8(body), b"*%02X" % (crc8(body) ^ 1), b"*+F", b"* F", b"*G0", b"**A",
+        b"*", b"", b"*ABC", good + b"\r", good[:1] + b"*" + good[1:]])
+
+
+class TestParseLineShortcuts:
+    @given(st.lists(_BODIES.flatmap(lambda body: _checks(body).map(lambda tail: body + tail)),
+                    max_size=30), st.sampled_from(list(Framing)))
+    def test_every_line_parses_as_the_long_way_does(self, lines: list[bytes],
+                                                    framing: Framing) -> None:
+        """Replies, telemetry of names seen or new, odd SEQs, CRC characters in either case,
+        damaged or not hex: each line parses to what the rules without shortcuts say."""
+        for raw in lines:
+            assert parse_line(raw, framing) == parse_line_long_way(raw, framing), raw
+
+    def test_every_crc_value_is_read_in_either_case(self) -> None:
+        """Each of the 256 CRC values, in uppercase (as sent) or lowercase hex digits."""
+        seen = set()
+        for n in range(3000):
+            body = b"IR:%d" % n
+            seen.add(crc8(body))
+            for check in (b"%02X" % crc8(body), b"%02x" % crc8(body)):
+                line = parse_line(body + b"*" + check, Framing.CRC)
+                assert line == Telemetry("IR", (str(n),)), (body, check)
+        assert len(seen) == 256
+
+    @given(st.binary(max_size=70), st.sampled_from(list(Framing)))
+    def test_any_bytes_parse_as_the_long_way_does(self, raw: bytes, framing: Framing) -> None:
+        """Whatever the line noise, the shortcuts change no result."""
+        assert parse_line(raw, framing) == parse_line_long_way(raw, framing)
 
 
 class TestWellFormed:

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import asyncio
+import itertools
 
+from hypothesis import given
+from hypothesis import strategies as st
 from serial_frames import frame_body
 
 from drivers.arduino.framing import Ack, Framing, Garbled, Line, Telemetry
@@ -133,3 +136,25 @@ class TestPumped:
             assert len(catch.ended) == 1 and isinstance(catch.ended[0], LinkBroken)
 
         vclock.run(main())
+
+
+_LINES = st.sampled_from([frame_body(b"#3 ACK"), frame_body(b"ENCODER:5,-6"), frame_body(b"IR:7"),
+                          b"X" * 70 + b"\n", b"#1 ACK*00\n", b"\n", b"\r\n", b"IR:5",
+                          b"Y" * 63 + b"\n", b"Z" * 64 + b"\n"])
+
+
+class TestChunking:
+    @given(st.lists(_LINES, max_size=12), st.lists(st.integers(0, 200), max_size=8))
+    def test_any_chunking_hands_on_what_byte_by_byte_does(self, lines: list[bytes],
+                                                          cuts: list[int]) -> None:
+        """Whole lines in one chunk, several, or parts of them: the lines handed on and the
+        overlong count are those of the same bytes arriving one at a time."""
+        stream = b"".join(lines)
+        by_byte, chunked = Catch(), Catch()
+        for i in range(len(stream)):
+            by_byte.receiver.data_received(stream[i:i + 1])
+        bounds = sorted({0, len(stream), *(cut for cut in cuts if cut < len(stream))})
+        for start, end in itertools.pairwise(bounds):
+            chunked.receiver.data_received(stream[start:end])
+        assert chunked.lines == by_byte.lines
+        assert chunked.counters.overlong == by_byte.counters.overlong

@@ -55,15 +55,21 @@ class _Direction:
         self.bytes_sent = 0
 
     def send(self, data: bytes) -> None:
-        now = self.loop.time()
+        loop = self.loop
+        now = loop.time()
         faults = self.faults
         if faults.corrupt_fraction > 0.0:
             data = corrupt_bytes(data, faults.corrupt_fraction, self.rng)
-        self.busy_until_s = max(now, self.busy_until_s) + len(data) * self.byte_s
-        self.pending.append((self.busy_until_s + faults.delay_s, data))
-        self.bytes_sent += len(data)
+        size = len(data)
+        busy_s = self.busy_until_s
+        # The wire is free at the later of now and the end of what it still carries.
+        busy_s = (now if now >= busy_s else busy_s) + size * self.byte_s
+        self.busy_until_s = busy_s
+        pending = self.pending
+        pending.append((busy_s + faults.delay_s, data))
+        self.bytes_sent += size
         if self.timer is None:
-            self.timer = self.loop.call_at(self.pending[0][0], self._deliver)
+            self.timer = loop.call_at(pending[0][0], self._deliver)
 
     def _deliver(self) -> None:
         self.timer = None

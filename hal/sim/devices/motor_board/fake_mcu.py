@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import asyncio
 import collections
+import functools
 from collections.abc import Callable
 
 import structlog
@@ -40,6 +41,9 @@ log = structlog.get_logger(__name__)
 
 _TELEMETRY_HEADS = {name: (b"%s:" % name.encode(), crc8_fast(b"%s:" % name.encode()))
                     for name in ("ENCODER", "IR", "BAT")}
+# Executed(t_s, seq, payload) without the generated __new__'s Python frame (a record per command).
+_new_executed: Callable[[tuple[float, int | None, str]], Executed] = functools.partial(
+    tuple.__new__, Executed)
 # Distinct command payloads whose parse is remembered (a drive sends a few dozen, over and over).
 _PAYLOADS_KEPT = 1024
 
@@ -245,7 +249,7 @@ class FakeMcu(DockInputs):
         if self._last == (seq, crc):
             self.duplicates += 1
             if word in ("MOTOR", "HB"):
-                self._feed_deadman()
+                self._feed_deadman(self.uart.clock())
             self._reply(seq, self._hello() if word == "HELLO" else "ACK")
             return
         reply = self._execute(seq, word, args, payload)
@@ -277,14 +281,15 @@ class FakeMcu(DockInputs):
         return command
 
     def _execute(self, seq: int | None, word: str, args: tuple[int, ...], payload: str) -> str:
-        self.executed.append(Executed(asyncio.get_running_loop().time(), seq, payload))
+        now_s = self.uart.clock()
+        self.executed.append(_new_executed((now_s, seq, payload)))
         if word == "MOTOR":
             left, right, left_dir, right_dir = args
             self.plant.apply_pwm(left, right, left_dir == 1, right_dir == 1)
             self.motors_on = left > 0 or right > 0
-            self._feed_deadman()
+            self._feed_deadman(now_s)
         elif word == "HB":
-            self._feed_deadman()
+            self._feed_deadman(now_s)
         elif word == "STOP":
             self._motors_off()
         elif word == "SERVO" and self.servo_fault:
@@ -294,7 +299,7 @@ class FakeMcu(DockInputs):
         elif word == "HELLO":
             return self._hello()
         elif word == "EVAC":
-            self.record_evac(args[0] == 1, self.executed[-1].t_s)
+            self.record_evac(args[0] == 1, now_s)
         else:
             self.leds.append(word)
         return "ACK"
@@ -307,16 +312,16 @@ class FakeMcu(DockInputs):
         self.plant.apply_pwm(0, 0, True, True)
         self.motors_on = False
 
-    def _feed_deadman(self) -> None:
-        loop = asyncio.get_running_loop()
-        self.last_drive_s = loop.time()
+    def _feed_deadman(self, now_s: float) -> None:
+        self.last_drive_s = now_s
         if self.deadman_s is None:
             return
         # One timer per deadline that can expire: fed again meanwhile, it moves itself on
         # when it fires (no timer set and cancelled for each of 20 MOTORs a second).
         if self._deadman is None:
-            self._deadman_due_s = self.last_drive_s + self.deadman_s
-            self._deadman = loop.call_at(self._deadman_due_s, self._deadman_fired)
+            self._deadman_due_s = now_s + self.deadman_s
+            self._deadman = asyncio.get_running_loop().call_at(self._deadman_due_s,
+                                                               self._deadman_fired)
 
     def _deadman_fired(self) -> None:
         self._deadman = None
@@ -366,15 +371,20 @@ class FakeMcu(DockInputs):
 
         def send() -> float:
             nonlocal next_s
-            lines = []
+            now_s = loop.time()
+            talking = now_s >= self.uart.deaf_until_s
+            crc = self.crc_framing
+            due_by_s = next_s + 1e-9
+            data = b""
+            encoder = False
             for name, due_s in due.items():
-                if due_s <= next_s + 1e-9:
+                if due_s <= due_by_s:
                     due[name] = due_s + periods[name]
-                    lines.append(name)
-            if loop.time() >= self.uart.deaf_until_s:
-                crc = self.crc_framing
-                data = b"".join([self._telemetry_line(name, crc) for name in lines])
-                if "ENCODER" in lines:
+                    if talking:  # lines built as they fall due: no list and join per tick
+                        data += self._telemetry_line(name, crc)
+                        encoder = encoder or name == "ENCODER"
+            if talking:
+                if encoder:
                     data += self._dock_lines(loop.time(), crc)
                 if self._streams is not None:
                     self.uart.send(data)
@@ -384,7 +394,7 @@ class FakeMcu(DockInputs):
         await timer_chain(send, max(0.0, next_s - loop.time()))
 
     def _telemetry_line(self, name: str, crc: bool) -> bytes:
-        """One telemetry line, framed; its CRC joined from the name's and the fields'."""
+        """One telemetry line, framed; its CRC continued from the name's over the fields."""
         if name == "ENCODER":
             left, right = self.plant.encoder_ticks()
             fields = b"%d,%d" % (left - self._tick_offset[0], right - self._tick_offset[1])
@@ -396,5 +406,4 @@ class FakeMcu(DockInputs):
         head, head_crc = _TELEMETRY_HEADS[name]
         if not crc:
             return b"%s%s\n" % (head, fields)
-        return b"%s%s*%02X\n" % (head, fields,
-                                   crc8_join(head_crc, crc8_fast(fields), len(fields)))
+        return b"%s%s*%02X\n" % (head, fields, crc8_fast(fields, head_crc))

@@ -35,8 +35,8 @@ def crc8_bitwise(data: bytes) -> int:
 _CRC_TABLE = tuple(crc8_bitwise(bytes([b])) for b in range(256))
 
 
-def crc8_fast(data: bytes) -> int:
-    crc = 0
+def crc8_fast(data: bytes, crc: int = 0) -> int:
+    """CRC-8 of ``data``; ``crc`` continues a running value (the CRC of what came before)."""
     for byte in data:
         crc = _CRC_TABLE[crc ^ byte]
     return crc

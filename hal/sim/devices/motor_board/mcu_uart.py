@@ -21,6 +21,10 @@ LINE_MAX = 64  # bytes per line including '\n'
 TX_BACKLOG_BYTES = 4096
 
 
+def _running_loop_time() -> float:
+    return asyncio.get_running_loop().time()
+
+
 class McuUart:
     """Line assembly in, damaged and delayed transmission out.
 
@@ -41,12 +45,14 @@ class McuUart:
         self._backlog_possible = True
         self._pending: collections.deque[tuple[float, bytes]] = collections.deque()
         self._timer: asyncio.TimerHandle | None = None
+        self.clock: Callable[[], float] = _running_loop_time  # the serving loop's time()
 
     def attach(self, transport: asyncio.WriteTransport, *, backlog_possible: bool) -> None:
         """Send through ``transport``; ``backlog_possible`` False when it never buffers."""
         self.detach()
         self._transport = transport
         self._backlog_possible = backlog_possible
+        self.clock = asyncio.get_running_loop().time  # looked up once, not per line
 
     def detach(self) -> None:
         """The port is gone: the partial line, and replies held back, are lost."""
@@ -61,7 +67,7 @@ class McuUart:
     # -- receiving ---------------------------------------------------------------------------
     def receive(self, chunk: bytes) -> None:
         """Bytes that arrived at the board."""
-        if asyncio.get_running_loop().time() < self.deaf_until_s:
+        if self.clock() < self.deaf_until_s:
             return  # the bootloader has the UART: the sketch never sees these bytes
         if self.corrupt_fraction > 0.0:
             chunk = corrupt_bytes(chunk, self.corrupt_fraction, self._rng)

@@ -115,6 +115,28 @@ class TestFakeMcu:
 
         with_mcu(scenario)
 
+    def test_the_board_is_silent_while_its_bootloader_has_the_port(self) -> None:
+        """After reset() with boot_s 0.3 s nothing comes for 0.3 s; then BOOT, and telemetry
+        on its own cadence (ENCODER every 50 ms from 0.3 s, IR and BAT every 200 ms)."""
+
+        async def scenario(mcu: FakeMcu, plant: RecordingPlant, streams: StreamPair) -> None:
+            loop = asyncio.get_running_loop()
+            start_s = loop.time()
+            mcu.reset()
+            heard: list[tuple[float, bytes]] = []
+            while (remaining := start_s + 0.51 - loop.time()) > 0:
+                try:
+                    line = await asyncio.wait_for(streams[0].readline(), remaining)
+                except TimeoutError:
+                    break
+                heard.append((loop.time() - start_s, line.split(b"*")[0]))
+            assert heard[0][0] >= 0.3 and heard[0][1] == b"BOOT:fake-mcu-1.0,1"
+            names = [line.split(b":")[0] for _, line in heard[1:]]
+            assert (names.count(b"ENCODER"), names.count(b"IR"), names.count(b"BAT")) == (
+                5, 1, 1)
+
+        with_mcu(scenario, boot_s=0.3)
+
     def test_reset_forgets_the_last_seq_stops_motors_and_announces_boot(self) -> None:
         """After reset() the same SEQ is executed again, encoders count from zero, and a
         ``BOOT:<fw>,<protocol>`` line goes out."""

@@ -142,7 +142,7 @@ def jpeg_image(t_ns: int, image: npt.NDArray[np.uint8], marks: Sequence[tuple[in
     wider than ``_HALVE_ABOVE_PX`` is sent at half size (every other pixel: a quarter of the
     encoding's cost, still a readable line camera)."""
     step = 2 if image.shape[1] > _HALVE_ABOVE_PX else 1
-    small = np.ascontiguousarray(image[::step, ::step])
+    small = every_other_pixel(image) if step == 2 else np.ascontiguousarray(image)
     img = small if small.ndim == 3 else cv2.cvtColor(small, cv2.COLOR_GRAY2BGR)
     for col, row in marks:
         cv2.circle(img, (int(col) // step, int(row) // step), 2, _MARK_BGR, -1)
@@ -151,3 +151,15 @@ def jpeg_image(t_ns: int, image: npt.NDArray[np.uint8], marks: Sequence[tuple[in
         return None
     return CompressedImage(timestamp=stamp(t_ns), frame_id=frame, data=data.tobytes(),
                            format="jpeg")
+
+
+def every_other_pixel(image: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
+    """``image[::2, ::2]``, contiguous. OpenCV's nearest-neighbour resize to exactly half an
+    even size reads pixel 2x of each row 2y (its source index is floor(x * 2)): the same bytes,
+    four times faster than numpy's strided copy of 3-byte pixels (~20 against ~80 us at 320 x
+    240)."""
+    h, w = image.shape[:2]
+    if h % 2 or w % 2 or h < 2 or w < 2:
+        return np.ascontiguousarray(image[::2, ::2])
+    return np.asarray(cv2.resize(image, (w // 2, h // 2), interpolation=cv2.INTER_NEAREST),
+                      np.uint8)

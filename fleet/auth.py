@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import asyncio
 
-from sqlalchemy import select
+from sqlalchemy import Connection, select
 
 from fleet.cache import Cached
 from fleet.db import Database
@@ -21,6 +21,9 @@ from fleet.ratelimit import FailureLimiter
 from fleet.tokens import Principal, Role, find, same_hash, token_hash
 
 TOKEN_TTL_S = 5.0
+# Built once: the snapshot is read every ``ttl_s`` while anyone calls.
+_LIVE_TOKENS = select(Token.token_hash, Token.id, Token.role, Token.subject).where(
+    Token.revoked_at.is_(None))
 
 
 class Authenticator:
@@ -44,11 +47,7 @@ class Authenticator:
         self._snapshot.invalidate()
 
     async def _load(self) -> dict[str, tuple[str, Principal]]:
-        async with self._db.read_connection() as conn:
-            rows = (await conn.execute(
-                select(Token.token_hash, Token.id, Token.role, Token.subject)
-                .where(Token.revoked_at.is_(None)))).all()
-        return {h: (h, Principal(tid, Role(role), subject)) for h, tid, role, subject in rows}
+        return await self._db.run_read(_read_live_tokens)
 
     async def principal(self, token: str) -> Principal | None:
         """The caller a token speaks for, or None (unknown or revoked)."""
@@ -60,3 +59,8 @@ class Authenticator:
             return entry[1] if same_hash(entry[0], hashed) else None
         async with self._db.read() as session:
             return await find(session, hashed)
+
+
+def _read_live_tokens(conn: Connection) -> dict[str, tuple[str, Principal]]:
+    return {h: (h, Principal(tid, Role(role), subject))
+            for h, tid, role, subject in conn.execute(_LIVE_TOKENS)}

@@ -15,11 +15,11 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Generic, TypeVar
 
-from sqlalchemy import select
+from sqlalchemy import Connection, select
 
 from fleet.db import Database
 from fleet.models import Beacon, Customer, Room
-from fleet.settings import FleetSettings, load_settings
+from fleet.settings import FleetSettings, read_settings
 
 T = TypeVar("T")
 
@@ -132,14 +132,15 @@ class SiteCache:
         return await self._site.get()
 
     async def _load_settings(self) -> FleetSettings:
-        async with self._db.read() as session:
-            return await load_settings(session)
+        return await self._db.run_read(read_settings)
 
     async def _load_site(self) -> SiteView:
-        async with self._db.read_connection() as conn:
-            rows = (await conn.execute(_ACTIVE_BEACONS)).all()
-            beacon_rooms = dict((await conn.execute(_BEACON_ROOMS)).all())
-            customers = (await conn.execute(_CUSTOMER_BEACONS)).all()
-        beacons = [BeaconRow(*row) for row in rows]
-        return SiteView(beacons, {
-            cid: (beacon_rooms.get(bid) if bid is not None else None) for cid, bid in customers})
+        return await self._db.run_read(_read_site)
+
+
+def _read_site(conn: Connection) -> SiteView:
+    beacons = [BeaconRow(*row) for row in conn.execute(_ACTIVE_BEACONS)]
+    beacon_rooms = dict(conn.execute(_BEACON_ROOMS).all())
+    customers = conn.execute(_CUSTOMER_BEACONS).all()
+    return SiteView(beacons, {
+        cid: (beacon_rooms.get(bid) if bid is not None else None) for cid, bid in customers})

@@ -8,7 +8,7 @@ import json
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
-from sqlalchemy import select
+from sqlalchemy import Connection, select
 from sqlalchemy.ext.asyncio import AsyncConnection, AsyncSession
 
 from fleet.models import Setting
@@ -74,6 +74,11 @@ _KNOWN = frozenset(f.alias for f in FleetSettings.model_fields.values())
 async def load_settings(session: AsyncSession | AsyncConnection) -> FleetSettings:
     """The stored settings (an ORM session or a Core connection reads them alike)."""
     return _parsed(tuple((key, value) for key, value in (await session.execute(_STORED)).all()))
+
+
+def read_settings(conn: Connection) -> FleetSettings:
+    """``load_settings`` in a function of a synchronous connection (``Database.run_read``)."""
+    return _parsed(tuple((key, value) for key, value in conn.execute(_STORED)))
 
 
 @functools.lru_cache(maxsize=16)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from sqlalchemy import Select, bindparam, select
+from sqlalchemy import Connection, Select, bindparam, select
 
 from fleet.api.auth import check_customer
 from fleet.api.deps import request_body
@@ -17,7 +17,7 @@ from fleet.api.schemas import RequestOut
 from fleet.errors import NotFound
 from fleet.models import Request, Robot
 from fleet.server import FleetServer
-from fleet.settings import load_settings
+from fleet.settings import read_settings
 from fleet.status import Status
 from fleet.tokens import Principal, Role
 
@@ -35,13 +35,16 @@ _NEWEST_FIRST_DEFAULT = _NEWEST_FIRST.limit(_DEFAULT_LIMIT)
 
 async def one_request(server: FleetServer, caller: Principal, request_id: int) -> RequestOut:
     """The request ``request_id`` (404 if there is none, 403 if another customer's)."""
-    async with server.db.read_connection() as conn:
-        row = (await conn.execute(_ONE, {"request_id": request_id})).first()
+
+    def read(conn: Connection) -> RequestOut:
+        row = conn.execute(_ONE, {"request_id": request_id}).first()
         if row is None:
             msg = f"request {request_id} does not exist"
             raise NotFound(msg)
         check_customer(caller, row.customer_id, f"request {request_id}")
-        return request_body(row, row.assigned_robot_name, await load_settings(conn))
+        return request_body(row, row.assigned_robot_name, read_settings(conn))
+
+    return await server.db.run_read(read)
 
 
 async def newest_requests(server: FleetServer, caller: Principal, status: Status | None = None,
@@ -59,8 +62,10 @@ async def newest_requests(server: FleetServer, caller: Principal, status: Status
         query = query.where(Request.status == status)
     if customer_id is not None:
         query = query.where(Request.customer_id == customer_id)
-    async with server.db.read_connection() as conn:
-        cfg = await load_settings(conn)
-        rows = (await conn.execute(query)).all()
-    return [request_body(row, row.assigned_robot_name, cfg) for row in rows]
+
+    def read(conn: Connection) -> list[RequestOut]:
+        cfg = read_settings(conn)
+        return [request_body(row, row.assigned_robot_name, cfg) for row in conn.execute(query)]
+
+    return await server.db.run_read(read)
 

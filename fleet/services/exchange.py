@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Any, cast
 
-from sqlalchemy import Table, bindparam, select, update
+from sqlalchemy import Connection, Table, bindparam, select, update
 
 from fleet.cache import Cached, SiteCache
 from fleet.clock import Clock
@@ -73,6 +73,10 @@ _LIGHT_QUERY = (
 )
 
 
+def _read_lights(conn: Connection) -> dict[str, _Light]:
+    return {str(row[0]): _light(row[1:]) for row in conn.execute(_LIGHT_QUERY)}
+
+
 def _light(row: Any) -> _Light:
     rid, offline, estop, maintenance, req_id, status, customer, returned = row
     return _Light(rid, offline, estop or maintenance, estop, maintenance,
@@ -93,9 +97,7 @@ class RobotViews:
         self._pings: dict[int, dict[str, Any]] = {}
 
     async def _load(self) -> dict[str, _Light]:
-        async with self._db.read_connection() as conn:
-            rows = (await conn.execute(_LIGHT_QUERY)).all()
-        return {str(row[0]): _light(row[1:]) for row in rows}
+        return await self._db.run_read(_read_lights)
 
     async def get(self, name: str) -> _Light:
         if self._generation != self._db.generation:
@@ -120,10 +122,12 @@ class RobotViews:
         if not self._pings:
             return 0
         pings, self._pings = list(self._pings.values()), {}
-        async with self._db.write(serial=False) as session:
-            conn = await session.connection()
+
+        def write(conn: Connection) -> None:
             for start in range(0, len(pings), _PING_CHUNK):
-                await conn.execute(_PING_UPDATE, pings[start:start + _PING_CHUNK])
+                conn.execute(_PING_UPDATE, pings[start:start + _PING_CHUNK])
+
+        await self._db.run_write(write, serial=False)
         return len(pings)
 
 

@@ -5,11 +5,14 @@ from __future__ import annotations
 
 import asyncio
 from datetime import UTC, datetime
+from functools import partial
 
+import pytest
 from fleet_harness import SITE_TOML, SiteAuth, beacon
 
 from fleet.app import create_app
 from fleet.clock import loop_clock
+from fleet.services.timeouts import any_timed_out
 from fleet.site import parse_site
 from hal.sim import vclock
 
@@ -78,6 +81,29 @@ class TestTimeoutMonitor:
         await fleet.arrive_at_base(ROBOT)
         assert (await fleet.get(first["Id"]))["RobotReturned"] is True
         assert await fleet.status(second["Id"]) == "Accepted"
+
+
+class TestQuietPasses:
+    @pytest.mark.parametrize("stage", ["Accepted", "ArrivedAtRoom", "FinishedWashingGoingToRoom"])
+    @pytest.mark.parametrize("past_limit_s", [-1.0, 0.0, 1e-6, 1.0])
+    async def test_the_quick_check_says_whether_the_monitor_cancels(self, make_fleet, stage,
+                                                                     past_limit_s):
+        """``any_timed_out`` is true exactly when ``check_timeouts`` cancels something: just
+        before, at and just after each watched status's limit."""
+        fleet = await make_fleet(AcceptedTimeoutS=100, ArrivedTimeoutS=50)
+        if stage == "Accepted":
+            request_id, limit_s = (await fleet.request(1))["Id"], 100
+        elif stage == "ArrivedAtRoom":
+            request_id, limit_s = (await fleet.request(1))["Id"], 50
+            await fleet.arrive_at_room(ROBOT, 1)
+        else:
+            request_id, limit_s = await to_delivery(fleet), 100
+        assert await fleet.status(request_id) == stage
+        fleet.clock.advance(limit_s + past_limit_s)
+        quick = await fleet.server.db.run_read(partial(any_timed_out, now=fleet.clock()))
+        assert quick == (await fleet.server.check_timeouts() == [request_id])
+        assert quick == (past_limit_s > 0)
+        assert not await fleet.server.db.run_read(partial(any_timed_out, now=fleet.clock()))
 
 
 class TestCancellationBranches:

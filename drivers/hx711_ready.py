@@ -43,7 +43,9 @@ async def wait_dout_low(lines: Hx711Lines, timeout_s: float, poll_s: float = POL
         else:  # DOUT low by ``due_s`` reads low then; later, on the grid after it falls
             due_s = await _grid_after_dout_low(loop, on_dout_low, deadline_s, due_s, poll_s)
     while lines.read_dout():  # DOUT high: conversion not ready
-        if loop.time() >= deadline_s:
+        # This read is at ``due_s`` (a virtual clock that jumped there may read a unit in the
+        # last place short of it) or later when the loop ran late.
+        if max(loop.time(), due_s) >= deadline_s:
             return False
         due_s += poll_s
         if on_dout_low is None:

@@ -71,7 +71,12 @@ def parse_ibeacon(manufacturer_data: Mapping[int, bytes]) -> IBeaconFrame | None
     """
     if APPLE_COMPANY_ID not in manufacturer_data:
         return None
-    data = manufacturer_data[APPLE_COMPANY_ID]
+    # From the adapter, so checked here: the compiled driver (docs/native.md) would refuse a
+    # value of another type with a TypeError where the annotation says bytes.
+    data: object = manufacturer_data[APPLE_COMPANY_ID]
+    if not isinstance(data, bytes | bytearray | memoryview):
+        msg = f"Apple manufacturer data: expected bytes, got {type(data).__name__}"
+        raise MalformedAdvert(msg)
     if len(data) < 2 or data[0] != IBEACON_TYPE:
         return None  # another Apple format (0x10 Nearby Info, 0x12 Find My, ...)
     if data[1] != IBEACON_LENGTH or len(data) < IBEACON_PAYLOAD_BYTES:
@@ -256,8 +261,12 @@ class BleBeaconScanner:
                 log.info("ble.recovered", after_error=self.last_error)
                 self.last_error = None
         try:
-            manufacturer_data = adv.manufacturer_data
-            data = manufacturer_data.get(APPLE_COMPANY_ID) \
+            # What the adapter sent may not be what bleak's annotations say (None, NaN, a
+            # float RSSI, bytearray data): held as objects, so the compiled driver checks
+            # them here instead of raising TypeError (docs/native.md).
+            sent: Any = adv  # read as plain objects: no type check on reading a field
+            manufacturer_data = sent.manufacturer_data
+            data: object = manufacturer_data.get(APPLE_COMPANY_ID) \
                 if type(manufacturer_data) is dict else None
             # A payload seen before gives its frame here; ``_frame`` parses and keeps the rest.
             frame = self._frames.get(data) if type(data) is bytes else None
@@ -269,14 +278,14 @@ class BleBeaconScanner:
             if self._uuids and frame.uuid not in self._uuids:
                 counts["other_uuid"] += 1
                 return
-            rssi = adv.rssi
+            rssi: object = sent.rssi
             # The usual advert, an int in range, without valid_rssi_dbm's general checks.
             rssi_dbm = (rssi if type(rssi) is int and MIN_RSSI_DBM <= rssi <= MAX_RSSI_DBM
                         and rssi != 0 else valid_rssi_dbm(rssi))
             if rssi_dbm is None:
                 # Tracked as a sighting it would drag the smoothed RSSI up to "arrived".
                 counts["bad_rssi"] += 1
-                log.debug("ble.bad_rssi", mac=getattr(device, "address", "?"), rssi=adv.rssi)
+                log.debug("ble.bad_rssi", mac=getattr(device, "address", "?"), rssi=rssi)
                 return
             sighting = new_sighting(str(device.address).upper(), frame.uuid, frame.major,
                                     frame.minor, rssi_dbm, frame.tx_power_dbm, now)
@@ -295,8 +304,8 @@ class BleBeaconScanner:
 
     def _frame(self, manufacturer_data: Mapping[int, bytes]) -> IBeaconFrame | None:
         """``parse_ibeacon``, once per distinct payload (raises what it raises)."""
-        data = manufacturer_data.get(APPLE_COMPANY_ID) if type(manufacturer_data) is dict \
-            else None
+        data: object = manufacturer_data.get(APPLE_COMPANY_ID) \
+            if type(manufacturer_data) is dict else None
         if type(data) is bytes:
             frame = self._frames.get(data)
             if frame is not None:

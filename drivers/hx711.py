@@ -164,7 +164,7 @@ class OutlierFilter:
         self._accepted.clear()
 
 
-def _median(codes: deque[int]) -> float:
+def _median(codes: deque[int]) -> int | float:  # int | float: as statistics.median gives
     """``statistics.median`` of a few codes, without its conversions (once per read)."""
     ordered = sorted(codes)
     mid = len(ordered) // 2

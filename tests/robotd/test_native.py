@@ -6,7 +6,7 @@ import importlib.machinery
 import os
 from pathlib import Path
 
-from robotd.native import compiled_modules, stale_modules
+from robotd.native import GROUP_LIBRARY, compiled_modules, stale_modules
 
 SUFFIX = importlib.machinery.EXTENSION_SUFFIXES[0]
 
@@ -41,6 +41,30 @@ class TestCompiledModules:
         source, built = _tree(tmp_path)
         os.utime(source, (1000, 1000))
         os.utime(built, (2000, 2000))
+        assert stale_modules(tmp_path) == []
+
+    def test_a_library_built_after_the_edit_holds_the_new_code(self, tmp_path: Path) -> None:
+        """mypyc rebuilds the shared library, not each module's unchanged shim: a source
+        older than the library is not stale, whatever the shim's age."""
+        source, built = _tree(tmp_path)
+        (tmp_path / "hal").mkdir()
+        library = tmp_path / (GROUP_LIBRARY + SUFFIX)
+        library.write_bytes(b"\0")
+        os.utime(built, (1000, 1000))
+        os.utime(source, (2000, 2000))
+        os.utime(library, (3000, 3000))
+        assert stale_modules(tmp_path) == []
+        os.utime(library, (1500, 1500))
+        assert stale_modules(tmp_path) == [Path("drivers/hx711.py")]
+
+    def test_a_module_no_longer_listed_is_named(self, tmp_path: Path) -> None:
+        """Taken off native_modules.txt, its old build would still shadow the .py."""
+        source, built = _tree(tmp_path)
+        os.utime(source, (1000, 1000))
+        os.utime(built, (2000, 2000))
+        (tmp_path / "native_modules.txt").write_text("# none\ndrivers/ble_scanner.py\n")
+        assert stale_modules(tmp_path) == [Path("drivers/hx711.py")]
+        (tmp_path / "native_modules.txt").write_text("drivers/hx711.py  # listed\n")
         assert stale_modules(tmp_path) == []
 
 

@@ -15,7 +15,7 @@ import asyncio
 import contextlib
 import json
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -47,11 +47,14 @@ class VizSession:
     Args:
         name: the server's name, shown by Foxglove.
         many: several robots share the session (topics under ``/<robot>/``).
+        periods: the robots' feeds' shortest intervals by kind (``FoxgloveTelemetry``).
     """
 
-    def __init__(self, name: str = "robotd", *, many: bool = False) -> None:
+    def __init__(self, name: str = "robotd", *, many: bool = False,
+                 periods: Mapping[str, float] | None = None) -> None:
         self.name = name
         self.many = many
+        self.periods = periods
         self.context = foxglove.Context()
         self.server: Any = None
         self._writer: MCAPWriter | None = None
@@ -96,8 +99,8 @@ class VizSession:
         """The ``Telemetry`` a robot's behaviours publish through."""
         feed = self.robots.get(robot)
         if feed is None:
-            feed = self.robots[robot] = FoxgloveTelemetry(self.context,
-                                                          robot if self.many else "")
+            feed = self.robots[robot] = FoxgloveTelemetry(
+                self.context, robot if self.many else "", periods=self.periods)
         return feed
 
     def watch_daemon(self, robot: str, daemon: Any) -> None:

@@ -39,9 +39,15 @@ class Sample(Protocol):
 
 _TRUTH_EVERY = 2  # the runner's 10 Hz watch ticks: the true pose at 5 Hz
 _SESSION_EVERY = 10  # the session's state for late viewers every second
-_WORLD_EVERY = 50  # the world every 5 s, for viewers that join late
+_WORLD_EVERY = 100  # the world every 10 s, for viewers that join late (a recording's player
+# shows the last one before the instant it is at)
 _GRID_RESOLUTION_M = 0.05
 RECORDING = "run.mcap"
+# A simulated camera renders its whole frame only for an image (~0.4 ms, with its JPEG, where
+# the tracker's 8 rows cost ~0.1 ms); a real one has the frame anyway. Once the rest of a
+# laundry run became ~25 % faster (docs/native.md), 1 Hz images alone kept the recording's
+# overhead above the 10 % it may cost: the simulator's camera images are every 2 s.
+SIM_PERIODS = {"image": 2.0}
 
 
 def open_sim_viz(args: argparse.Namespace, name: str, robots: int,
@@ -52,7 +58,7 @@ def open_sim_viz(args: argparse.Namespace, name: str, robots: int,
     serve = bool(getattr(args, "viz", False))
     if not report and not serve:
         return None
-    session = VizSession(f"robotd sim {name}", many=robots > 1)
+    session = VizSession(f"robotd sim {name}", many=robots > 1, periods=SIM_PERIODS)
     try:
         if report:
             session.record(Path(report) / RECORDING)

@@ -62,13 +62,17 @@ class FoxgloveTelemetry:
         context: the run's Foxglove context (its server and recorder are its sinks).
         prefix: the robot's name when several robots share the context, else "".
         clock_ns: the time messages are logged at (the event loop's, by default).
+        periods: shortest intervals (s) by kind that replace ``_PERIOD_S``'s.
     """
 
     def __init__(self, context: foxglove.Context, prefix: str = "", *,
-                 clock_ns: Callable[[], int] = loop_time_ns) -> None:
+                 clock_ns: Callable[[], int] = loop_time_ns,
+                 periods: Mapping[str, float] | None = None) -> None:
         self.context = context
         self.prefix = prefix
         self.clock_ns = clock_ns
+        chosen = {**_PERIOD_S, **(periods or {})}
+        self._period_ns = {kind: int(period_s * 1e9) for kind, period_s in chosen.items()}
         self._channels: dict[str, Any] = {}
         self._next_ns: dict[str, int] = {}
         self.published = 0
@@ -160,7 +164,7 @@ class FoxgloveTelemetry:
         next_ns = self._next_ns.get(topic)
         if next_ns is not None and t_ns < next_ns:
             return False
-        self._next_ns[topic] = t_ns + int(_PERIOD_S[kind] * 1e9)
+        self._next_ns[topic] = t_ns + self._period_ns[kind]
         return True
 
     def _channel(self, topic: str, kind: Any) -> Any:

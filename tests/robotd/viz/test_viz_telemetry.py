@@ -17,6 +17,7 @@ from robotd.config.settings import Settings
 from robotd.viz.recorder import RotatingRecorder
 from robotd.viz.runtime import open_daemon_viz
 from robotd.viz.session import VizSession
+from robotd.viz.sim_feed import SIM_PERIODS
 from robotd.viz.telemetry import FoxgloveTelemetry
 
 
@@ -93,6 +94,26 @@ def test_recording_is_on_the_given_clock_and_decimated(tmp_path: Path) -> None:
     assert len(topics["/tf"]) == 20
     assert len(topics["/state"]) == 20  # values: every one
     assert len(topics["/line"]) == 20  # sample: at most one per 0.1 s
+
+
+def test_a_session_s_periods_replace_the_defaults(tmp_path: Path) -> None:
+    """The simulator's session (``SIM_PERIODS``): a camera image every 2 s, other kinds as
+    before; a robot's feed takes its session's periods."""
+    session = VizSession(periods=SIM_PERIODS)
+    clock = FakeClock()
+    session.record(tmp_path / "run.mcap")
+    feed = session.telemetry("r")
+    feed.clock_ns = clock
+    image = np.zeros((24, 32, 3), dtype=np.uint8)
+    for i in range(60):  # 6 s at 10 Hz
+        clock.t_ns = i * 100_000_000
+        feed.image("camera", image)
+        feed.sample("line", error_px=1.0)
+    session.close()
+    topics = _read(tmp_path / "run.mcap")
+    assert SIM_PERIODS["image"] == 2.0
+    assert topics["/camera"] == [0, 2_000_000_000, 4_000_000_000]
+    assert len(topics["/line"]) == 60
 
 
 def test_several_robots_have_their_own_topics_and_frames(tmp_path: Path) -> None:

@@ -12,7 +12,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from drivers.hx711 import Gain, Hx711, _median
+from drivers.hx711 import Gain, Hx711
+from drivers.hx711_filter import _median
 from hal.devices import DeviceUnavailable, LoadCell
 from hal.sim import vclock
 from hal.sim.devices.hx711_model import SimHx711Lines

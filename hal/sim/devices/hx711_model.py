@@ -34,8 +34,7 @@ _BYTE_BITS = tuple(tuple(bool((byte >> (7 - i)) & 1) for i in range(8)) for byte
 
 
 def _loop_s_reaching(us: int) -> float:
-    """The earliest clock reading (seconds, >= 0) that ``int(s * 1e6)`` takes to ``us`` or
-    beyond."""
+    """The earliest clock reading (seconds, >= 0) whose ``int(s * 1e6)`` is ``us`` or more."""
     s = max(0.0, us / 1_000_000)  # the loop's clock does not go below zero
     while int(s * 1_000_000) < us:
         s = math.nextafter(s, math.inf)
@@ -216,15 +215,8 @@ class SimHx711Lines:
             self.set_sck(True)
             self.set_sck(False)
             return self._tick() - t0_us
-        # Four accesses call_us apart, from the later of this port's clock and the loop's
-        # (_tick, inlined: the loop's clock cannot move within the call).
-        clock_s = self.clock()
-        if clock_s != self._clock_s:
-            self._clock_s = clock_s
-            self._clock_us = int(clock_s * 1_000_000)
-        t0_us = self._now_us + call_us
-        clock_us = self._clock_us
-        t0_us = t0_us if t0_us > clock_us else clock_us  # max(), no call
+        # Four accesses call_us apart (the loop's clock cannot move within the call).
+        t0_us = self._first_access_us(call_us)
         rise_us = t0_us + call_us
         pulses = self._pulses
         if 1 <= pulses < 24 and self._glitch is None:
@@ -258,14 +250,8 @@ class SimHx711Lines:
                 or not 0 <= call_us <= POWER_DOWN_US):
             high_us = self.pulse_sck()
             return high_us, self.read_dout()
-        # A data bit: five accesses call_us apart (_tick, inlined), the bit on DOUT after it.
-        clock_s = self.clock()
-        if clock_s != self._clock_s:
-            self._clock_s = clock_s
-            self._clock_us = int(clock_s * 1_000_000)
-        t0_us = self._now_us + call_us
-        clock_us = self._clock_us
-        t0_us = t0_us if t0_us > clock_us else clock_us  # max(), no call
+        # A data bit: five accesses call_us apart, the bit on DOUT after it.
+        t0_us = self._first_access_us(call_us)
         self._rise_us = t0_us + call_us
         self.pulses_total += 1
         self._pulses = pulses = pulses + 1
@@ -292,17 +278,21 @@ class SimHx711Lines:
         return cancel
 
     # --- the chip ----------------------------------------------------------------------------
-    def _loop_us(self) -> int:
-        return int(self.clock() * 1_000_000)
-
-    def _tick(self) -> int:
+    def _first_access_us(self, call_us: int) -> int:
+        """The next access: call_us after the port's clock, not before the loop's."""
         clock_s = self.clock()
         if clock_s != self._clock_s:
             self._clock_s = clock_s
             self._clock_us = int(clock_s * 1_000_000)
-        now_us = self._now_us + self.call_us
+        t0_us = self._now_us + call_us
         clock_us = self._clock_us
-        self._now_us = now_us = now_us if now_us > clock_us else clock_us  # max(), no call
+        return t0_us if t0_us > clock_us else clock_us  # max(), no call
+
+    def _loop_us(self) -> int:
+        return int(self.clock() * 1_000_000)
+
+    def _tick(self) -> int:
+        self._now_us = now_us = self._first_access_us(self.call_us)
         return now_us
 
     def _dout_falls_us(self) -> int | None:

@@ -33,14 +33,13 @@ from hal.sim.devices.motor_board.mcu_frames import (
     crc8_join,
     parse_payload,
     read_seq,
+    telemetry_line,
 )
 from hal.sim.devices.motor_board.mcu_uart import McuUart
 from hal.sim.world.plant import MotorPlant
 
 log = structlog.get_logger(__name__)
 
-_TELEMETRY_HEADS = {name: (b"%s:" % name.encode(), crc8_fast(b"%s:" % name.encode()))
-                    for name in ("ENCODER", "IR", "BAT")}
 # Executed(t_s, seq, payload) without the generated __new__'s Python frame (a record per command).
 _new_executed: Callable[[tuple[float, int | None, str]], Executed] = functools.partial(
     tuple.__new__, Executed)
@@ -130,11 +129,8 @@ class FakeMcu(DockInputs):
             self.reset()
 
     def connect_pipe(self, pipe: BytePipe) -> None:
-        """Serve the device end of an in-memory line, taking each write as it arrives.
-
-        The same board as ``connect(pipe.b)``, without a reader task to wake per frame (the
-        simulator sends tens of frames per simulated second).
-        """
+        """Serve the device end of an in-memory line, taking each write as it arrives: as
+        ``connect(pipe.b)`` without a reader task to wake per frame (tens a simulated second)."""
         self.disconnect()
         self._streams = pipe.b
         self._hangup = pipe.break_
@@ -353,17 +349,12 @@ class FakeMcu(DockInputs):
 
     def _send_lines(self, bodies: list[bytes], crc: bool) -> None:
         """Frame lines and send them in one write (as a UART's buffer drains them)."""
-        if self._streams is None:
-            return
-        if crc:
-            data = b"".join([b"%s*%02X\n" % (body, crc8_fast(body)) for body in bodies])
-        else:
-            data = b"".join([body + b"\n" for body in bodies])
-        self.uart.send(data)
+        if self._streams is not None:
+            self.uart.send(b"".join([b"%s*%02X\n" % (body, crc8_fast(body)) if crc
+                                     else body + b"\n" for body in bodies]))
 
     async def _telemetry(self) -> None:
-        # Each telemetry moment is a timer callback that sets the next one
-        # (hal.looptime.timer_chain).
+        # Each telemetry moment is a timer callback that sets the next one (timer_chain).
         loop = asyncio.get_running_loop()
         periods = self.periods_s
         due = {name: loop.time() + period for name, period in periods.items()}
@@ -403,7 +394,4 @@ class FakeMcu(DockInputs):
         else:
             voltage_v, percent, on_dock = self.plant.battery()
             fields = b"%d,%d,%d" % (round(voltage_v * 1000), round(percent), on_dock)
-        head, head_crc = _TELEMETRY_HEADS[name]
-        if not crc:
-            return b"%s%s\n" % (head, fields)
-        return b"%s%s*%02X\n" % (head, fields, crc8_fast(fields, head_crc))
+        return telemetry_line(name, fields, crc)

@@ -95,3 +95,16 @@ def read_seq(line: bytes) -> int | None:
         return None
     seq = int(digits)
     return seq if seq <= 255 else None
+
+
+_TELEMETRY_HEADS = {name: (b"%s:" % name.encode(), crc8_fast(b"%s:" % name.encode()))
+                    for name in ("ENCODER", "IR", "BAT")}
+
+
+def telemetry_line(name: str, fields: bytes, crc: bool) -> bytes:
+    """``NAME:fields`` as a line, CRC-framed or plain; the CRC is continued from the name's
+    (worked out once) over the fields."""
+    head, head_crc = _TELEMETRY_HEADS[name]
+    if not crc:
+        return b"%s%s\n" % (head, fields)
+    return b"%s%s*%02X\n" % (head, fields, crc8_fast(fields, head_crc))

@@ -9,7 +9,7 @@ from typing import Any
 
 import httpx
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from fleet.app import create_app
@@ -101,6 +101,9 @@ class TestTheAppSeesTheSameRequest:
     @settings(max_examples=50, deadline=None,
               suppress_health_check=[HealthCheck.function_scoped_fixture])
     async def test_any_path_and_query(self, path, query):
+        # "//host..." is a network-path reference to httpx (Hypothesis: "/\xa0", an invalid
+        # IDNA host), not a path: neither transport is asked.
+        assume(not path.startswith("/"))
         app = Recorder()
         ref, pipe = await both(app, "GET", "/" + path, params=query)
         assert app.seen[1][0] == app.seen[0][0]

@@ -1,7 +1,7 @@
 """Simulator speed: virtual seconds per wall/CPU second on a scenario, and peak memory.
 
     .venv/bin/python bench/bench_sim.py [SCENARIO] [--runs N] [--turns] [--profile FILE]
-                                        [--no-reference] [--record]
+                                        [--no-reference] [--record] [--overhead PAIRS]
 
 Prints, per run, the virtual time simulated and the wall and CPU time the run itself took
 (imports and start-up excluded, reported separately), the speed factor (virtual / wall and
@@ -13,6 +13,10 @@ its load.
 
 ``--record`` runs each scenario as ``robotd sim --report DIR`` does, writing ``DIR/run.mcap``
 (the events and the PNG are written after the run and are not timed, as in the summary).
+
+``--overhead PAIRS`` runs the scenario without and with recording in turn, PAIRS times, in
+one process, and prints the recording's CPU cost per pair and their median (the issue's
+<= 10 %): separate bench runs drift with the machine by more than that.
 
 ``--turns`` also prints the event loop's turns and callbacks per virtual second by origin (task
 coroutine or callback): in virtual time every wake-up costs a loop turn, so this says which
@@ -27,9 +31,11 @@ from __future__ import annotations
 import argparse
 import asyncio
 import collections
+import contextlib
 import cProfile
 import gc
 import importlib
+import io
 import pstats
 import resource
 import statistics
@@ -53,7 +59,11 @@ def main() -> int:
                         help=f"do not also run {REFERENCE!r} for comparison")
     parser.add_argument("--record", action="store_true",
                         help="record run.mcap as --report does (the issue's figure)")
+    parser.add_argument("--overhead", type=int, metavar="PAIRS",
+                        help="the recording's cost: PAIRS runs without and with it, in turn")
     opts = parser.parse_args()
+    if opts.overhead:
+        return _overhead(opts.scenario, opts.overhead)
 
     names = [opts.scenario]
     if opts.scenario != REFERENCE and not opts.no_reference and not opts.profile:
@@ -84,6 +94,24 @@ def main() -> int:
     if profiler is not None:
         profiler.dump_stats(opts.profile)
         pstats.Stats(opts.profile).sort_stats("tottime").print_stats(25)
+    return 0
+
+
+def _overhead(name: str, pairs: int) -> int:
+    """Runs without and with recording in turn, in one process: the machine's speed drifts
+    between separate bench runs by more than the recording costs, so only pairs compare."""
+    _load(name)
+    costs = []
+    for i in range(pairs):
+        with contextlib.redirect_stdout(io.StringIO()):
+            plain, recorded = (_bench(name, 1, False, None, record=r) for r in (False, True))
+        if plain is None or recorded is None:
+            return 1
+        costs.append(plain[1] / recorded[1] - 1)
+        print(f"pair {i + 1}: x{plain[1]:.1f} cpu without, x{recorded[1]:.1f} with recording: "
+              f"+{100 * costs[-1]:.1f} % CPU")
+    print(f"recording's cost, median of {pairs} pairs: +{100 * statistics.median(costs):.1f} % "
+          f"CPU (target <= 10 %)")
     return 0
 
 

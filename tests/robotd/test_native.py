@@ -6,7 +6,7 @@ import importlib.machinery
 import os
 from pathlib import Path
 
-from robotd.native import GROUP_LIBRARY, compiled_modules, stale_modules
+from robotd.native import GROUP_LIBRARY, compiled_modules, listed_sources, stale_modules
 
 SUFFIX = importlib.machinery.EXTENSION_SUFFIXES[0]
 
@@ -79,11 +79,9 @@ class TestThisCheckout:
 
         if os.environ.get("ROBOTD_NATIVE") == "0" or shutil.which("gcc") is None:
             pytest.skip("built without mypyc (ROBOTD_NATIVE=0 or no C compiler)")
-        root = Path(__file__).resolve().parents[2]
-        listed = [line.split("#")[0].strip() for line in
-                  (root / "native_modules.txt").read_text().splitlines()]
-        names = [p.removesuffix(".py").replace("/", ".") for p in listed if p]
-        assert names
+        listed = listed_sources()
+        assert listed
+        names = [str(p.with_suffix("")).replace("/", ".") for p in sorted(listed)]
         for name in names:
             module = importlib.import_module(name)
             assert module.__file__ is not None

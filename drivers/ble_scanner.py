@@ -265,7 +265,13 @@ class BleBeaconScanner:
             # float RSSI, bytearray data): held as objects, so the compiled driver checks
             # them here instead of raising TypeError (docs/native.md).
             sent: Any = adv  # read as plain objects: no type check on reading a field
-            frame = self._frame(sent.manufacturer_data)
+            manufacturer_data = sent.manufacturer_data
+            data: object = manufacturer_data.get(APPLE_COMPANY_ID) \
+                if type(manufacturer_data) is dict else None
+            # A payload seen before gives its frame here; ``_frame`` parses and keeps the rest.
+            frame = self._frames.get(data) if type(data) is bytes else None
+            if frame is None:
+                frame = self._frame(manufacturer_data)
             if frame is None:
                 counts["not_ibeacon"] += 1
                 return

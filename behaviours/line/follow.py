@@ -31,6 +31,10 @@ from hal.telemetry import NULL_TELEMETRY, Telemetry
 log = structlog.get_logger(__name__)
 
 _HISTORY = 512  # ticks kept for the fps, jitter and latency figures
+# The live view's line sample (and its chance of a camera image) at most this often: every
+# call costs even when the viewer drops it (~17 us inside a running simulation, the caches
+# full of the world), and the camera gives 13 frames a second.
+_SHOW_PERIOD_S = 0.1
 
 
 class LineLostError(RuntimeError):
@@ -99,6 +103,7 @@ class LineFollower:
         self._integral = 0.0
         self._prev_error: float | None = None
         self._prev_t: float | None = None
+        self._show_at_s = -math.inf
         self._direction = 1.0  # +1: the line was last seen on the right
         self._last_seq = -1
         self._link_up = True
@@ -304,7 +309,8 @@ class LineFollower:
                                       reason="bad frame")
             dt_s = self.period_s if self._prev_t is None else frame.t_s - self._prev_t
             self._prev_t = frame.t_s
-            if self.telemetry.enabled:
+            if frame.t_s >= self._show_at_s and self.telemetry.enabled:
+                self._show_at_s = frame.t_s + _SHOW_PERIOD_S
                 self._show(frame, reading)
         self._reading = reading
         try:

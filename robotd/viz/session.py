@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import json
 import logging
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -27,7 +26,7 @@ from foxglove.messages import Log, LogLevel
 
 from robotd.viz import messages as fm
 from robotd.viz.recorder import RotatingRecorder, open_recording
-from robotd.viz.telemetry import FoxgloveTelemetry
+from robotd.viz.telemetry import FoxgloveTelemetry, json_bytes
 
 log = structlog.get_logger(__name__)
 
@@ -178,7 +177,7 @@ class _LogHandler(logging.Handler):
             msg: Any = record.msg
             if isinstance(msg, dict):
                 fields = {k: v for k, v in msg.items() if not k.startswith("_")}
-                text = json.dumps(fields, default=str)
+                text = json_bytes(fields).decode()
             else:
                 text = record.getMessage()
             self.channel.log(Log(timestamp=fm.stamp(t_ns),

@@ -13,13 +13,13 @@ sit under ``/<name>/`` and its frames under ``<name>/`` (``map`` is shared).
 from __future__ import annotations
 
 import asyncio
-import json
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import foxglove
 import numpy as np
 import numpy.typing as npt
+import orjson
 import structlog
 from foxglove.channels import (
     CompressedImageChannel,
@@ -45,6 +45,20 @@ _PERIOD_S = {"image": 1.0, "poses": 0.5, "grid": 5.0, "graph": 0.0, "path": 0.5,
 """The shortest interval between two messages of a kind on one topic (virtual seconds)."""
 _MAX_PARTICLES = 500
 _SHARED_FRAMES = ("map",)
+
+
+_JSON_OPTIONS = orjson.OPT_NON_STR_KEYS | orjson.OPT_SERIALIZE_NUMPY
+
+
+def json_bytes(value: Any) -> bytes:
+    """``value`` as compact JSON; what JSON has no type for (a path, an enum) as its ``str``.
+
+    orjson rather than the standard library: inside a running simulation (the caches full of
+    the world's data) one message cost ~29 us with ``json.dumps`` against ~9 us, and a
+    recording sends thousands. It also writes NaN as ``null`` (the standard library writes
+    ``NaN``, which is not JSON), and numpy's scalars and arrays as numbers.
+    """
+    return orjson.dumps(value, default=str, option=_JSON_OPTIONS)
 
 
 def loop_time_ns() -> int:
@@ -144,8 +158,7 @@ class FoxgloveTelemetry:
         if channel is None or not channel.has_sinks():
             return
         try:
-            channel.log(json.dumps({"t_s": t_ns / 1e9, **fields}, default=str).encode(),
-                        log_time=t_ns)
+            channel.log(json_bytes({"t_s": t_ns / 1e9, **fields}), log_time=t_ns)
             self.published += 1
         except Exception as exc:  # a viewer's trouble must not reach the robot
             self._failed(topic, exc)

@@ -3,6 +3,7 @@ bad data counted (never raised), recordings that rotate and are pruned."""
 
 from __future__ import annotations
 
+import json
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
@@ -124,6 +125,28 @@ def test_several_robots_have_their_own_topics_and_frames(tmp_path: Path) -> None
     assert a.topic("scan") == "/a/scan"
     assert a.frame("base_link") == "a/base_link" and a.frame("map") == "map"
     session.close()
+
+
+def test_values_are_json_whatever_the_caller_passes(tmp_path: Path) -> None:
+    """Values are strict JSON: NaN is null, numpy's numbers are numbers, keys that are not
+    strings are strings, and what JSON has no type for is its str; a value too large for
+    JSON's encoder is counted as failed, and the next one still goes out."""
+    session = VizSession()
+    session.record(tmp_path / "run.mcap")
+    clock = FakeClock()
+    feed = FoxgloveTelemetry(session.context, clock_ns=clock)
+    clock.t_ns = 1_500_000_000
+    feed.values("v", nan=float("nan"), f=np.float32(0.5), i=np.int64(7), a=np.arange(3),
+                keys={1: "one"}, path=tmp_path / "x", flag=np.bool_(True))
+    feed.values("v", big=2**70)
+    feed.values("v", after=1)
+    session.close()
+    with (tmp_path / "run.mcap").open("rb") as f:
+        sent = [json.loads(m.data) for _s, _c, m in make_reader(f).iter_messages()]
+    assert sent == [{"t_s": 1.5, "nan": None, "f": 0.5, "i": 7, "a": [0, 1, 2],
+                     "keys": {"1": "one"}, "path": str(tmp_path / "x"), "flag": True},
+                    {"t_s": 1.5, "after": 1}]
+    assert feed.failed == 1
 
 
 async def test_bad_data_is_counted_not_raised(tmp_path: Path) -> None:

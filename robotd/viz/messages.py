@@ -142,7 +142,8 @@ def jpeg_image(t_ns: int, image: npt.NDArray[np.uint8], marks: Sequence[tuple[in
     wider than ``_HALVE_ABOVE_PX`` is sent at half size (every other pixel: a quarter of the
     encoding's cost, still a readable line camera)."""
     step = 2 if image.shape[1] > _HALVE_ABOVE_PX else 1
-    small = every_other_pixel(image) if step == 2 else np.ascontiguousarray(image)
+    # Halved, or copied: the marks are never drawn on the caller's image.
+    small = every_other_pixel(image) if step == 2 else np.array(image, np.uint8)
     img = small if small.ndim == 3 else cv2.cvtColor(small, cv2.COLOR_GRAY2BGR)
     for col, row in marks:
         cv2.circle(img, (int(col) // step, int(row) // step), 2, _MARK_BGR, -1)

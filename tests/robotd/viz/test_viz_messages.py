@@ -31,3 +31,10 @@ class TestEveryOtherPixel:
         for shape in ((240, 320, 3), (241, 321, 3), (240, 320)):
             image = np.full(shape, 128, np.uint8)
             assert jpeg_image(0, image, [(160, 120)], "camera") is not None
+
+    def test_the_marks_are_not_drawn_on_the_caller_s_image(self) -> None:
+        """A small image is sent whole: its marks go on a copy, the caller's stays as it was."""
+        for shape in ((120, 160, 3), (240, 320, 3)):
+            image = np.full(shape, 128, np.uint8)
+            assert jpeg_image(0, image, [(50, 40)], "camera") is not None
+            assert (image == 128).all()

@@ -80,7 +80,12 @@ class Telemetry(Protocol):
         ...
 
     def values(self, topic: str, /, **fields: Any) -> None:
-        """Plain data as JSON, every call delivered (a state, an event, a box's state)."""
+        """Plain data as JSON, every call delivered (a state, an event, a box's state).
+
+        The fields are read when the message is made, which may be up to a second after the
+        call (a recording with no live viewer makes them in batches), as ``logging`` formats
+        its arguments late: pass values not changed afterwards (numbers, strings, new dicts
+        and lists)."""
         ...
 
     def sample(self, topic: str, /, **fields: Any) -> None:

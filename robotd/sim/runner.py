@@ -302,6 +302,8 @@ async def _simulate(args: argparse.Namespace, scenario: Scenario, console: SimCo
     recorder.sample(start)
     await timer_chain(tick, _WATCH_PERIOD_S)
     elapsed = loop.time() - start
+    if feed is not None:
+        feed.flush()  # the true poses a recording holds back
 
     await keeper.close()
     for n, r in robots.items():

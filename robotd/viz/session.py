@@ -73,6 +73,9 @@ class VizSession:
             msg = f"live view on {host}:{port}: {exc}"
             raise VizError(msg) from exc
         bound = int(self.server.port)
+        for feed in self.robots.values():  # a viewer gets each value as it comes
+            feed.hold = False
+            feed.flush()
         log.info("viz.serving", url=f"ws://{host}:{bound}")
         return bound
 
@@ -98,8 +101,10 @@ class VizSession:
         """The ``Telemetry`` a robot's behaviours publish through."""
         feed = self.robots.get(robot)
         if feed is None:
+            # A recording alone takes the JSON values a second at a time (``tick``).
             feed = self.robots[robot] = FoxgloveTelemetry(
-                self.context, robot if self.many else "", periods=self.periods)
+                self.context, robot if self.many else "", periods=self.periods,
+                hold=self.server is None)
         return feed
 
     def watch_daemon(self, robot: str, daemon: Any) -> None:
@@ -129,11 +134,18 @@ class VizSession:
             self.telemetry(robot).values("state", state=state())
         for tick in self._tickers:
             tick()
+        self.flush()
         if self.rotating is not None:
             self.rotating.check()
 
+    def flush(self) -> None:
+        """Send what the robots' feeds hold (their JSON values while only recording)."""
+        for feed in self.robots.values():
+            feed.flush()
+
     def close(self) -> None:
         """Stop the server, finish the recordings, unhook the log (safe to call twice)."""
+        self.flush()
         if self._log_handler is not None:
             logging.getLogger().removeHandler(self._log_handler)
             self._log_handler = None

@@ -7,11 +7,16 @@ no timer (the runner calls ``tick`` on its watch ticks: a timer of its own woke 
 at other instants, and that alone changed the nav run's estimates), and it never touches a body
 (a read integrates its physics up to that instant, ``DiffDriveBody.sync``): it takes the poses
 the runner's path recorder sampled (``robotd.sim.tracks``).
+
+A recording alone (no viewer connected to a server) takes the true poses a second at a time,
+each at the instant it was sampled: one call inside a running simulation costs several times
+what ten in a row do (the caches are full of the world). A live view gets each as it comes.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Protocol
@@ -30,6 +35,8 @@ class Sample(Protocol):
     """A sampled pose (``robotd.sim.tracks.TrackPoint``; not imported: the runner imports us)."""
 
     @property
+    def t_s(self) -> float: ...
+    @property
     def x_m(self) -> float: ...
     @property
     def y_m(self) -> float: ...
@@ -38,6 +45,8 @@ class Sample(Protocol):
 
 
 _TRUTH_EVERY = 2  # the runner's 10 Hz watch ticks: the true pose at 5 Hz
+_TRUTH_PERIOD_S = 0.2
+_TRUTH_BATCH = 10  # ticks: a recording alone takes the true poses once a second
 _SESSION_EVERY = 10  # the session's state for late viewers every second
 _WORLD_EVERY = 100  # the world every 10 s, for viewers that join late (a recording's player
 # shows the last one before the instant it is at)
@@ -75,8 +84,9 @@ def open_sim_viz(args: argparse.Namespace, name: str, robots: int,
 
 
 class SimFeed:
-    """Publishes the world every few seconds and the robots' true poses at 5 Hz (the latest
-    of ``tracks``, the path recorder's samples, by robot)."""
+    """Publishes the world every few seconds and the robots' true poses at 5 Hz (from
+    ``tracks``, the path recorder's samples, by robot): as they come when a server is
+    serving, else a second at a time; ``flush`` sends what is held at the end of the run."""
 
     def __init__(self, session: VizSession, world: World,
                  tracks: Mapping[str, Sequence[Sample]]) -> None:
@@ -85,6 +95,8 @@ class SimFeed:
         self.tracks = tracks
         self.world_feed = FoxgloveTelemetry(session.context)
         self._ticks = 0
+        self._sent = {name: 0 for name in tracks}  # samples looked at, by robot
+        self._next_truth_s: dict[str, float] = {}
         self._grid: Grid | None = None
         try:
             self._grid = Grid.from_segments(world.walls.tolist(), _GRID_RESOLUTION_M)
@@ -96,15 +108,33 @@ class SimFeed:
         sample: no timer of its own, which would wake the virtual loop at other instants."""
         n = self._ticks
         self._ticks += 1
-        if n % _TRUTH_EVERY == 0:
-            for name, track in self.tracks.items():
-                if track:
-                    p = track[-1]
-                    self.session.telemetry(name).pose("truth", (p.x_m, p.y_m, p.heading_rad))
+        if self.session.server is not None:
+            if n % _TRUTH_EVERY == 0:
+                self.flush()
+        elif n % _TRUTH_BATCH == _TRUTH_BATCH - 1:
+            self.flush()
         if n % _SESSION_EVERY == 0:
             self.session.tick()
         if n % _WORLD_EVERY == 0:
             self.publish_world()
+
+    def flush(self) -> None:
+        """The true poses sampled since the last call, at most one per ``_TRUTH_PERIOD_S``
+        (the latest when a tick's turn comes), each logged at its sample's time."""
+        for name, track in self.tracks.items():
+            first = self._sent.get(name, 0)
+            self._sent[name] = len(track)
+            if first >= len(track):
+                continue
+            feed = self.session.telemetry(name)
+            due_s = self._next_truth_s.get(name, -math.inf)
+            live = self.session.server is not None
+            for p in (track[-1:] if live else track[first:]):
+                # Half a watch tick of slack: sample times are sums of 0.1 s steps.
+                if p.t_s >= due_s - _TRUTH_PERIOD_S / 4:
+                    due_s = p.t_s + _TRUTH_PERIOD_S
+                    feed.pose("truth", (p.x_m, p.y_m, p.heading_rad), t_ns=round(p.t_s * 1e9))
+            self._next_truth_s[name] = due_s
 
     def publish_world(self) -> None:
         """The walls as a grid, the painted lines, the beacons' and the dock's places."""

@@ -44,6 +44,8 @@ _PERIOD_S = {"image": 1.0, "poses": 0.5, "grid": 5.0, "graph": 0.0, "path": 0.5,
              "sample": 0.1}
 """The shortest interval between two messages of a kind on one topic (virtual seconds)."""
 _MAX_PARTICLES = 500
+_HOLD_MAX = 256
+"""JSON values held at most (``hold``) before they are sent anyway."""
 _SHARED_FRAMES = ("map",)
 
 
@@ -77,11 +79,14 @@ class FoxgloveTelemetry:
         prefix: the robot's name when several robots share the context, else "".
         clock_ns: the time messages are logged at (the event loop's, by default).
         periods: shortest intervals (s) by kind that replace ``_PERIOD_S``'s.
+        hold: JSON values are held and sent by ``flush`` (a recording with no live viewer):
+            each is logged at the time of its call; made in a batch, one costs a fraction of
+            what it does between the simulation's steps (whose data fill the caches).
     """
 
     def __init__(self, context: foxglove.Context, prefix: str = "", *,
                  clock_ns: Callable[[], int] = loop_time_ns,
-                 periods: Mapping[str, float] | None = None) -> None:
+                 periods: Mapping[str, float] | None = None, hold: bool = False) -> None:
         self.context = context
         self.prefix = prefix
         self.clock_ns = clock_ns
@@ -89,6 +94,8 @@ class FoxgloveTelemetry:
         self._period_ns = {kind: int(period_s * 1e9) for kind, period_s in chosen.items()}
         self._channels: dict[str, Any] = {}
         self._next_ns: dict[str, int] = {}
+        self.hold = hold
+        self._held: list[tuple[Any, str, int, dict[str, Any]]] = []
         self.published = 0
         self.failed = 0
 
@@ -98,8 +105,10 @@ class FoxgloveTelemetry:
 
     # --- the Telemetry port ---------------------------------------------------------------
     def pose(self, topic: str, pose: Pose2D, *, frame: str = "map",
-             child_frame: str | None = None) -> None:
-        t_ns = self.clock_ns()
+             child_frame: str | None = None, t_ns: int | None = None) -> None:
+        """``t_ns``: the instant the pose was taken, when not now (a batch of samples)."""
+        if t_ns is None:
+            t_ns = self.clock_ns()
         self._log(topic, PoseInFrameChannel, t_ns,
                   lambda: fm.pose_in_frame(t_ns, pose, self.frame(frame)))
         if child_frame is not None:
@@ -157,11 +166,18 @@ class FoxgloveTelemetry:
         channel = self._channel(topic, None)
         if channel is None or not channel.has_sinks():
             return
-        try:
-            channel.log(json_bytes({"t_s": t_ns / 1e9, **fields}), log_time=t_ns)
-            self.published += 1
-        except Exception as exc:  # a viewer's trouble must not reach the robot
-            self._failed(topic, exc)
+        if self.hold:
+            self._held.append((channel, topic, t_ns, fields))
+            if len(self._held) >= _HOLD_MAX:
+                self.flush()
+            return
+        self._send(channel, topic, t_ns, fields)
+
+    def flush(self) -> None:
+        """Send the JSON values held (``hold``), in the order they came."""
+        held, self._held = self._held, []
+        for channel, topic, t_ns, fields in held:
+            self._send(channel, topic, t_ns, fields)
 
     # --- helpers ----------------------------------------------------------------------------
     def topic(self, name: str) -> str:
@@ -207,6 +223,13 @@ class FoxgloveTelemetry:
                 channel.log(message, log_time=t_ns)
                 self.published += 1
         except Exception as exc:  # bad data is counted and named, never raised to the robot
+            self._failed(topic, exc)
+
+    def _send(self, channel: Any, topic: str, t_ns: int, fields: dict[str, Any]) -> None:
+        try:
+            channel.log(json_bytes({"t_s": t_ns / 1e9, **fields}), log_time=t_ns)
+            self.published += 1
+        except Exception as exc:  # a viewer's trouble must not reach the robot
             self._failed(topic, exc)
 
     def _failed(self, topic: str, exc: Exception) -> None:

@@ -117,6 +117,48 @@ def test_a_session_s_periods_replace_the_defaults(tmp_path: Path) -> None:
     assert len(topics["/line"]) == 60
 
 
+def test_a_recording_alone_holds_values_until_the_tick(tmp_path: Path) -> None:
+    """No server: a robot's JSON values wait for the session's tick (or close), then go out
+    in the order they came, each at the time of its call; at most 256 wait."""
+    session = VizSession()
+    clock = FakeClock()
+    session.record(tmp_path / "run.mcap")
+    feed = session.telemetry("r")
+    feed.clock_ns = clock
+    for i in range(10):
+        clock.t_ns = i * 1_000_000
+        feed.values("state", state=f"s{i}")
+    assert feed.hold and feed.published == 0
+    session.tick()
+    assert feed.published == 10
+    for i in range(300):
+        feed.values("events", n=i)
+    assert feed.published == 10 + 256  # a full hold is sent without waiting
+    clock.t_ns = 42
+    feed.values("events", n=300)
+    session.close()
+    with (tmp_path / "run.mcap").open("rb") as f:
+        sent = [(c.topic, m.log_time, json.loads(m.data))
+                for _s, c, m in make_reader(f).iter_messages(log_time_order=False)]
+    states = [(t, d["state"]) for topic, t, d in sent if topic == "/state"]
+    assert states[:10] == [(i * 1_000_000, f"s{i}") for i in range(10)]
+    assert [d["n"] for topic, _t, d in sent if topic == "/events"] == list(range(301))
+
+
+def test_a_live_viewer_gets_values_at_once() -> None:
+    """With a server (started before or after the feed was made) nothing is held."""
+    session = VizSession()
+    try:
+        early = session.telemetry("a")
+        assert early.hold
+        early.values("state", state="idle")  # no sink yet: dropped, not held
+        session.serve("127.0.0.1", 0)
+        late = session.telemetry("b")
+        assert not early.hold and not late.hold
+    finally:
+        session.close()
+
+
 def test_several_robots_have_their_own_topics_and_frames(tmp_path: Path) -> None:
     """With many robots, topics sit under /<robot>/ and frames under <robot>/ (map shared)."""
     session = VizSession(many=True)

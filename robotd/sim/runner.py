@@ -27,7 +27,6 @@ from hal.looptime.timer_chain import timer_chain
 from hal.sim import vclock
 from hal.sim.world.body import DiffDriveBody
 from hal.sim.world.geometry import Pose
-from hal.telemetry import NULL_TELEMETRY, Telemetry
 from robotd.config import ConfigError
 from robotd.config.settings import Settings
 from robotd.control.access import socket_problem
@@ -44,6 +43,7 @@ from robotd.sim.rig import SimRig, open_sim_rig
 from robotd.sim.scenario import RobotSpec, Scenario, ScenarioError, load_scenario
 from robotd.sim.script import ScriptPlayer
 from robotd.sim.tracks import PathRecorder, TrackPoint
+from robotd.viz.runtime import telemetry_of
 from robotd.viz.session import VizError, VizSession
 from robotd.viz.sim_feed import SimFeed, open_sim_viz
 
@@ -211,7 +211,7 @@ async def _simulate(args: argparse.Namespace, scenario: Scenario, console: SimCo
             daemon = watched(spec.name, Daemon(
                 settings, rig.devices, profile, state_dir=workdir / spec.name,
                 socket_path=socket_path, wall_clock=wall_clock, notify=False,
-                handle_signals=False, telemetry=_telemetry(viz, spec.name)))
+                handle_signals=False, telemetry=telemetry_of(viz, spec.name)))
             robots[spec.name] = SimRobot(spec, settings, body, rig, daemon,
                                     RobotRecord(spec.name, body), socket_path)
     except (ConfigError, ValueError, ScenarioError, VizError) as exc:  # SiteError too
@@ -225,7 +225,7 @@ async def _simulate(args: argparse.Namespace, scenario: Scenario, console: SimCo
                                     PROFILES.build(r.settings.get("robot.profile")),
                                     state_dir=workdir / name, socket_path=r.socket_path,
                                     wall_clock=wall_clock, notify=False, handle_signals=False,
-                                    telemetry=_telemetry(viz, name)))
+                                    telemetry=telemetry_of(viz, name)))
 
     daemon_tasks: dict[str, asyncio.Task[Any]] = {}
     if scenario.world.robots_see_each_other:
@@ -382,10 +382,6 @@ def _observe(scenario: Scenario, r: SimRobot, seen_collisions: dict[str, int],
         record({"t": t_stop, "kind": "deadman", "last_command_t": last_cmd,
                 "x_m": pose.x_m, "y_m": pose.y_m})
         console.event(t_stop, f"{name}: motor board deadman stopped the motors")
-
-
-def _telemetry(viz: VizSession | None, name: str) -> Telemetry:
-    return viz.telemetry(name) if viz is not None else NULL_TELEMETRY
 
 
 def _socket_path(given: str | None, workdir: Path, name: str, index: int) -> str:

@@ -95,7 +95,7 @@ class SimFeed:
         self.tracks = tracks
         self.world_feed = FoxgloveTelemetry(session.context)
         self._ticks = 0
-        self._sent = {name: 0 for name in tracks}  # samples looked at, by robot
+        self._sent: dict[str, int] = {}  # samples looked at, by robot
         self._next_truth_s: dict[str, float] = {}
         self._grid: Grid | None = None
         try:

@@ -50,7 +50,8 @@ def _crossings(segments: FloatArray, x_m: float, y_m: float, dx: Any, dy: Any
     x1, y1, x2, y2 = segments.T
     ex, ey = x2 - x1, y2 - y1
     denom = dx * ey - dy * ex
-    with np.errstate(divide="ignore", invalid="ignore"):
+    # A denominator near zero (parallel) overflows or divides by zero: ``valid`` drops those.
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         wx, wy = x1 - x_m, y1 - y_m
         t = (wx * ey - wy * ex) / denom
         u = (wx * dy - wy * dx) / denom

@@ -53,7 +53,7 @@ def _instrument() -> None:
     from robotd.viz.telemetry import FoxgloveTelemetry
 
     for method in ("pose", "poses", "scan", "path", "grid", "graph", "image", "values",
-                   "sample"):
+                   "sample", "flush"):  # flush: the JSON values a recording alone holds
         setattr(FoxgloveTelemetry, method, _timed(getattr(FoxgloveTelemetry, method)))
 
 

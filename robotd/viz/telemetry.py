@@ -4,7 +4,10 @@ A channel is made the first time its topic is published. Each call first asks th
 whether anything listens (a connected viewer that subscribed, or a recording): when nothing
 does, no message is built. Heavy kinds are decimated on the event loop's clock (an image or
 a particle cloud at most every ``_PERIOD_S``); every message is logged with ``log_time`` =
-the loop's time in nanoseconds, so a simulator's recording is on its virtual clock.
+the loop's time in nanoseconds, so a simulator's recording is on its virtual clock. With
+``hold`` (a recording and no live viewer) JSON values wait for ``flush``, each at its call's
+time: made in a batch they cost a fraction of what they do one by one between a simulation's
+steps.
 
 With several robots in one view (``robotd sim`` of a multi-robot scenario) each robot's topics
 sit under ``/<name>/`` and its frames under ``<name>/`` (``map`` is shared).

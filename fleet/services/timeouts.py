@@ -36,15 +36,18 @@ def _since(request: Request) -> datetime:
     return request.status_changed_at
 
 
+def _timed_out(status: str, since: datetime, now: datetime, cfg: FleetSettings) -> bool:
+    """Whether a request in watched ``status`` since ``since`` has waited past its limit."""
+    limit_s = float(getattr(cfg, _WATCHED[Status(status)][0]))
+    return now - since > timedelta(seconds=limit_s)
+
+
 def any_timed_out(conn: Connection, now: datetime) -> bool:
     """Whether ``check_timeouts`` would cancel a request now: the same test on the same rows,
     read with Core (nearly every pass of the monitor finds nothing to do)."""
     cfg = read_settings(conn)
-    for status, since in conn.execute(_WATCHED_SINCE):
-        limit_s = float(getattr(cfg, _WATCHED[Status(status)][0]))
-        if now - since > timedelta(seconds=limit_s):
-            return True
-    return False
+    return any(_timed_out(status, since, now, cfg)
+               for status, since in conn.execute(_WATCHED_SINCE))
 
 
 async def check_timeouts(session: AsyncSession, now: datetime, cfg: FleetSettings) -> list[int]:
@@ -54,10 +57,9 @@ async def check_timeouts(session: AsyncSession, now: datetime, cfg: FleetSetting
     )).scalars().all()
     cancelled = []
     for request in requests:
-        key, reason, what = _WATCHED[Status(request.status)]
-        limit_s = float(getattr(cfg, key))
-        if now - _since(request) <= timedelta(seconds=limit_s):
+        if not _timed_out(request.status, _since(request), now, cfg):
             continue
+        _key, reason, what = _WATCHED[Status(request.status)]
         robot = await robot_serving(session, request)
         await cancel(session, now, request, reason=reason,
                      message=f"Request {request.id} was cancelled: {what} in time.")

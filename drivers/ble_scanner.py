@@ -268,10 +268,10 @@ class BleBeaconScanner:
             manufacturer_data = sent.manufacturer_data
             data: object = manufacturer_data.get(APPLE_COMPANY_ID) \
                 if type(manufacturer_data) is dict else None
-            # A payload seen before gives its frame here; ``_frame`` parses and keeps the rest.
+            # A payload seen before gives its frame here; ``_parse`` parses and keeps the rest.
             frame = self._frames.get(data) if type(data) is bytes else None
             if frame is None:
-                frame = self._frame(manufacturer_data)
+                frame = self._parse(manufacturer_data, data)
             if frame is None:
                 counts["not_ibeacon"] += 1
                 return
@@ -302,14 +302,10 @@ class BleBeaconScanner:
                 counts["callback_errors"] += 1
                 log.exception("ble.callback_failed", mac=sighting.mac)
 
-    def _frame(self, manufacturer_data: Mapping[int, bytes]) -> IBeaconFrame | None:
-        """``parse_ibeacon``, once per distinct payload (raises what it raises)."""
-        data: object = manufacturer_data.get(APPLE_COMPANY_ID) \
-            if type(manufacturer_data) is dict else None
-        if type(data) is bytes:
-            frame = self._frames.get(data)
-            if frame is not None:
-                return frame
+    def _parse(self, manufacturer_data: Mapping[int, bytes], data: object
+               ) -> IBeaconFrame | None:
+        """``parse_ibeacon`` of a payload not parsed before (raises what it raises), kept by
+        ``data``, its Apple payload, when that is bytes."""
         frame = parse_ibeacon(manufacturer_data)
         if frame is not None and type(data) is bytes:
             if len(self._frames) >= FRAME_CACHE_SIZE:  # a storm of distinct payloads

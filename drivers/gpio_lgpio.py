@@ -75,7 +75,7 @@ class LgpioHx711Lines:
     def pulse_sck_read(self) -> tuple[int, bool]:
         """``hal.ports.SckPulse``: ``pulse_sck()``, then DOUT read."""
         high_us = self.pulse_sck()
-        return high_us, bool(self._lg.gpio_read(self._handle, self._data))
+        return high_us, self.read_dout()
 
     def read_dout(self) -> bool:
         return bool(self._lg.gpio_read(self._handle, self._data))

@@ -3,7 +3,6 @@ ones is rejected, the accepted ones are averaged over a moving window."""
 
 from __future__ import annotations
 
-import statistics
 from collections import deque
 
 
@@ -42,7 +41,7 @@ class OutlierFilter:
         after start-up have no median to be checked against) does not move a tare."""
         if not self._accepted:
             return None
-        median = statistics.median(self._accepted)
+        median = _median(self._accepted)
         near = [c for c in self._accepted if abs(c - median) <= self.outlier_counts]
         return sum(near) / len(near)
 

@@ -2,8 +2,8 @@
 
 Python imports a compiled module in place of its ``.py`` beside it, so a source edited after
 the build would not run until ``scripts/bootstrap`` (or ``pip install -e .``) builds it again.
-The daemon and the simulator say so at start (``native.stale``), and the test suite refuses to
-run on stale builds (tests/support/native_guard.py).
+The daemon logs it at start (``native.stale``), the simulator prints it (even with --quiet),
+and the test suite refuses to run on stale builds (tests/support/native_guard.py).
 """
 
 from __future__ import annotations

@@ -20,7 +20,7 @@ from transitions.extensions.asyncio import (
 )
 
 from behaviours.context import RobotContext
-from behaviours.docking.attempts import DockAttempts
+from behaviours.machine_part import MachinePart
 from behaviours.machine_tables import CORE_TRANSITIONS, callback_names, root_states
 from behaviours.profile import Profile, StateTask
 
@@ -42,16 +42,20 @@ class _Machine(HierarchicalAsyncMachine):
 class MachineModel:
     """The machine's model: the guards and actions the core tables name (kept short)."""
 
-    def __init__(self, runtime: RobotMachine, profile: Profile) -> None:
+    def __init__(self, runtime: RobotMachine, profile: Profile,
+                 parts: tuple[MachinePart, ...] = ()) -> None:
         self._runtime = runtime
         self._profile = profile
-        self._dock_attempts: DockAttempts | None = None
+        self._part_callbacks = tuple(p.callbacks for p in parts if p.callbacks is not None)
         self.state = "boot"
 
     def __getattr__(self, name: str) -> Any:
-        # Names in a profile's own tables are the profile's methods.
+        # Names in a part's tables are its callbacks' methods; in a profile's, the profile's.
         if name.startswith("_"):
             raise AttributeError(name)
+        for callbacks in self._part_callbacks:
+            if hasattr(callbacks, name):
+                return getattr(callbacks, name)
         return getattr(self._profile, name)
 
     async def stop_motors(self, _event: Any) -> None:
@@ -59,41 +63,6 @@ class MachineModel:
 
     def timed_out(self, _event: Any) -> None:
         self._runtime.post_timeout()
-
-    # -- docking, section 4 of the seed (behaviours.docking.attempts) ------------------------
-    @property
-    def dock_attempts(self) -> DockAttempts:
-        if self._dock_attempts is None:
-            ctx = self._runtime.ctx
-            self._dock_attempts = DockAttempts(ctx.emit, ctx.store)
-        return self._dock_attempts
-
-    def start_docking(self, _event: Any) -> None:
-        attempts = self.dock_attempts
-        settings = self._runtime.ctx.settings
-        attempts.max_retries = int(settings.get("docking.max_retries"))
-        attempts.max_fallbacks = int(settings.get("docking.max_fallbacks"))
-        attempts.start(asyncio.get_running_loop().time())
-
-    def count_dock_failure(self, event: Any) -> None:
-        self.dock_attempts.failed(event.event.name, self._runtime.state,
-                                  asyncio.get_running_loop().time(),
-                                  str(event.kwargs.get("reason", "")))
-
-    def may_retry_docking(self, _event: Any) -> bool:
-        return self.dock_attempts.may_retry()
-
-    def may_fall_back(self, _event: Any) -> bool:
-        return self.dock_attempts.may_fall_back()
-
-    def fell_back(self, _event: Any) -> None:
-        self.dock_attempts.fell_back()
-
-    def gave_up_docking(self, event: Any) -> None:
-        self.dock_attempts.gave_up(str(event.kwargs.get("reason", "")))
-
-    def dock_succeeded(self, _event: Any) -> None:
-        self.dock_attempts.succeeded(asyncio.get_running_loop().time())
 
 
 @dataclass
@@ -131,9 +100,13 @@ class RobotMachine:
         self._driver: asyncio.Task[None] | None = None
         self._tasks: dict[str, asyncio.Task[None]] = {}
         self._state_tasks: dict[str, StateTask] = dict(profile.state_tasks())
-        self.states = root_states(profile.mission_states())
-        self.transitions = [*CORE_TRANSITIONS, *profile.mission_transitions()]
-        self.model = MachineModel(self, profile)
+        parts = tuple(profile.machine_parts(ctx))
+        self.states = root_states(profile.mission_states(), parts)
+        # A part's rows before the core's: where both have a trigger from one state, the
+        # part's more specific row is tried first.
+        self.transitions = [*(t for p in parts for t in p.transitions), *CORE_TRANSITIONS,
+                            *profile.mission_transitions()]
+        self.model = MachineModel(self, profile, parts)
         self.machine = _Machine(
             model=self.model, states=self.states, transitions=self.transitions,
             initial="boot", send_event=True, auto_transitions=False,

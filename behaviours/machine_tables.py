@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from behaviours.docking.tables import DOCKING_TRANSITIONS, docking_states
+from behaviours.machine_part import MachinePart
 
 RECOVERY_TIMEOUT_S = 120.0
 
@@ -17,34 +17,39 @@ ROOT_STATES = ("boot", "idle", "mission", "docking", "relocate", "recovery", "es
 MOVING_STATES = ["mission", "docking", "relocate", "recovery"]
 
 
-def root_states(mission_children: list[str | dict[str, Any]]) -> list[dict[str, Any]]:
-    """Every root state; the profile's mission states nest under ``mission``."""
+def root_states(mission_children: list[str | dict[str, Any]],
+                parts: tuple[MachinePart, ...] = ()) -> list[dict[str, Any]]:
+    """Every root state; the profile's mission states nest under ``mission``, and each part a
+    profile plugs in fills its root state (``docking``: the docking capability's phases)."""
     mission: dict[str, Any] = {"name": "mission"}
     if mission_children:
         first = mission_children[0]
         mission["children"] = mission_children
         mission["initial"] = first if isinstance(first, str) else first["name"]
-    return [
+    states: list[dict[str, Any]] = [
         {"name": "boot"},
         {"name": "idle", "on_enter": "stop_motors"},
         mission,
-        {"name": "docking", "initial": "search", "children": docking_states(),
-         "on_enter": "start_docking"},
+        {"name": "docking"},
         {"name": "relocate"},
         {"name": "recovery", "on_enter": "stop_motors", "timeout": RECOVERY_TIMEOUT_S,
          "on_timeout": "timed_out"},
         {"name": "estop", "on_enter": "stop_motors"},
         {"name": "maintenance", "on_enter": "stop_motors"},
     ]
+    by_name = {s["name"]: s for s in states}
+    for part in parts:
+        if part.root_state not in by_name or part.root_state == "mission":
+            msg = f"machine part {part.name!r}: no root state {part.root_state!r} to fill"
+            raise ValueError(msg)
+        by_name[part.root_state].update(part.state)
+    return states
 
 
 CORE_TRANSITIONS: list[dict[str, Any]] = [
-    *DOCKING_TRANSITIONS,
     {"trigger": "booted", "source": "boot", "dest": "idle"},
     {"trigger": "start_mission", "source": "idle", "dest": "mission"},
     {"trigger": "mission_done", "source": "mission", "dest": "idle"},
-    {"trigger": "go_dock", "source": ["idle", "mission", "relocate", "recovery"],
-     "dest": "docking"},
     {"trigger": "lost", "source": ["idle", "mission"], "dest": "relocate"},
     {"trigger": "relocated", "source": "relocate", "dest": "idle"},
     {"trigger": "fault", "source": ["mission", "docking", "relocate"], "dest": "recovery"},

@@ -7,8 +7,9 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 from behaviours.context import RobotContext
+from behaviours.machine_part import MachinePart
 from behaviours.persistence import MissionRecord
-from hal.options import Order, Section
+from hal.options import FileCheck, Order, Section
 
 if TYPE_CHECKING:
     from behaviours.service import Service
@@ -19,6 +20,36 @@ StateTask = Callable[[RobotContext], Awaitable[None]]
 ControlMethod = Callable[[dict[str, Any]], Awaitable[Any]]
 """A control-socket method a profile offers (``robotctl``): params -> a JSON-able result.
 Raise ValueError for bad params, ``ControlRefused`` when the robot cannot do it now."""
+
+
+Table = Callable[[list[str], list[list[Any]]], str]
+"""robotctl's table maker: ``table(headers, rows) -> text``."""
+
+
+@dataclass(frozen=True, slots=True)
+class CtlOption:
+    """An option of a profile's ``robotctl`` command: ``--by NAME`` -> params ``{"by": ...}``."""
+
+    flag: str
+    default: str
+    help: str
+
+    @property
+    def param(self) -> str:
+        return self.flag.lstrip("-").replace("-", "_")
+
+
+@dataclass(frozen=True, slots=True)
+class CtlCommand:
+    """A ``robotctl`` command a profile brings: it calls the control method ``method`` (one of
+    the profile's ``control_methods``) with its options as params."""
+
+    name: str
+    help: str
+    method: str
+    options: tuple[CtlOption, ...] = ()
+    render: Callable[[Any, Table], str] | None = None
+    """The result as text (None: robotctl's key/value table)."""
 
 
 class ControlRefused(Exception):
@@ -45,6 +76,7 @@ class Profile(Protocol):
     def on_exit(self, state: str, ctx: RobotContext) -> None: ...
     def mission_records(self) -> tuple[MissionRecord, ...]: ...
     def control_methods(self, ctx: RobotContext) -> dict[str, ControlMethod]: ...
+    def machine_parts(self, ctx: RobotContext) -> tuple[MachinePart, ...]: ...
 
 
 class BaseProfile:
@@ -80,6 +112,10 @@ class BaseProfile:
         """Control-socket methods the profile adds, named ``<profile>.<method>``."""
         return {}
 
+    def machine_parts(self, ctx: RobotContext) -> tuple[MachinePart, ...]:
+        """The capabilities it plugs into the machine (docking: ``Docking.machine_part``)."""
+        return ()
+
 
 @dataclass(frozen=True, slots=True)
 class ProfileSpec:
@@ -95,10 +131,15 @@ class ProfileSpec:
     """One line: what the robot does (``robotd sim --help``, the docs)."""
     sections: tuple[Section, ...] = ()
     orders: tuple[Order, ...] = ()
-    sim_actors: str | None = None
-    """``module:callable`` that builds the simulator's actors for such robots (the people and
-    servers around them, under ``robotd/sim/actors/``), or None. A name, not an import:
-    behaviours never import robotd; a test resolves every registered one."""
+    file_checks: tuple[FileCheck, ...] = ()
+    """Checks of the files its config points to (maps, task lists, databases), run by
+    ``check-config`` and before the daemon starts."""
+    commands: tuple[CtlCommand, ...] = ()
+    """The ``robotctl`` commands it adds (each calls one of its control methods)."""
+    sim: str | None = None
+    """The module of its simulator slice (``SIM``, a ``sim.slice.SimSlice``), or None for
+    ``sim.robots.<name>`` when that exists. A name, not an import: behaviours never import
+    the simulator."""
 
     @property
     def name(self) -> str:

@@ -38,13 +38,13 @@ from behaviours.beacons.tracker import BeaconConfig, BeaconTracker
 from behaviours.profiles.laundry.load_check import LoadCheck
 from drivers.ble_scanner import BleBeaconScanner, build_ibeacon, parse_ibeacon
 from drivers.hx711 import Gain, Hx711, clock_out
-from hal.sim import vclock
-from hal.sim.devices.ble_model import SimBleAir
-from hal.sim.devices.hx711_model import SimHx711Lines
-from hal.sim.world.body import DiffDriveBody
-from hal.sim.world.floor_plan import World
-from hal.sim.world.geometry import Pose
 from hal.telemetry import NullTelemetry
+from sim import vclock
+from sim.devices.ble_model import SimBleAir
+from sim.devices.hx711_model import SimHx711Lines
+from sim.world.body import DiffDriveBody
+from sim.world.floor_plan import World
+from sim.world.geometry import Pose
 
 UUID = "fda50693-a4e2-4fb1-afcf-c6eb07647825"
 

@@ -28,7 +28,7 @@ from behaviours.nav.distance_field import DistanceField
 from behaviours.profiles.cabinet.map_reader import parse_site_map
 from robotd.cli import main as robotd_main
 
-SCENARIOS = Path(__file__).parents[1] / "robotd" / "sim" / "scenarios"
+SCENARIOS = Path(__file__).parents[1] / "sim" / "robots" / "cabinet" / "scenarios"
 SITE = SCENARIOS / "cabinet" / "site.json"
 BOXES = ((1.0, 2.9, 1.4, 3.3), (6.6, 0.6, 7.2, 1.0))
 WRONG_M = 0.20

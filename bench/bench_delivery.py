@@ -34,10 +34,10 @@ import structlog
 
 from drivers.camera.qr_reader import QrCameraReader
 from hal.readings import Frame
-from hal.sim.devices.qr_camera_model import SimQrCamera
-from hal.sim.world.body import DiffDriveBody
-from hal.sim.world.floor_plan import Person, World
-from hal.sim.world.geometry import Pose
+from sim.devices.qr_camera_model import SimQrCamera
+from sim.world.body import DiffDriveBody
+from sim.world.floor_plan import Person, World
+from sim.world.geometry import Pose
 
 PAYLOAD = '{"order_id": 1042, "secret_key": "Qm7xT2pL9vRk4sWd"}'
 CUSTOMER = (3.0, 2.0)
@@ -191,10 +191,10 @@ def scenario_speed(name: str, runs: int) -> dict[str, Any]:
     import tempfile
     from pathlib import Path
 
-    from hal.sim import vclock
-    from robotd.sim import runner as sim_runner
-    from robotd.sim.console import SimConsole
-    from robotd.sim.scenario import load_scenario
+    from sim import runner as sim_runner
+    from sim import vclock
+    from sim.console import SimConsole
+    from sim.scenario import load_scenario
 
     wall_x, cpu_x, sim_s, oks = [], [], [], []
     for i in range(runs):

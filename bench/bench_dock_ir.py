@@ -21,7 +21,7 @@ from collections.abc import Callable
 from drivers.dock_ir import DockIrReceivers
 from drivers.dock_ir.edge_decoder import EdgeDecoder
 from hal.ports import IrEdge
-from hal.sim.devices import ir_emitter as em
+from sim.devices import ir_emitter as em
 
 DOCK_CODES = [161, 164, 165, 168, 169, 172, 173, 162]
 

@@ -28,9 +28,9 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from hal.sim import vclock
-from robotd.sim.runner import SimConsole, _run
-from robotd.sim.scenario import load_scenario
+from sim import vclock
+from sim.runner import SimConsole, _run
+from sim.scenario import load_scenario
 
 ROOM_W_M, ROOM_H_M = 5.0, 4.0
 DOCK = (0.14, 2.0)

@@ -27,7 +27,7 @@ import structlog
 from drivers.arduino import ArduinoLink, LinkConfig
 from drivers.serial_port import open_serial
 from hal.readings import MotorCommand
-from hal.sim.devices.motor_board.simavr_mcu import SimavrMcu, missing_toolchain
+from sim.devices.motor_board.simavr_mcu import SimavrMcu, missing_toolchain
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "firmware"))
 from firmware_client import PtyLink  # the tests' minimal framing helper

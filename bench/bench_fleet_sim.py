@@ -26,10 +26,10 @@ def simulator_calls(calls: int) -> None:
 
     from behaviours.profiles.laundry.fleet_link import FleetLink, fleet_client, read_token
     from fleet.site import parse_site
-    from hal.sim import vclock
-    from robotd.sim.actors.laundry import InProcessFleet, send_poll
+    from sim import vclock
+    from sim.robots.laundry.actors import InProcessFleet, send_poll
 
-    site_file = ROOT / "robotd" / "sim" / "scenarios" / "laundry-site.toml"
+    site_file = ROOT / "sim" / "robots" / "laundry" / "scenarios" / "laundry-site.toml"
     report = {"RobotName": "laundry-1", "Timestamp": "2026-01-05T08:00:00Z",
               "DetectedBeacons": [{"MacAddress": "C0:FF:EE:00:00:01", "Major": 1, "Minor": 1,
                                    "Uuid": "E2C56DB5-DFFB-48D2-B060-D0F5A71096E0",

@@ -31,10 +31,10 @@ from drivers.lidar import Ld19Lidar, LidarConfig
 from drivers.lidar.packet import LINE_BYTES_PER_S
 from drivers.lidar.parser import PacketParser
 from drivers.lidar.scan_assembler import ScanAssembler
-from hal.sim import vclock
-from hal.sim.devices.byte_pipe import corrupt_bytes
-from hal.sim.devices.ld19 import SimLd19, walls
-from hal.sim.devices.sim_serial import SimSerialPorts
+from sim import vclock
+from sim.devices.byte_pipe import corrupt_bytes
+from sim.devices.ld19 import SimLd19, walls
+from sim.devices.sim_serial import SimSerialPorts
 
 ROOM = [(1.0, -3.0, 1.0, 2.0), (-3.0, 2.0, 1.0, 2.0), (-3.0, -3.0, 1.0, -3.0),
         (-3.0, -3.0, -3.0, 2.0)]

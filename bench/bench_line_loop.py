@@ -31,9 +31,9 @@ from bench_line_tracker import pct, render_frames
 from behaviours.line.follow import LineFollower
 from hal.looptime.deadline import DeadlineSleeper
 from hal.readings import Frame, LinkStats, MotorCommand
-from hal.sim.devices.camera_model import CameraMount
 from robotd.config.loader import defaults
 from robotd.config.settings import Settings
+from sim.devices.camera_model import CameraMount
 
 
 class ReplayCamera:

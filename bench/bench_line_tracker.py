@@ -30,10 +30,10 @@ import numpy as np
 
 from behaviours.line.scan import built_kernel
 from behaviours.line.tracker import LineTracker
-from hal.sim.devices.camera_model import CameraMount, SimCamera
-from hal.sim.world.body import DiffDriveBody
-from hal.sim.world.floor_plan import PaintedLine, World
-from hal.sim.world.geometry import Pose, segments_array
+from sim.devices.camera_model import CameraMount, SimCamera
+from sim.world.body import DiffDriveBody
+from sim.world.floor_plan import PaintedLine, World
+from sim.world.geometry import Pose, segments_array
 
 LINE_Y_M = 3.0
 

@@ -66,11 +66,11 @@ def main() -> int:
 
     import importlib
 
-    from hal.sim import vclock
     from robotd.profiles import PROFILES
-    from robotd.sim import runner as sim_runner
-    from robotd.sim.console import SimConsole
-    from robotd.sim.scenario import load_scenario
+    from sim import runner as sim_runner
+    from sim import vclock
+    from sim.console import SimConsole
+    from sim.scenario import load_scenario
 
     scenario = load_scenario(opts.scenario)
     importlib.import_module("robotd.daemon")

@@ -34,7 +34,7 @@ from behaviours.nav.localisation.filter import Localiser
 from behaviours.nav.localisation.likelihood_field import DistanceGrid
 from behaviours.nav.localisation.people import PeopleTracker
 from hal.readings import LidarScan
-from hal.sim.world.geometry import raycast, segments_array
+from sim.world.geometry import raycast, segments_array
 
 RESOLUTION_M = 0.05
 Segment = tuple[float, float, float, float]

@@ -22,13 +22,13 @@ from typing import Any
 
 import numpy as np
 
-from hal.sim.devices.ld19 import SimLd19
-from hal.sim.world.body import DiffDriveBody
-from hal.sim.world.floor_plan import World
-from hal.sim.world.geometry import Pose
-from hal.sim.world.lidar_rays import LidarRays
-from hal.sim.world.walkers import Walk
-from robotd.sim.scenario import load_scenario
+from sim.devices.ld19 import SimLd19
+from sim.scenario import load_scenario
+from sim.world.body import DiffDriveBody
+from sim.world.floor_plan import World
+from sim.world.geometry import Pose
+from sim.world.lidar_rays import LidarRays
+from sim.world.walkers import Walk
 
 BEAMS_PER_SCAN = 450
 GROUP = 90
@@ -71,9 +71,9 @@ def rays_per_scan(world: World, scans: int, seed: int = 1) -> dict[str, Any]:
 
 def scenario_speed(name: str, runs: int) -> dict[str, Any]:
     """Virtual s per wall s and per CPU s of ``robotd sim <name>`` (seeds 1..runs)."""
-    from hal.sim import vclock
-    from robotd.sim import runner as sim_runner
-    from robotd.sim.console import SimConsole
+    from sim import runner as sim_runner
+    from sim import vclock
+    from sim.console import SimConsole
 
     scenario = load_scenario(name)
     wall_f, cpu_f, oks = [], [], []

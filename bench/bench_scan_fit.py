@@ -29,7 +29,7 @@ from behaviours.nav.distance_field import DistanceField
 from behaviours.nav.scan_match import MatchConfig, ScanMatcher
 from behaviours.profiles.cabinet.map_reader import parse_site_map
 from behaviours.profiles.cabinet.site_map import SiteMap
-from hal.sim.world.geometry import raycast
+from sim.world.geometry import raycast
 
 SITE = Path(__file__).parents[1] / "behaviours" / "profiles" / "cabinet" / "examples" / "site.json"
 START_AREA = (0.0, 0.0, 5.0, 4.0)

@@ -34,14 +34,14 @@ from drivers.arduino import ArduinoLink, Framing, LinkConfig
 from drivers.arduino.framing import encode_command
 from drivers.serial_port import open_serial
 from hal.readings import MotorCommand
-from hal.sim import vclock
-from hal.sim.devices.byte_pipe import corrupt_bytes
-from hal.sim.devices.motor_board.fake_mcu import FakeMcu
-from hal.sim.devices.motor_board.mcu_frames import crc8_bitwise, read_seq
-from hal.sim.devices.motor_board.pty_mcu import PtyMcu
-from hal.sim.devices.sim_serial import SimSerialPorts
-from hal.sim.world.plant import RecordingPlant
 from robotd.probes.serial import exercise
+from sim import vclock
+from sim.devices.byte_pipe import corrupt_bytes
+from sim.devices.motor_board.fake_mcu import FakeMcu
+from sim.devices.motor_board.mcu_frames import crc8_bitwise, read_seq
+from sim.devices.motor_board.pty_mcu import PtyMcu
+from sim.devices.sim_serial import SimSerialPorts
+from sim.world.plant import RecordingPlant
 
 PAYLOAD = "MOTOR:120,120,1,1"
 
@@ -78,7 +78,7 @@ async def over_pty_other_process(count: int) -> dict[str, Any]:
     with tempfile.TemporaryDirectory() as tmp:
         link_path = str(Path(tmp) / "tty")
         proc = await asyncio.create_subprocess_exec(
-            sys.executable, "-m", "hal.sim.devices.motor_board.pty_mcu", "--link", link_path,
+            sys.executable, "-m", "sim.devices.motor_board.pty_mcu", "--link", link_path,
             stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.DEVNULL)
         assert proc.stdout is not None
         port = (await proc.stdout.readline()).decode().strip()

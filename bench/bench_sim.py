@@ -75,9 +75,6 @@ def main() -> int:
     import_wall = time.perf_counter() - t0_wall
     import_cpu = time.process_time() - t0_cpu
     print(f"imports: wall {import_wall * 1000:.0f} ms, cpu {import_cpu * 1000:.0f} ms")
-    from robotd.native import compiled_modules, stale_modules
-    print(f"compiled modules (mypyc, docs/native.md): {len(compiled_modules())}"
-          f"{', STALE: ' + ', '.join(map(str, stale_modules())) if stale_modules() else ''}")
 
     profiler = cProfile.Profile() if opts.profile else None
     medians: dict[str, tuple[float, float]] = {}
@@ -136,14 +133,14 @@ TARGETS = {"square": ">= x200", "laundry": ">= x60 with recording, x70 without"}
 def _load(name: str) -> None:
     """Import what the runner loads lazily on its first run of ``name``: not part of a run."""
     from robotd.profiles import PROFILES
-    from robotd.sim.actors import actors_factory
-    from robotd.sim.scenario import load_scenario
+    from sim.actors import actors_factory
+    from sim.scenario import load_scenario
 
     scenario = load_scenario(name)
     # The daemon with its state machine and control server, the profile, the fleet's modules.
     importlib.import_module("robotd.daemon")
     if "fleet" in scenario.raw:
-        actors_factory(PROFILES.get(scenario.profile))
+        actors_factory(scenario.profile)
     PROFILES.build(scenario.profile)
 
 
@@ -151,10 +148,10 @@ def _bench(name: str, runs: int, turns: bool,
            profiler: cProfile.Profile | None, *,
            record: bool = False) -> tuple[float, float] | None:
     """Run scenario ``name`` ``runs`` times (seeds 1..runs); median (wall, cpu) speed factors."""
-    from hal.sim import vclock
-    from robotd.sim import runner as sim_runner
-    from robotd.sim.console import SimConsole
-    from robotd.sim.scenario import load_scenario
+    from sim import runner as sim_runner
+    from sim import vclock
+    from sim.console import SimConsole
+    from sim.scenario import load_scenario
 
     scenario = load_scenario(name)
     wall_factors, cpu_factors = [], []
@@ -194,7 +191,7 @@ def _counting(enabled: bool) -> Iterator[collections.Counter[str]]:
     if not enabled:
         yield counts
         return
-    from hal.sim import vclock
+    from sim import vclock
 
     handle_run = asyncio.events.Handle._run
     run_once: Callable[[Any], None] = vclock.VirtualTimeLoop._run_once

@@ -1,6 +1,6 @@
 """Keep a virtual-time loop's clock still while database work is under way.
 
-aiosqlite runs each statement in a thread. On ``hal.sim.vclock.VirtualTimeLoop`` the clock
+aiosqlite runs each statement in a thread. On ``sim.vclock.VirtualTimeLoop`` the clock
 jumps to the next timer whenever the loop has nothing ready, so without a hold a timeout could
 fire while a statement is still in its thread. Every request and every monitor pass holds the
 clock when the running loop offers ``hold_time()``; on a normal loop this does nothing.

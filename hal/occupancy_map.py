@@ -1,7 +1,7 @@
 """ROS ``map_server`` maps (PGM + YAML, as ``map_saver`` writes them), read into a numpy grid.
 
 A pure reader: no planning, no drawing. Both the navigation stack (``behaviours/nav``) and the
-simulated world (``hal/sim/world``) stand on it, which is why it sits in ``hal``.
+simulated world (``sim/world``) stand on it, which is why it sits in ``hal``.
 
 The semantics are Nav2's ``map_io.cpp`` (``loadMapYaml`` / ``loadMapFromFile``):
 - ``image`` is relative to the YAML file unless absolute; ``resolution`` m/cell; ``origin``

@@ -12,6 +12,26 @@ from typing import Any
 
 
 @dataclass(frozen=True, slots=True)
+class ConfigProblem:
+    """One problem of a config file: the file, the line (None: the file's), ``section.key``."""
+
+    path: str
+    line: int | None
+    key: str
+    message: str
+
+    def __str__(self) -> str:
+        where = f"{self.path}:{self.line}" if self.line is not None else self.path
+        return f"{where}: {self.key}: {self.message}"
+
+
+FileCheck = Callable[[dict[str, dict[str, Any]], str, dict[tuple[str, str], int]],
+                     list[ConfigProblem]]
+"""Checks the files a config points to: ``check(values, config_path, lines)`` where ``lines``
+maps ``(section, key)`` (``(section, "")``: its header) to its line; the problems, if any."""
+
+
+@dataclass(frozen=True, slots=True)
 class Option:
     """One ``section.key``: its type, default, bounds and whether it can be tuned live.
 

@@ -2,7 +2,7 @@
 
 A port is the narrowest thing a driver needs from the operating system: a byte stream for a
 serial line, two GPIO lines for the HX711, a source of edge timestamps for IR receivers, BLE
-adverts for the scanner. The real implementation wraps the OS library; ``hal.sim`` feeds the
+adverts for the scanner. The real implementation wraps the OS library; ``sim`` feeds the
 same port from the simulated world, so the real driver code runs in both.
 """
 

@@ -13,17 +13,20 @@ from pathlib import Path
 from robotd import __version__
 from robotd.config import ConfigError, Settings, load_config
 from robotd.config.overrides import overrides_path
-from robotd.native import stale_modules, warn_if_stale
 from robotd.probes import PROBES
-from robotd.profiles import PROFILES
+from robotd.profiles import DEFAULT_SCENARIO, PROFILES
 
 DEFAULT_CONFIG = "/etc/robotd/robotd.toml"
 
 
 def _scenario_help() -> str:
-    from robotd.sim.scenario import builtin_names
-
-    return f"built-in scenario ({', '.join(builtin_names())}; default laundry) or a TOML file"
+    # The simulator sits above the daemon: ``robotd sim``'s entry imports it by name.
+    try:
+        names: list[str] = importlib.import_module("sim.scenario").builtin_names()
+    except ImportError:
+        return f"a scenario TOML file (default {DEFAULT_SCENARIO})"
+    return (f"built-in scenario ({', '.join(names)}; default {DEFAULT_SCENARIO}) "
+            f"or a TOML file")
 
 
 def _positive_float(text: str) -> float:
@@ -52,7 +55,7 @@ def build_parser() -> argparse.ArgumentParser:
                "(the reasons are printed), 2 for a scenario or option that cannot be used; "
                "more robots than one get sockets PATH.NAME. Robot profiles: " + "; ".join(
                    f"{spec.name}: {spec.summary}" for spec in PROFILES.specs()))
-    sim.add_argument("scenario", nargs="?", default="laundry", metavar="SCENARIO",
+    sim.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO, metavar="SCENARIO",
                      help=_scenario_help())
     sim.add_argument("--config", help="robot config laid over the scenario's")
     sim.add_argument("--seed", type=int, help="random seed (same seed, same run)")
@@ -127,16 +130,11 @@ def cmd_check_config(args: argparse.Namespace) -> int:
 
 def cmd_sim(args: argparse.Namespace) -> int:
     try:
-        sim_runner = importlib.import_module("robotd.sim.runner")
+        sim_runner = importlib.import_module("sim.runner")
     except ImportError as exc:
         print(f"robotd sim: the simulator is not available in this installation ({exc})",
               file=sys.stderr)
         return 1
-    stale = stale_modules()
-    if stale:  # printed even with --quiet: the run would not be of the source
-        print(f"robotd sim: compiled modules older than their source run their last build: "
-              f"{', '.join(map(str, stale))} (scripts/bootstrap builds them again)",
-              file=sys.stderr)
     code: int = sim_runner.run_sim(args)
     return code
 
@@ -184,7 +182,6 @@ def cmd_run(args: argparse.Namespace) -> int:
               file=sys.stderr)
     settings = Settings(values, source=str(config_path))
     configure_logging(settings.get("logging.level"))
-    warn_if_stale()
     if settings.get("hal.backend") == "sim":
         print(f"{config_path}: hal.backend is 'sim': use `robotd sim` for the simulator",
               file=sys.stderr)

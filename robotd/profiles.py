@@ -1,15 +1,18 @@
 """The one registry of robot profiles: what ``robot.profile`` may name, and what each brings.
 
 Each profile declares itself beside its code (``behaviours/profiles/<name>/__init__.py``:
-``SPEC``: its class, devices, config sections and simulator actors); one line here adds it.
-``check-config``,
-``example-config``, ``robotd sim`` and the daemon all read this registry.
+``SPEC``: its class, devices, config sections, file checks, robotctl commands, and the name of
+its simulator slice); one line here adds it. A robot kept in a package of its own adds itself
+with one line of its packaging instead, an entry point in the group ``robotd.profiles``
+(``spinner = spinner_robot:SPEC``). ``check-config``, ``example-config``, ``robotctl``,
+``robotd sim`` and the daemon all read this registry (docs/profiles.md).
 """
 
 from __future__ import annotations
 
 import contextlib
 from collections.abc import Iterator
+from importlib.metadata import entry_points
 
 from behaviours.profile import Profile, ProfileSpec
 from behaviours.profiles import cabinet, delivery, idle, laundry, patrol, square, vacuum
@@ -71,6 +74,13 @@ class ProfileRegistry:
         return [o for spec in self.specs() for o in spec.orders]
 
 
+DEFAULT_PROFILE = "laundry"
+"""``robot.profile`` when a config names none."""
+DEFAULT_SCENARIO = "laundry"
+"""The scenario ``robotd sim`` runs when given none (a built-in of that robot's slice)."""
+DEFAULT_SIM_PROFILE = "square"
+"""The profile of a scenario file that names none (``[scenario] profile``)."""
+
 PROFILES = ProfileRegistry()
 """The robot profiles this installation knows."""
 PROFILES.register(idle.SPEC)
@@ -80,3 +90,17 @@ PROFILES.register(patrol.SPEC)
 PROFILES.register(vacuum.SPEC)
 PROFILES.register(delivery.SPEC)
 PROFILES.register(cabinet.SPEC)
+
+
+def _register_installed(registry: ProfileRegistry) -> None:
+    """The profiles installed packages declare (entry point group ``robotd.profiles``)."""
+    for entry in entry_points(group=ENTRY_POINT_GROUP):
+        spec = entry.load()
+        if not isinstance(spec, ProfileSpec):
+            msg = f"entry point {entry.name} = {entry.value}: not a ProfileSpec"
+            raise TypeError(msg)
+        registry.register(spec)
+
+
+ENTRY_POINT_GROUP = "robotd.profiles"
+_register_installed(PROFILES)

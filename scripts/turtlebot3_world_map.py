@@ -1,4 +1,4 @@
-"""Write robotd/sim/scenarios/maps/turtlebot3_world.pgm, as map_saver would have saved it.
+"""Write sim/maps/turtlebot3_world.pgm, as map_saver would have saved it.
 
 The YAML beside it is ROBOTIS' own (turtlebot3_navigation2/map/map.yaml, Apache-2.0): 384 x 384
 cells of 0.05 m, origin (-10, -10). The PGM bytes of their map.pgm were not available to us, so
@@ -42,7 +42,7 @@ def main() -> None:
     image[(d >= INRADIUS_M) & (d < INRADIUS_M + WALL_M)] = 0
     for px, py in PILLARS:
         image[np.hypot(x - px, y - py) <= PILLAR_RADIUS_M] = 0
-    out = Path(__file__).resolve().parents[1] / "robotd/sim/scenarios/maps/turtlebot3_world.pgm"
+    out = Path(__file__).resolve().parents[1] / "sim/maps/turtlebot3_world.pgm"
     header = f"P5\n# CREATOR: map_saver.cpp {RESOLUTION_M:.3f} m/pix\n{SIZE} {SIZE}\n255\n"
     out.write_bytes(header.encode() + image.tobytes())
     print(out)

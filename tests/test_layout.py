@@ -1,4 +1,9 @@
-"""The house rules of the layout: small modules, small folders, every package says what it holds."""
+"""The house rule of the layout that holds everywhere: every package says what it holds.
+
+How long a module or how full a folder may be is guidance (STYLE.md, "Our own habits", and
+docs/profiles.md), not a test: a size is a signal to look, and a cap made into a test became a
+target that modules were trimmed and split to meet.
+"""
 
 from __future__ import annotations
 
@@ -8,33 +13,14 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("robotd", "hal", "drivers", "behaviours", "fleet")
-MAX_MODULE_LINES = 400
-MAX_MODULES_SIDE_BY_SIDE = 12
-"""robotd/, hal/, behaviours/ and drivers/ (and each folder below them)."""
+PACKAGES = ("robotd", "hal", "drivers", "behaviours", "fleet", "sim")
 
 
 def _modules() -> list[Path]:
     return sorted(p for top in PACKAGES for p in (ROOT / top).rglob("*.py"))
 
 
-def _folders(top: str) -> list[Path]:
-    return sorted({p.parent for p in (ROOT / top).rglob("*.py")})
-
-
 class TestLayout:
-    @pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(ROOT)))
-    def test_no_module_is_over_400_lines(self, path: Path) -> None:
-        """One concern per module: past 400 lines a second one has crept in."""
-        assert len(path.read_text().splitlines()) <= MAX_MODULE_LINES
-
-    @pytest.mark.parametrize("folder", [f for top in ("robotd", "hal", "behaviours", "drivers")
-                                        for f in _folders(top)],
-                             ids=lambda p: str(p.relative_to(ROOT)))
-    def test_no_folder_holds_more_than_a_dozen_modules(self, folder: Path) -> None:
-        """Past a dozen modules side by side a folder wants subpackages."""
-        assert len(list(folder.glob("*.py"))) <= MAX_MODULES_SIDE_BY_SIDE
-
     @pytest.mark.parametrize("init", [p for p in _modules() if p.name == "__init__.py"],
                              ids=lambda p: str(p.parent.relative_to(ROOT)))
     def test_every_package_says_what_lives_there_in_one_line(self, init: Path) -> None:

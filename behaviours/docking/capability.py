@@ -1,8 +1,9 @@
 """Docking as a capability a profile takes in: the state tasks of every docking state, and
 the watch that runs for the whole of ``docking``.
 
-A profile with dock IR receivers merges ``Docking.state_tasks()`` into its own and fires
-``go_dock``; the tables are the core machine's (``behaviours.docking.tables``). The watch
+A profile with dock IR receivers plugs ``Docking.machine_part()`` (the ``docking`` root
+state's phases and section 4's counting: ``behaviours.docking.machine_part``) into the machine,
+merges ``Docking.state_tasks()`` into its own and fires ``go_dock``. The watch
 sends the robot to ``recovery`` (motors stopped there) when the dock IR device is lost, and
 fires ``signal_lost`` when no dock beam was seen for ``docking.signal_lost_s`` while it is
 closing in on the dock.
@@ -18,6 +19,7 @@ import structlog
 
 from behaviours.docking import approach, contact, search, station
 from behaviours.docking.align import run_align
+from behaviours.docking.machine_part import docking_part
 from behaviours.docking.senses import (
     DOCKED_RECORD,
     DockingRun,
@@ -25,6 +27,7 @@ from behaviours.docking.senses import (
     DockSenses,
     show_dock,
 )
+from behaviours.machine_part import MachinePart
 from behaviours.motion.odometry import Odometry
 from behaviours.persistence import Persisted
 from behaviours.profile import StateTask
@@ -54,6 +57,10 @@ class Docking:
         self.next_job = next_job
         self.run = DockingRun()
         self._kept: Persisted | None = None
+
+    def machine_part(self, ctx: RobotContext) -> MachinePart:
+        """The ``docking`` root state's phases, transitions and callbacks."""
+        return docking_part(ctx)
 
     def senses(self, ctx: RobotContext) -> DockSenses:
         odometry = self._odometry()

@@ -190,5 +190,7 @@ DOCKING_TRANSITIONS: list[dict[str, Any]] = [
     _t("timeout", _p("undock"), "recovery"),
     # After a restart on the dock: carry on charging.
     _t("resume_charging", "idle", _p("charging")),
+    # Below the battery threshold (or told to): from wherever the robot is, to the dock.
+    _t("go_dock", ["idle", "mission", "relocate", "recovery"], "docking"),
 ]
-"""Every docking transition; the machine adds them to its core table."""
+"""Every docking transition; a profile that docks plugs them in (``machine_part``)."""

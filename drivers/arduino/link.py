@@ -61,7 +61,7 @@ class ArduinoLink:
 
     Args:
         opener: opens the port as a stream pair (``drivers.serial_port.open_serial`` on the
-            robot, ``hal.sim.devices.sim_serial.SimSerialPorts`` in the simulator).
+            robot, ``sim.devices.sim_serial.SimSerialPorts`` in the simulator).
         config: port, baud, framing and protocol timings.
         name: device name in ``status`` and logs.
     """

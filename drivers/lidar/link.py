@@ -37,7 +37,7 @@ class Ld19Lidar:
 
     Args:
         opener: opens the port as a stream pair (``drivers.serial_port.open_serial`` on the
-            robot, ``hal.sim.devices.sim_serial.SimSerialPorts`` in the simulator).
+            robot, ``sim.devices.sim_serial.SimSerialPorts`` in the simulator).
         config: port, model, mount and timings.
         name: device name in ``status`` and logs.
     """

@@ -2,19 +2,9 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from hal.options import ConfigProblem
 
-
-@dataclass(frozen=True, slots=True)
-class ConfigProblem:
-    path: str
-    line: int | None
-    key: str
-    message: str
-
-    def __str__(self) -> str:
-        where = f"{self.path}:{self.line}" if self.line is not None else self.path
-        return f"{where}: {self.key}: {self.message}"
+__all__ = ["ConfigError", "ConfigProblem"]
 
 
 class ConfigError(Exception):

@@ -15,12 +15,11 @@ from typing import Any
 
 from behaviours.nav.map_file import map_problem
 from hal.options import Order, Section
-from robotd.config.delivery_files import delivery_file_problems
 from robotd.config.errors import ConfigError, ConfigProblem
 from robotd.config.screen import check_option, clip
 from robotd.config.sections import ORDERS, SECTIONS
-from robotd.config.site_files import cabinet_file_problems
 from robotd.config.system_limits import socket_path_problem
+from robotd.profiles import PROFILES
 
 Values = dict[str, dict[str, Any]]
 
@@ -198,8 +197,9 @@ def _system_problems(values: Values, path: str, where: dict[tuple[str, str], int
         why = map_problem(map_file, Path(path).parent)
         if why is not None:
             problems.append(ConfigProblem(path, where.get(("map", "file")), "map.file", why))
-    problems += cabinet_file_problems(values, path, where)
-    problems += delivery_file_problems(values, path, where)
+    for spec in PROFILES.specs():  # the files each robot's own config points to
+        for check in spec.file_checks:
+            problems += check(values, path, where)
     socket_path = values.get("control", {}).get("socket")
     if not isinstance(socket_path, str):
         return problems

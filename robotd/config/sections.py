@@ -20,7 +20,7 @@ from drivers.camera.qr_config import QR_CAMERA
 from drivers.dock_ir.config import IR_OPTIONS, IR_ORDERS
 from drivers.lidar.config import LIDAR, LIDAR_ORDERS
 from hal.options import Option, Order, Section
-from robotd.profiles import PROFILES, ProfileRegistry
+from robotd.profiles import DEFAULT_PROFILE, PROFILES, ProfileRegistry
 from robotd.viz.config import VIZ
 
 opt = Option
@@ -29,7 +29,7 @@ opt = Option
 def _robot_section(profiles: list[str]) -> Section:
     return Section("robot", "Who this robot is.", (
         opt("name", "str", "robot-1", "Robot name, as the fleet server knows it.", min=1),
-        opt("profile", "str", "laundry", "Which robot this is.", choices=tuple(profiles),
+        opt("profile", "str", DEFAULT_PROFILE, "Which robot this is.", choices=tuple(profiles),
             unknown="unknown profile"),
         opt("state_dir", "str", "/var/lib/robotd",
             "Where mission state and tuning overrides are kept ($STATE_DIRECTORY wins)."),

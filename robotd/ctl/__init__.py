@@ -11,6 +11,7 @@ import os
 import sys
 from typing import Any
 
+from behaviours.profile import CtlCommand
 from robotd.ctl.connection import (
     DEFAULT_SOCKET,
     EXIT_CONNECT,
@@ -20,7 +21,6 @@ from robotd.ctl.connection import (
     Connection,
     DaemonError,
 )
-from robotd.ctl.links import LINKS_METHOD, RESET_METHOD, render_links, render_reset
 
 __all__ = ["DEFAULT_SOCKET", "CannotConnect", "Connection", "DaemonError", "main", "render"]
 
@@ -56,13 +56,18 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("resume", help="leave estop for idle")
     trigger = sub.add_parser("trigger", help="fire a state machine trigger (e.g. go_dock)")
     trigger.add_argument("name", metavar="NAME")
-    loaded = sub.add_parser("confirm-loaded",
-                            help="delivery robot: the parcel is in the box (warehouse staff)")
-    loaded.add_argument("--by", default="robotctl", help="who confirms (kept in the event)")
-    sub.add_parser("links", help="cabinet robot: its node graph's links, the broken ones first")
-    sub.add_parser("reset-links", help="cabinet robot: open every broken link (a technician's "
-                   "reset, not counted against the task's max_link_resets)")
+    for command in profile_commands().values():
+        own = sub.add_parser(command.name, help=command.help)
+        for option in command.options:
+            own.add_argument(option.flag, default=option.default, help=option.help)
     return parser
+
+
+def profile_commands() -> dict[str, CtlCommand]:
+    """The commands the registered profiles add, by name."""
+    from robotd.profiles import PROFILES
+
+    return {c.name: c for spec in PROFILES.specs() for c in spec.commands}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -113,12 +118,9 @@ def _request(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
         return "estop", {"reason": args.reason}
     if args.command == "trigger":
         return "trigger", {"name": args.name}
-    if args.command == "confirm-loaded":
-        return "delivery.confirm_loaded", {"by": args.by}
-    if args.command == "links":
-        return LINKS_METHOD, {}
-    if args.command == "reset-links":
-        return RESET_METHOD, {}
+    own = profile_commands().get(args.command)
+    if own is not None:
+        return own.method, {o.param: getattr(args, o.param) for o in own.options}
     return args.command, {}
 
 
@@ -139,10 +141,9 @@ def render(command: str, result: Any) -> str:
         return _render_status(result)
     if command == "sensors":
         return _render_sensors(result)
-    if command == "links":
-        return render_links(result, table)
-    if command == "reset-links":
-        return render_reset(result)
+    own = profile_commands().get(command)
+    if own is not None and own.render is not None:
+        return own.render(result, table)
     if command == "events":
         rows = [[f"{e.get('t', 0):.3f}", str(e.get("kind", "")),
                  " ".join(f"{k}={_short(v)}" for k, v in e.items() if k not in ("t", "kind"))]

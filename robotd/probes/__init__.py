@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import importlib
 from collections.abc import Callable, Coroutine
 from typing import Any
 
@@ -46,8 +47,13 @@ def run_probe(run: Callable[[argparse.Namespace], Coroutine[Any, Any, int]],
     """Run a probe: on the virtual-time loop with ``--sim`` (a simulated device needs no wall
     clock: the answer comes at once and the same every time; a bit-banged simulated HX711 on
     the real clock would lose reads to the interpreter's pauses), else on a real loop."""
-    from hal.sim import vclock
-
     if getattr(args, "sim", False):
-        return int(vclock.run(run(args)))
+        return int(simulator().run_virtual(run(args)))
     return asyncio.run(run(args))
+
+
+def simulator() -> Any:
+    """``sim.probe_devices``, the simulated devices a ``--sim`` probe reads: imported by name
+    here, the probe's entry into the simulator (as ``robotd sim``'s), because the simulator
+    sits above the daemon and nothing of the runtime imports it."""
+    return importlib.import_module("sim.probe_devices")

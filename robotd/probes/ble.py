@@ -11,7 +11,6 @@ import argparse
 import asyncio
 import json
 import math
-import random
 import statistics
 import sys
 from collections import defaultdict
@@ -22,7 +21,7 @@ from drivers.ble_scanner import BleBeaconScanner, ScannerFactory, bleak_scanner_
 from hal.devices import DeviceUnavailable
 from hal.readings import BeaconSighting
 from robotd.config.settings import Settings
-from robotd.probes import run_standalone
+from robotd.probes import run_standalone, simulator
 
 SIM_UUID = "fda50693-a4e2-4fb1-afcf-c6eb07647825"
 
@@ -41,17 +40,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _sim_factory(stack: list[Any]) -> ScannerFactory:
-    from hal.sim.devices.ble_model import SimBleAir
-    from hal.sim.world.body import DiffDriveBody
-    from hal.sim.world.floor_plan import World
-    from hal.sim.world.geometry import Pose
-
-    world = World.from_table({"width_m": 6, "height_m": 4, "beacons": [
-        {"mac": "C3:00:00:00:01:03", "uuid": SIM_UUID, "major": 1, "minor": 103,
-         "x_m": 4.0, "y_m": 2.0, "room": "103"}]})
-    air = SimBleAir(DiffDriveBody(world, Pose(2.0, 2.0, 0.0)), rng=random.Random(1))
-    stack.append(air)
-    return air.scanner_factory()  # type: ignore[no-any-return]
+    beacons = [{"mac": "C3:00:00:00:01:03", "uuid": SIM_UUID, "major": 1, "minor": 103,
+                "x_m": 4.0, "y_m": 2.0, "room": "103"}]
+    factory: ScannerFactory = simulator().ble_scanners(beacons, stack)
+    return factory
 
 
 async def run(args: argparse.Namespace) -> int:

@@ -30,7 +30,7 @@ from hal.devices import DeviceUnavailable
 from hal.readings import Frame
 from robotd.config.errors import ConfigError
 from robotd.config.loader import defaults, load_config
-from robotd.probes import run_standalone
+from robotd.probes import run_standalone, simulator
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -133,19 +133,10 @@ async def _measure(camera: CaptureCamera, args: argparse.Namespace) -> dict[str,
 
 
 async def _measure_sim(args: argparse.Namespace, camera_cfg: dict[str, Any]) -> dict[str, Any]:
-    from hal.sim.devices.camera_model import CameraMount, SimCamera
-    from hal.sim.world.body import DiffDriveBody
-    from hal.sim.world.floor_plan import PaintedLine, World
-    from hal.sim.world.geometry import Pose, segments_array
-
     colour = args.colour if args.colour in ("black", "white", "red", "green", "blue",
                                             "yellow") else "black"
-    world = World(4.0, 4.0, segments_array([]),
-                  lines=[PaintedLine("line", ((0.0, 2.0), (4.0, 2.0)), colour, 0.025)])
-    body = DiffDriveBody(world, Pose(1.0, 2.0 + args.sim_offset_m, 0.0))
-    camera = SimCamera(world, body, CameraMount(width_px=camera_cfg["width"],
-                                                height_px=camera_cfg["height"],
-                                                fps=camera_cfg["fps"]))
+    camera = simulator().camera(colour, args.sim_offset_m, camera_cfg["width"],
+                                camera_cfg["height"], camera_cfg["fps"])
     loop = asyncio.get_running_loop()
     await camera.start()
     t0 = loop.time()

@@ -14,7 +14,6 @@ import argparse
 import asyncio
 import json
 import math
-import random
 import statistics
 import sys
 from collections.abc import Callable
@@ -25,7 +24,7 @@ from hal.devices import DeviceUnavailable
 from hal.ports import Hx711Lines
 from robotd.config.errors import ConfigError
 from robotd.config.loader import defaults, load_config
-from robotd.probes import run_standalone
+from robotd.probes import run_standalone, simulator
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -83,9 +82,7 @@ async def run(args: argparse.Namespace) -> int:
     load = {"kg": 0.0 if calibrating or args.tare else args.sim_kg}
     open_lines: Callable[[], Hx711Lines]
     if args.sim:
-        from hal.sim.devices.hx711_model import SimHx711Lines
-
-        sim = SimHx711Lines(weight_kg=lambda: load["kg"], sps=cfg["sps"], rng=random.Random(1))
+        sim = simulator().hx711_lines(lambda: load["kg"], cfg["sps"])
         open_lines = lambda: sim  # noqa: E731
     else:
         from drivers.gpio_lgpio import lgpio_lines_opener

@@ -30,7 +30,7 @@ from hal.readings import LidarScan
 from robotd.config.errors import ConfigError
 from robotd.config.loader import defaults, load_config
 from robotd.config.settings import Settings
-from robotd.probes import run_standalone
+from robotd.probes import run_standalone, simulator
 
 # The simulated LD19's room: a wall 1 m ahead, 2 m left, 3 m right and behind.
 SIM_ROOM = [(1.0, -3.0, 1.0, 2.0), (-3.0, 2.0, 1.0, 2.0), (-3.0, -3.0, 1.0, -3.0),
@@ -65,14 +65,9 @@ def _config(args: argparse.Namespace) -> LidarConfig:
 
 
 def _sim_opener(config: LidarConfig, corrupt_pct: float) -> SerialOpener:
-    from hal.sim.devices.ld19 import SimLd19, walls
-    from hal.sim.devices.sim_serial import SimSerialPorts
-
-    device = SimLd19(walls(SIM_ROOM), model=config.model.value, seed=1)
-    device.corrupt(corrupt_pct)
-    ports = SimSerialPorts()
-    ports.attach(config.port, device)
-    return ports
+    opener: SerialOpener = simulator().ld19_ports(SIM_ROOM, config.model.value, config.port,
+                                                  corrupt_pct)
+    return opener
 
 
 async def run(args: argparse.Namespace) -> int:

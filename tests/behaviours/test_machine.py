@@ -8,9 +8,11 @@ from typing import Any
 import pytest
 
 from behaviours.context import RobotContext
+from behaviours.docking.machine_part import docking_part
 from behaviours.docking.tables import SEARCH_TIMEOUT_S as DOCK_SEARCH_TIMEOUT_S
 from behaviours.docking.tables import STEP_TIMEOUT_S as DOCK_STEP_TIMEOUT_S
 from behaviours.machine import MachineModel, RobotMachine
+from behaviours.machine_part import MachinePart
 from behaviours.machine_tables import (
     CORE_TRANSITIONS,
     ROOT_STATES,
@@ -21,9 +23,9 @@ from behaviours.profile import BaseProfile, StateTask
 from behaviours.profiles.idle import IdleProfile
 from hal.backend import Devices
 from hal.ports import system_wall_clock
-from hal.sim import vclock
 from robotd.config import Settings
 from robotd.config.loader import defaults
+from sim import vclock
 
 
 class DictStore(dict[str, Any]):
@@ -60,6 +62,20 @@ class DriveProfile(BaseProfile):
 
     def on_exit(self, state: str, ctx: RobotContext) -> None:
         self.hooks.append(("exit", state))
+
+
+class DockingIdle(IdleProfile):
+    """The idle robot with the docking capability plugged in (as the vacuum has it)."""
+
+    def machine_parts(self, ctx: RobotContext) -> tuple[MachinePart, ...]:
+        return (docking_part(ctx),)
+
+
+class DockingDrive(DriveProfile):
+    """``DriveProfile`` with the docking capability plugged in."""
+
+    def machine_parts(self, ctx: RobotContext) -> tuple[MachinePart, ...]:
+        return (docking_part(ctx),)
 
 
 class Rig:
@@ -140,7 +156,7 @@ class TestTransitions:
             await rig.machine.trigger("beam_detected")
             return rig.machine.state
 
-        assert run_with(IdleProfile(), body) == "docking.search.force_field_detect"
+        assert run_with(DockingIdle(), body) == "docking.search.force_field_detect"
 
     def test_every_transition_is_reported_with_source_destination_and_trigger(self) -> None:
         """on_transition hears (src, dst, trigger) for each transition, in order."""
@@ -148,7 +164,7 @@ class TestTransitions:
             await rig.machine.trigger("go_dock")
             return rig.transitions
 
-        assert run_with(IdleProfile(), body) == [
+        assert run_with(DockingIdle(), body) == [
             ("boot", "idle", "booted"), ("idle", "docking.search.wall_follow", "go_dock")]
 
     def test_a_refused_trigger_returns_false_and_changes_nothing(self) -> None:
@@ -158,7 +174,7 @@ class TestTransitions:
             unknown = await rig.machine.trigger("no_such_trigger")
             return refused, unknown, rig.machine.state
 
-        assert run_with(IdleProfile(), body) == (False, False, "idle")
+        assert run_with(DockingIdle(), body) == (False, False, "idle")
 
     @pytest.mark.parametrize("path", [
         ["start_mission"], ["go_dock"], ["go_dock", *TO_POSITION],
@@ -174,7 +190,7 @@ class TestTransitions:
             assert await rig.machine.trigger("estop")
             return rig.machine.state, rig.motor_stops - stops
 
-        state, stops = run_with(DriveProfile(), body)
+        state, stops = run_with(DockingDrive(), body)
         assert state == "estop"
         assert stops >= 1
 
@@ -184,7 +200,7 @@ class TestTransitions:
             await rig.machine.trigger("resume")
             return rig.machine.state
 
-        assert run_with(IdleProfile(), body) == "idle"
+        assert run_with(DockingIdle(), body) == "idle"
 
     def test_profile_states_nest_under_mission_with_hooks(self) -> None:
         """mission's first child is its initial state; enter/exit hooks see dotted paths."""
@@ -215,7 +231,7 @@ class TestTimeouts:
             await rig.moved.wait()
             return rig.machine.state, loop.time() - start
 
-        state, waited_s = run_with(IdleProfile(), body)
+        state, waited_s = run_with(DockingIdle(), body)
         assert state == "docking.search.wall_follow"
         assert waited_s == DOCK_STEP_TIMEOUT_S
 
@@ -232,7 +248,7 @@ class TestTimeouts:
             await asyncio.sleep(DOCK_STEP_TIMEOUT_S - 2)
             return rig.machine.state
 
-        assert run_with(IdleProfile(), body) == "docking.approach.front_beam_detect"
+        assert run_with(DockingIdle(), body) == "docking.approach.front_beam_detect"
 
     def test_the_third_failure_falls_back_and_spent_fallbacks_end_in_recovery(self) -> None:
         """Section 4: under 3 failures retry, at 3 fall back to wall following (count reset);
@@ -251,7 +267,7 @@ class TestTimeouts:
                 seen.append(rig.machine.state)
             return seen, [f for k, f in rig.events if k == "dock.result"]
 
-        states, results = run_with(IdleProfile(), body)
+        states, results = run_with(DockingIdle(), body)
         retry, fallback = "docking.dock.retry", "docking.search.wall_follow"
         assert states == [retry, retry, fallback] * 2 + [retry, retry, "recovery"]
         assert [r["error_code"] for r in results] == [906] * 9
@@ -325,7 +341,7 @@ class TestStateTasks:
             codes = [f["error_code"] for k, f in rig.events if k == "dock.result"]
             return rig.machine.state, loop.time(), codes
 
-        state, t_s, codes = run_with(IdleProfile(), body)
+        state, t_s, codes = run_with(DockingIdle(), body)
         assert state == "recovery"
         assert t_s == pytest.approx(9 * DOCK_SEARCH_TIMEOUT_S)
         assert codes == [904] * 9
@@ -343,4 +359,4 @@ class TestDriver:
             await asyncio.wait({rig.task}, timeout=5)
             return rig.task.done()
 
-        assert run_with(IdleProfile(), body) is True
+        assert run_with(DockingIdle(), body) is True

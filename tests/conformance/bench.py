@@ -8,8 +8,8 @@ from typing import Any
 
 from drivers.arduino import ArduinoLink, LinkConfig
 from hal.ports import SerialOpener
-from hal.sim.devices.motor_board.dock_inputs import DockInputs
-from hal.sim.world.plant import RecordingPlant
+from sim.devices.motor_board.dock_inputs import DockInputs
+from sim.world.plant import RecordingPlant
 
 
 @dataclass

@@ -24,10 +24,10 @@ from bench import PlantBench, TimedPlant
 from drivers.arduino import ArduinoLink
 from drivers.serial_port import open_serial
 from hal.ports import SerialOpener
-from hal.sim import vclock
-from hal.sim.devices.motor_board.fake_mcu import FakeMcu
-from hal.sim.devices.motor_board.pty_mcu import PtyMcu
-from hal.sim.devices.sim_serial import SimSerialPorts
+from sim import vclock
+from sim.devices.motor_board.fake_mcu import FakeMcu
+from sim.devices.motor_board.pty_mcu import PtyMcu
+from sim.devices.sim_serial import SimSerialPorts
 
 FAULTS = frozenset({"corrupt", "unplug", "reset", "delay"})
 
@@ -41,7 +41,7 @@ class McuEndpoint(Protocol):
     """
 
     name: str
-    virtual_time: bool  # True: scenarios run on hal.sim.vclock's VirtualTimeLoop
+    virtual_time: bool  # True: scenarios run on sim.vclock's VirtualTimeLoop
     faults: frozenset[str]  # subset of FAULTS this endpoint can inject
     timing_slack_s: float
     opener: SerialOpener  # opens ``port`` as a raw stream pair (for byte-level tests)

@@ -15,9 +15,9 @@ import pytest
 from bench import PlantBench, TimedPlant
 from drivers.serial_port import open_serial
 from hal.ports import SerialOpener
-from hal.sim.devices.motor_board.dock_inputs import DockInputs
-from hal.sim.devices.motor_board.simavr_bridge import SimavrBridge
-from hal.sim.devices.motor_board.simavr_mcu import SimavrMcu, missing_toolchain
+from sim.devices.motor_board.dock_inputs import DockInputs
+from sim.devices.motor_board.simavr_bridge import SimavrBridge
+from sim.devices.motor_board.simavr_mcu import SimavrMcu, missing_toolchain
 
 
 class SimavrEndpoint(PlantBench):

@@ -9,10 +9,10 @@ from dataclasses import replace
 
 from drivers.arduino import ArduinoLink, LinkConfig
 from hal.ports import StreamPair
-from hal.sim import vclock
-from hal.sim.devices.motor_board.fake_mcu import FakeMcu
-from hal.sim.devices.sim_serial import SimSerialPorts
-from hal.sim.world.plant import RecordingPlant
+from sim import vclock
+from sim.devices.motor_board.fake_mcu import FakeMcu
+from sim.devices.sim_serial import SimSerialPorts
+from sim.world.plant import RecordingPlant
 
 PORT = "/dev/ttyACM0"
 

@@ -6,7 +6,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from drivers.arduino.crc8 import crc8, crc8_joined
-from hal.sim.devices.motor_board.mcu_frames import crc8_bitwise
+from sim.devices.motor_board.mcu_frames import crc8_bitwise
 
 
 class TestCrc8:

@@ -15,10 +15,10 @@ from serial_frames import frame_body
 from drivers.arduino import ArduinoLink, Framing, LinkConfig
 from hal.devices import LinkDown
 from hal.readings import LedMode, MotorCommand
-from hal.sim import vclock
-from hal.sim.devices.motor_board.fake_mcu import FakeMcu
-from hal.sim.devices.sim_serial import SimSerialPorts
-from hal.sim.world.plant import RecordingPlant
+from sim import vclock
+from sim.devices.motor_board.fake_mcu import FakeMcu
+from sim.devices.sim_serial import SimSerialPorts
+from sim.world.plant import RecordingPlant
 
 
 class TestFaultsAndRecovery:

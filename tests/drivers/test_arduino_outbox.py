@@ -5,7 +5,7 @@ from __future__ import annotations
 import asyncio
 
 from drivers.arduino.outbox import Command, Delivery, Outbox, Outcome
-from hal.sim import vclock
+from sim import vclock
 
 
 def command(payload: str) -> Command:

@@ -12,8 +12,8 @@ from serial_frames import frame_body
 from drivers.arduino.framing import Ack, Framing, Garbled, Line, Telemetry
 from drivers.arduino.receiver import LineReceiver, LinkBroken
 from drivers.arduino.stats import LinkCounters
-from hal.sim import vclock
-from hal.sim.devices.byte_pipe import BytePipe
+from sim import vclock
+from sim.devices.byte_pipe import BytePipe
 
 
 class Catch:

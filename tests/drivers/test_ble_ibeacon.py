@@ -26,7 +26,7 @@ from drivers.ble_scanner import (
 )
 from hal.devices import BeaconScanner
 from hal.readings import BeaconSighting
-from hal.sim import vclock
+from sim import vclock
 
 ESTIMOTE = "b9407f30-f5f8-466e-aff9-25556b57fe6d"
 AIRLOCATE = "e2c56db5-dffb-48d2-b060-d0f5a71096e0"

@@ -14,11 +14,11 @@ import pytest
 from behaviours.line.tracker import LineTracker
 from drivers.camera import CaptureCamera, PiCamera, UvcCamera, VideoFileCamera, open_camera, probe
 from hal.devices import Camera, DeviceUnavailable
-from hal.sim import vclock
-from hal.sim.devices.camera_model import SimCamera
-from hal.sim.world.body import DiffDriveBody
-from hal.sim.world.floor_plan import PaintedLine, World
-from hal.sim.world.geometry import Pose, segments_array
+from sim import vclock
+from sim.devices.camera_model import SimCamera
+from sim.world.body import DiffDriveBody
+from sim.world.floor_plan import PaintedLine, World
+from sim.world.geometry import Pose, segments_array
 
 WIDTH, HEIGHT = 160, 120
 

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from drivers.dock_ir.edge_decoder import EdgeDecoder
 from hal.ports import IrEdge
-from hal.sim.devices import ir_emitter as em
+from sim.devices import ir_emitter as em
 
 DOCK_CODES = [161, 164, 168, 172, 165, 169, 173, 162]
 

@@ -14,10 +14,10 @@ from drivers.dock_ir.config import DockIrConfig
 from drivers.dock_ir.gpio_edges import LgpioIrEdges
 from hal.devices import DockIr
 from hal.ports import IrEdgeSource
-from hal.sim import vclock
-from hal.sim.devices import ir_emitter as em
 from robotd.config.loader import defaults
 from robotd.config.settings import Settings
+from sim import vclock
+from sim.devices import ir_emitter as em
 
 RECEIVERS = ("omni", "front_left", "rear")
 

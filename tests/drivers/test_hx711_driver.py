@@ -15,11 +15,11 @@ from hypothesis import strategies as st
 from drivers.hx711 import Gain, Hx711
 from drivers.hx711_filter import _median
 from hal.devices import DeviceUnavailable, LoadCell
-from hal.sim import vclock
-from hal.sim.devices.hx711_model import SimHx711Lines
-from hal.sim.world.body import DiffDriveBody
-from hal.sim.world.floor_plan import World
-from hal.sim.world.geometry import Pose
+from sim import vclock
+from sim.devices.hx711_model import SimHx711Lines
+from sim.world.body import DiffDriveBody
+from sim.world.floor_plan import World
+from sim.world.geometry import Pose
 
 
 def _rig(gain: Gain = Gain.A128, sps: int = 10, **sim: Any) -> tuple[

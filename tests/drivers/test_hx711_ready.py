@@ -14,8 +14,8 @@ from hypothesis import strategies as st
 from drivers.hx711 import Hx711
 from drivers.hx711_ready import wait_dout_low
 from hal.ports import DoutAlert
-from hal.sim import vclock
-from hal.sim.devices.hx711_model import SimHx711Lines
+from sim import vclock
+from sim.devices.hx711_model import SimHx711Lines
 
 _TURN_S = 1e-9  # the virtual-time loop runs timers due within 1 ns in one turn
 

@@ -14,12 +14,12 @@ import drivers.lidar
 from drivers.lidar import Ld19Lidar, LidarConfig, Model
 from hal.devices import DeviceUnavailable, Lidar, LidarStale
 from hal.readings import LidarScan
-from hal.sim import vclock
-from hal.sim.devices.ld19 import SimLd19, walls
-from hal.sim.devices.sim_serial import SimSerialPorts
 from robotd.config.errors import ConfigError
 from robotd.config.loader import defaults, load_config_text
 from robotd.config.settings import Settings
+from sim import vclock
+from sim.devices.ld19 import SimLd19, walls
+from sim.devices.sim_serial import SimSerialPorts
 
 PORT = "/dev/ttyUSB0"
 # A room around the sensor: a wall 1 m ahead (x), 2 m to the left (y), 3 m right and behind.

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from drivers.lidar.packet import PACKET_BYTES, Packet
-from hal.sim import vclock
-from hal.sim.devices.ld19 import SimLd19, walls
-from hal.sim.devices.sim_serial import SimSerialPorts
+from sim import vclock
+from sim.devices.ld19 import SimLd19, walls
+from sim.devices.sim_serial import SimSerialPorts
 
 PORT = "/dev/ttyUSB0"
 

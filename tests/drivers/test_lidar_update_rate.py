@@ -10,9 +10,9 @@ from hypothesis import strategies as st
 
 from drivers.lidar import Ld19Lidar, LidarConfig
 from hal.readings import LidarScan
-from hal.sim import vclock
-from hal.sim.devices.ld19 import SimLd19, walls
-from hal.sim.devices.sim_serial import SimSerialPorts
+from sim import vclock
+from sim.devices.ld19 import SimLd19, walls
+from sim.devices.sim_serial import SimSerialPorts
 
 PORT = "/dev/ttyUSB0"
 ARRIVAL_SLACK_S = 0.011

@@ -11,11 +11,11 @@ import pytest
 from drivers.camera.qr_reader import QrCameraReader
 from hal.devices import QrReader
 from hal.readings import Frame
-from hal.sim import vclock
-from hal.sim.devices.qr_camera_model import SimQrCamera
-from hal.sim.world.body import DiffDriveBody
-from hal.sim.world.floor_plan import Person, World
-from hal.sim.world.geometry import Pose
+from sim import vclock
+from sim.devices.qr_camera_model import SimQrCamera
+from sim.world.body import DiffDriveBody
+from sim.world.floor_plan import Person, World
+from sim.world.geometry import Pose
 
 PAYLOAD = '{"order_id": 12, "secret_key": "abcdefgh12345678"}'
 

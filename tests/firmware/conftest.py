@@ -7,7 +7,7 @@ from collections.abc import AsyncIterator
 import pytest
 from firmware_client import PtyLink
 
-from hal.sim.devices.motor_board.simavr_mcu import SimavrMcu, missing_toolchain
+from sim.devices.motor_board.simavr_mcu import SimavrMcu, missing_toolchain
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:

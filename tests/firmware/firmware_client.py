@@ -1,7 +1,7 @@
 """A minimal host side of the serial link, written for the firmware tests only.
 
 It frames and checks lines itself, with the bitwise CRC-8 of the simulated board
-(``hal.sim.devices.motor_board.mcu_frames``), so the firmware is tested against the contract
+(``sim.devices.motor_board.mcu_frames``), so the firmware is tested against the contract
 independently of ``drivers/arduino``.
 """
 
@@ -12,7 +12,7 @@ import contextlib
 import os
 import tty
 
-from hal.sim.devices.motor_board.mcu_frames import (
+from sim.devices.motor_board.mcu_frames import (
     crc8_bitwise as crc8,  # the firmware's own bitwise CRC
 )
 

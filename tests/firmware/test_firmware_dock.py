@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from firmware_client import PtyLink
 
-from hal.sim.devices.motor_board.simavr_mcu import SimavrMcu
+from sim.devices.motor_board.simavr_mcu import SimavrMcu
 
 
 async def fields(link: PtyLink, prefix: str) -> list[int]:

@@ -12,11 +12,11 @@ import asyncio
 
 from firmware_client import PtyLink
 
-from hal.sim.devices.motor_board.simavr_bridge import SimavrBridge
-from hal.sim.devices.motor_board.simavr_mcu import SimavrMcu
-from hal.sim.world.body import BodyParams, DiffDriveBody
-from hal.sim.world.floor_plan import World
-from hal.sim.world.geometry import Pose
+from sim.devices.motor_board.simavr_bridge import SimavrBridge
+from sim.devices.motor_board.simavr_mcu import SimavrMcu
+from sim.world.body import BodyParams, DiffDriveBody
+from sim.world.floor_plan import World
+from sim.world.geometry import Pose
 
 # (left, right) ticks per 10 ms message, and how many messages: about 600 transitions/s per
 # wheel (0.6 m/s on a 35 mm wheel with 360 x4 ticks per turn is 980/s), both directions,

@@ -7,7 +7,7 @@ import random
 
 from firmware_client import PtyLink, crc8, frame, unframe
 
-from hal.sim.devices.motor_board.simavr_mcu import SimavrMcu
+from sim.devices.motor_board.simavr_mcu import SimavrMcu
 
 
 class TestFramingHelper:

@@ -6,9 +6,9 @@ import asyncio
 
 from firmware_client import PtyLink
 
-from hal.sim.devices.motor_board.simavr_bridge import SimavrBridge
-from hal.sim.devices.motor_board.simavr_mcu import SimavrMcu
-from hal.sim.world.plant import RecordingPlant
+from sim.devices.motor_board.simavr_bridge import SimavrBridge
+from sim.devices.motor_board.simavr_mcu import SimavrMcu
+from sim.world.plant import RecordingPlant
 
 
 class TestMotors:

@@ -14,7 +14,7 @@ from fleet.app import create_app
 from fleet.clock import loop_clock
 from fleet.services.timeouts import any_timed_out
 from fleet.site import parse_site
-from hal.sim import vclock
+from sim import vclock
 
 ROBOT = "robot-1"
 

@@ -7,7 +7,7 @@ import asyncio
 import pytest
 
 from hal.latest import LatestValue
-from hal.sim import vclock
+from sim import vclock
 
 
 class TestLatestValue:

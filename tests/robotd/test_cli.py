@@ -84,9 +84,9 @@ class TestSim:
     def test_sim_parses_the_contract_arguments(self, monkeypatch: pytest.MonkeyPatch) -> None:
         """The runner gets SCENARIO, seed, speed, socket, report, quiet and mcu."""
         seen = {}
-        runner = types.ModuleType("robotd.sim.runner")
+        runner = types.ModuleType("sim.runner")
         runner.run_sim = lambda args: seen.update(vars(args)) or 0  # type: ignore[attr-defined]
-        monkeypatch.setitem(sys.modules, "robotd.sim.runner", runner)
+        monkeypatch.setitem(sys.modules, "sim.runner", runner)
         assert cli.main(["sim", "square", "--seed", "3", "--speed", "5", "--socket", "/tmp/s",
                          "--report", "out", "--quiet", "--mcu", "simavr"]) == 0
         assert seen["scenario"] == "square"

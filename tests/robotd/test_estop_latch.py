@@ -22,10 +22,10 @@ import pytest
 from daemon_harness import RecordingMotors, RpcClient, running_daemon
 
 from hal.backend import Devices
-from hal.sim.devices.motor_board.fake_mcu import FakeMcu
-from hal.sim.devices.motor_board.pty_mcu import PtyMcu
-from hal.sim.world.plant import RecordingPlant
 from robotd import ctl
+from sim.devices.motor_board.fake_mcu import FakeMcu
+from sim.devices.motor_board.pty_mcu import PtyMcu
+from sim.world.plant import RecordingPlant
 
 START_GUARD_S = 30.0
 

@@ -49,8 +49,8 @@ class TestFacets:
         """encoders/front_range/battery are the link's feeds, motors the link itself."""
         from drivers.arduino.link import ArduinoLink
         from hal.backend import Devices
-        from hal.sim.devices.sim_serial import SimSerialPorts
         from robotd.hardware import HARDWARE, fill_slots
+        from sim.devices.sim_serial import SimSerialPorts
 
         link = ArduinoLink(SimSerialPorts())
         devices = Devices()

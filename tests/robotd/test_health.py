@@ -6,9 +6,9 @@ import asyncio
 import socket
 from pathlib import Path
 
-from hal.sim import vclock
 from robotd.health import LoopMonitor, WatchdogFeeder, percentile
 from robotd.sdnotify import Notifier
+from sim import vclock
 
 
 class TestLoopMonitor:

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from hal.sim import vclock
 from robotd.probes import ble, hx711
+from sim import vclock
 
 
 def _args(module: object, argv: list[str]) -> argparse.Namespace:

@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 from drivers.camera import UvcCamera, VideoFileCamera, from_settings
-from hal.sim import vclock
 from robotd.config.loader import defaults
 from robotd.config.settings import Settings
 from robotd.probes import camera as probe
+from sim import vclock
 
 
 def _args(argv: list[str]) -> argparse.Namespace:

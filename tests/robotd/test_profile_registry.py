@@ -13,7 +13,6 @@ from hal.options import Option, Section
 from robotd import cli
 from robotd.config.sections import SECTIONS
 from robotd.profiles import PROFILES
-from robotd.sim.actors import actors_factory
 
 
 class _Throwaway(BaseProfile):
@@ -84,14 +83,6 @@ class TestEveryRegisteredProfile:
         spec = PROFILES.get(name)
         profile = PROFILES.build(name)
         assert (profile.name, tuple(profile.devices)) == (spec.name, spec.devices)
-
-    @pytest.mark.parametrize("name", PROFILES.names())
-    def test_its_sim_actors_resolve_to_a_factory(self, name: str) -> None:
-        """``sim_actors`` is a name, not an import (behaviours never import robotd): every
-        one must resolve."""
-        spec = PROFILES.get(name)
-        factory = actors_factory(spec)
-        assert (factory is None) == (spec.sim_actors is None)
 
     @pytest.mark.parametrize("name", PROFILES.names())
     def test_its_package_holds_its_spec(self, name: str) -> None:

@@ -14,6 +14,7 @@ from test_robotctl import robotctl
 from behaviours.context import RobotContext
 from behaviours.motion.odometry import Odometry
 from behaviours.profiles.cabinet.config import CabinetConfig
+from behaviours.profiles.cabinet.ctl_commands import LINKS_METHOD, RESET_METHOD
 from behaviours.profiles.cabinet.map_reader import parse_site_map
 from behaviours.profiles.cabinet.profile import CabinetProfile
 from behaviours.profiles.cabinet.site import build_site
@@ -24,8 +25,7 @@ from behaviours.profiles.delivery.profile import DeliveryProfile
 from behaviours.service import Service
 from robotd.ctl import _request as ctl_request
 from robotd.ctl import build_parser
-from robotd.ctl.links import LINKS_METHOD, RESET_METHOD
-from robotd.sim.nav.cabinet_checks import cabinet_figures
+from sim.robots.cabinet.checks import cabinet_figures
 
 EXAMPLES = Path(__file__).parents[2] / "behaviours" / "profiles" / "cabinet" / "examples"
 DOOR = ["door:ab:a", "door:ab:b"]

@@ -13,9 +13,9 @@ import sys
 import tempfile
 from pathlib import Path
 
-from hal.sim.devices.motor_board.fake_mcu import FakeMcu
-from hal.sim.devices.motor_board.pty_mcu import PtyMcu
-from hal.sim.world.plant import RecordingPlant
+from sim.devices.motor_board.fake_mcu import FakeMcu
+from sim.devices.motor_board.pty_mcu import PtyMcu
+from sim.world.plant import RecordingPlant
 
 STOP_LIMIT_S = 5.0
 START_GUARD_S = 30.0

@@ -9,8 +9,8 @@ from typing import Any
 
 import pytest
 
-from hal.sim import vclock
 from robotd.supervisor import RestartPolicy, StartFailed, Supervisor
+from sim import vclock
 
 
 class Recorder:

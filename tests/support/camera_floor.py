@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from hal.sim.world.floor_plan import PaintedLine, World
-from hal.sim.world.geometry import segments_array
+from sim.world.floor_plan import PaintedLine, World
+from sim.world.geometry import segments_array
 
 LOOP_AND_SPUR = (
     PaintedLine("loop", ((0.5, 0.5), (3.5, 0.5), (3.5, 2.5), (0.5, 2.5)), "black", 0.025,

@@ -7,12 +7,12 @@ from collections.abc import Callable
 from typing import Any
 
 from hal.readings import DockIrReading
-from hal.sim.world.body import DiffDriveBody
-from hal.sim.world.geometry import Pose
-from robotd.sim.actions import Step
-from robotd.sim.config import robot_settings
-from robotd.sim.rig import SimRig, open_sim_rig
-from robotd.sim.scenario import Scenario
+from sim.actions import Step
+from sim.config import robot_settings
+from sim.rig import SimRig, open_sim_rig
+from sim.scenario import Scenario
+from sim.world.body import DiffDriveBody
+from sim.world.geometry import Pose
 
 DOCK_SCENARIO = """
 [scenario]

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from behaviours.profile import ProfileSpec
 from behaviours.profiles.cabinet.config import CABINET
+from behaviours.profiles.cabinet.config_files import cabinet_file_problems
+from behaviours.profiles.cabinet.ctl_commands import COMMANDS
 from behaviours.profiles.cabinet.profile import CabinetProfile
 
 SPEC = ProfileSpec(
@@ -16,4 +18,6 @@ SPEC = ProfileSpec(
     "then visits each cabinet over a node graph (breaking blocked links, resetting them), "
     "and performs the task's action in front of it",
     sections=(CABINET,),
+    file_checks=(cabinet_file_problems,),
+    commands=COMMANDS,
 )

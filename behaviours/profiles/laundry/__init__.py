@@ -12,5 +12,4 @@ SPEC = ProfileSpec(
     "HX711, driven by the fleet server's 1 s data exchange",
     sections=(LAUNDRY, WEIGHT),
     orders=ORDERS,
-    sim_actors="robotd.sim.actors.laundry:LaundryActors.for_scenario",
 )

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 import structlog
 
 from behaviours.docking.capability import Docking
+from behaviours.machine_part import MachinePart
 from behaviours.motion.moves import Mover
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker
@@ -75,6 +76,9 @@ class VacuumProfile(BaseProfile):
                                                         telemetry=ctx.telemetry).run,
                             critical=True),
                 TaskService("vacuum.autostart", autostart, depends_on=("odometry",))]
+
+    def machine_parts(self, ctx: RobotContext) -> tuple[MachinePart, ...]:
+        return (self.docking.machine_part(ctx),)
 
     def state_tasks(self) -> dict[str, StateTask]:
         return {"mission": self._clean, "mission.cleaning": self._battery_timer,

@@ -16,11 +16,11 @@ from hypothesis import strategies as st
 from behaviours.beacons.tracker import BeaconConfig, BeaconTracker, distance_m
 from drivers.ble_scanner import BleBeaconScanner
 from hal.readings import BeaconSighting
-from hal.sim import vclock
-from hal.sim.devices.ble_model import SimBleAir
-from hal.sim.world.body import DiffDriveBody
-from hal.sim.world.floor_plan import World
-from hal.sim.world.geometry import Pose
+from sim import vclock
+from sim.devices.ble_model import SimBleAir
+from sim.world.body import DiffDriveBody
+from sim.world.floor_plan import World
+from sim.world.geometry import Pose
 
 UUID = "fda50693-a4e2-4fb1-afcf-c6eb07647825"
 MAC = "C3:00:00:00:01:03"

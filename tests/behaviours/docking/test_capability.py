@@ -8,12 +8,14 @@ from typing import Any
 
 from docking_doubles import DictStore, Rig
 
+from behaviours.context import RobotContext
 from behaviours.docking.attempts import DockAttempts
 from behaviours.docking.capability import Docking
 from behaviours.machine import RobotMachine
+from behaviours.machine_part import MachinePart
 from behaviours.profile import BaseProfile, StateTask
 from hal.readings import DockContacts
-from hal.sim import vclock
+from sim import vclock
 
 
 class DockingRobot(BaseProfile):
@@ -23,6 +25,9 @@ class DockingRobot(BaseProfile):
 
     def __init__(self, rig: Rig) -> None:
         self.docking = Docking(lambda: rig.odometry)
+
+    def machine_parts(self, ctx: RobotContext) -> tuple[MachinePart, ...]:
+        return (self.docking.machine_part(ctx),)
 
     def state_tasks(self) -> dict[str, StateTask]:
         return self.docking.state_tasks()

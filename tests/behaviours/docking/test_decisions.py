@@ -16,7 +16,7 @@ from behaviours.docking.align import signal_compare
 from behaviours.docking.beams import BeamView, front_case, position_case, signal_case, skew_case
 from behaviours.docking.config import DEFAULT_BEAM_ROLES
 from hal.readings import DockContacts, DockIrReading, DockSignal
-from hal.sim import vclock
+from sim import vclock
 
 
 def view(**beams: tuple[str, ...]) -> BeamView:

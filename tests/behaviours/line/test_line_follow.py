@@ -20,7 +20,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from behaviours.line.follow import LineLostError
-from hal.sim import vclock
+from sim import vclock
 
 
 class TestBands:

@@ -12,13 +12,13 @@ import pytest
 
 from behaviours.line.follow import LineFollower, LineLostError
 from hal.readings import LinkStats, MotorCommand
-from hal.sim import vclock
-from hal.sim.devices.camera_model import SimCamera
-from hal.sim.world.body import DiffDriveBody
-from hal.sim.world.floor_plan import PaintedLine, World
-from hal.sim.world.geometry import Pose, segments_array
 from robotd.config.loader import defaults
 from robotd.config.settings import Settings
+from sim import vclock
+from sim.devices.camera_model import SimCamera
+from sim.world.body import DiffDriveBody
+from sim.world.floor_plan import PaintedLine, World
+from sim.world.geometry import Pose, segments_array
 
 PHYSICS_DT_S = 0.01
 

@@ -14,7 +14,7 @@ from follow_doubles import (
     run_for,
 )
 
-from hal.sim import vclock
+from sim import vclock
 
 
 class TestLoop:
@@ -125,7 +125,7 @@ class TestLayering:
                                         "behaviours/line/tracker.py",
                                         "behaviours/line/colours.py"])
     def test_the_behaviour_imports_no_driver_and_no_simulator(self, module: str) -> None:
-        """Behaviours see hal interfaces only: no drivers, no hal.sim, no frame capture."""
+        """Behaviours see hal interfaces only: no drivers, no sim, no frame capture."""
         import ast
         from pathlib import Path
 
@@ -135,5 +135,5 @@ class TestLayering:
                  for alias in node.names]
         names += [node.module or "" for node in ast.walk(tree)
                   if isinstance(node, ast.ImportFrom)]
-        assert not [n for n in names if n.startswith(("drivers", "hal.sim", "picamera2"))]
+        assert not [n for n in names if n.startswith(("drivers", "sim", "picamera2"))]
         assert "VideoCapture" not in (root / module).read_text()

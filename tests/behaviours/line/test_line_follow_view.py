@@ -12,14 +12,14 @@ from test_line_follow_closed_loop import BodyMotors
 
 from behaviours.line.follow import LineFollower
 from hal.readings import LidarScan
-from hal.sim import vclock
-from hal.sim.devices.camera_model import SimCamera
-from hal.sim.world.body import DiffDriveBody
-from hal.sim.world.floor_plan import PaintedLine, World
-from hal.sim.world.geometry import Pose, segments_array
 from hal.telemetry import Image, Pose2D
 from robotd.config.loader import defaults
 from robotd.config.settings import Settings
+from sim import vclock
+from sim.devices.camera_model import SimCamera
+from sim.world.body import DiffDriveBody
+from sim.world.floor_plan import PaintedLine, World
+from sim.world.geometry import Pose, segments_array
 
 
 class ViewTelemetry:

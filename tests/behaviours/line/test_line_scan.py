@@ -15,10 +15,10 @@ from structlog.testing import capture_logs
 from behaviours.line.colours import LineColour, line_colour
 from behaviours.line.scan import KERNEL_ENV, CRowScan, NumpyRowScan, Run, built_kernel, row_scan
 from behaviours.line.tracker import LineTracker
-from hal.sim.devices.camera_model import CameraMount, SimCamera
-from hal.sim.world.body import DiffDriveBody
-from hal.sim.world.floor_plan import PaintedLine, World
-from hal.sim.world.geometry import Pose, segments_array
+from sim.devices.camera_model import CameraMount, SimCamera
+from sim.world.body import DiffDriveBody
+from sim.world.floor_plan import PaintedLine, World
+from sim.world.geometry import Pose, segments_array
 
 COLOURS = [line_colour(name) for name in ("black", "white", "red", "yellow", "cyan", "blue")]
 C_BUILT = importlib.util.find_spec("behaviours.line._line_scan") is not None

@@ -13,10 +13,10 @@ from hypothesis import strategies as st
 from behaviours.line.colours import parse_colour
 from behaviours.line.scan import KERNEL_ENV, KERNELS
 from behaviours.line.tracker import LineTracker, TrackerParams
-from hal.sim.devices.camera_model import CameraMount, SimCamera
-from hal.sim.world.body import DiffDriveBody
-from hal.sim.world.floor_plan import PaintedLine, World
-from hal.sim.world.geometry import Pose, segments_array
+from sim.devices.camera_model import CameraMount, SimCamera
+from sim.world.body import DiffDriveBody
+from sim.world.floor_plan import PaintedLine, World
+from sim.world.geometry import Pose, segments_array
 
 CENTRE_PX = 159.5
 

@@ -15,10 +15,10 @@ from hypothesis import strategies as st
 
 from behaviours.line.tracker import LineTracker, TrackerParams
 from hal.readings import Frame
-from hal.sim.devices.camera_model import CameraMount, SimCamera, _Shot
-from hal.sim.world.body import DiffDriveBody
-from hal.sim.world.floor_plan import PaintedLine
-from hal.sim.world.geometry import Pose
+from sim.devices.camera_model import CameraMount, SimCamera, _Shot
+from sim.world.body import DiffDriveBody
+from sim.world.floor_plan import PaintedLine
+from sim.world.geometry import Pose
 
 KERNELS = ["numpy", pytest.param("c", marks=pytest.mark.skipif(
     importlib.util.find_spec("behaviours.line._line_scan") is None,

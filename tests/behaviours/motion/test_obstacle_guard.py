@@ -9,9 +9,9 @@ from typing import Any
 from behaviours.motion.obstacle_guard import ObstacleGuard
 from hal.latest import LatestValue
 from hal.readings import LinkStats, MotorCommand, RangeReading
-from hal.sim import vclock
 from robotd.config.loader import defaults
 from robotd.config.settings import Settings
+from sim import vclock
 
 
 class WheelLog:

@@ -14,7 +14,7 @@ from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker
 from hal.latest import LatestValue
 from hal.readings import EncoderReading
-from hal.sim import vclock
+from sim import vclock
 
 TICKS_PER_M = 360 / (2 * math.pi * 0.035)
 

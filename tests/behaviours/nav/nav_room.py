@@ -16,7 +16,7 @@ import numpy.typing as npt
 
 from behaviours.nav.localisation.likelihood_field import DistanceGrid
 from hal.readings import LidarScan
-from hal.sim.world.geometry import raycast, segments_array
+from sim.world.geometry import raycast, segments_array
 
 Segment = tuple[float, float, float, float]
 

@@ -20,9 +20,9 @@ from behaviours.nav.localisation.filter import (
 )
 from behaviours.nav.localisation.service import LocalisationService, start_filter
 from drivers.lidar import Ld19Lidar, LidarConfig
-from hal.sim import vclock
-from hal.sim.devices.ld19 import SimLd19, walls
-from hal.sim.devices.sim_serial import SimSerialPorts
+from sim import vclock
+from sim.devices.ld19 import SimLd19, walls
+from sim.devices.sim_serial import SimSerialPorts
 
 POSE = (2.0, 2.5, 0.4)
 RUN_S = 8.0

@@ -16,13 +16,13 @@ from behaviours.nav.config import PlannerConfig
 from behaviours.nav.grid import Grid
 from behaviours.nav.path_follower import Arrival, NoProgress, PathFollower
 from behaviours.nav.planner import NoPath, Planner
-from hal.sim import vclock
-from hal.sim.world.body import BodyParams, DiffDriveBody
-from hal.sim.world.floor_plan import World
-from hal.sim.world.geometry import Pose
 from robotd.config.loader import defaults
 from robotd.config.settings import Settings
-from robotd.sim.rig import open_sim_rig
+from sim import vclock
+from sim.rig import open_sim_rig
+from sim.world.body import BodyParams, DiffDriveBody
+from sim.world.floor_plan import World
+from sim.world.geometry import Pose
 
 WALLS = [(0.0, 0.0, 6.0, 0.0), (6.0, 0.0, 6.0, 4.0), (6.0, 4.0, 0.0, 4.0),
          (0.0, 4.0, 0.0, 0.0), (3.0, 0.0, 3.0, 2.6)]

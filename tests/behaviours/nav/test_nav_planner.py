@@ -240,6 +240,6 @@ def _turtlebot3_planner() -> Planner:
         from importlib import resources
 
         from hal.occupancy_map import read_map_yaml
-        path = resources.files("robotd.sim") / "scenarios" / "maps" / "turtlebot3_world.yaml"
+        path = resources.files("sim") / "maps" / "turtlebot3_world.yaml"
         _CACHE["tb3"] = Planner(Grid.from_map(read_map_yaml(str(path))))
     return _CACHE["tb3"]

@@ -12,7 +12,7 @@ from behaviours.nav.distance_field import DistanceField
 from behaviours.nav.grid import Grid
 from behaviours.nav.icp import Walls, icp
 from behaviours.nav.scan_match import MatchConfig, ScanMatcher, distinct
-from hal.sim.world.geometry import raycast
+from sim.world.geometry import raycast
 
 Seg = tuple[float, float, float, float]
 

@@ -9,7 +9,7 @@ import sys
 import pytest
 
 from hal.looptime.deadline import DeadlineSleeper
-from hal.sim import vclock
+from sim import vclock
 
 linux_only = pytest.mark.skipif(sys.platform != "linux", reason="timerfd is Linux's")
 

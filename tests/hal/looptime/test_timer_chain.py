@@ -8,7 +8,7 @@ import contextlib
 import pytest
 
 from hal.looptime.timer_chain import timer_chain
-from hal.sim import vclock
+from sim import vclock
 
 
 class TestTimerChain:

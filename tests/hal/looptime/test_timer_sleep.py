@@ -7,7 +7,7 @@ import asyncio
 import pytest
 
 from hal.looptime.timer_sleep import timer_sleep
-from hal.sim import vclock
+from sim import vclock
 
 
 class TestTimerSleep:

@@ -8,9 +8,9 @@ import json
 import sys
 from pathlib import Path
 
-from hal.sim.devices.motor_board.fake_mcu import FakeMcu
-from hal.sim.devices.motor_board.pty_mcu import PtyMcu
-from hal.sim.world.plant import RecordingPlant
+from sim.devices.motor_board.fake_mcu import FakeMcu
+from sim.devices.motor_board.pty_mcu import PtyMcu
+from sim.world.plant import RecordingPlant
 
 ROBOTD = Path(sys.executable).with_name("robotd")
 

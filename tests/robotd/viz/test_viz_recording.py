@@ -10,7 +10,7 @@ import pytest
 from mcap.reader import make_reader
 
 from robotd.cli import main
-from robotd.sim.scenario import builtin_names, load_scenario
+from sim.scenario import builtin_names, load_scenario
 
 pytestmark = pytest.mark.slow
 
@@ -76,9 +76,8 @@ def test_recording_does_not_change_the_run(name: str, seed: int, tmp_path: Path)
     """The same run with and without run.mcap: the same events, field for field."""
     import argparse
 
-    from hal.sim import vclock
-    from robotd.sim import runner
-    from robotd.sim.console import SimConsole
+    from sim import runner, vclock
+    from sim.console import SimConsole
 
     scenario = load_scenario(name)
     runs = []

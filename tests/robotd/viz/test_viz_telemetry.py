@@ -18,8 +18,8 @@ from robotd.config.settings import Settings
 from robotd.viz.recorder import RotatingRecorder
 from robotd.viz.runtime import open_daemon_viz
 from robotd.viz.session import VizSession
-from robotd.viz.sim_feed import SIM_PERIODS
 from robotd.viz.telemetry import FoxgloveTelemetry
+from sim.viz_feed import SIM_PERIODS
 
 
 class FakeClock:

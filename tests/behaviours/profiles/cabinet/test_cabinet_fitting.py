@@ -17,7 +17,7 @@ from behaviours.profiles.cabinet.site import build_site
 from behaviours.profiles.cabinet.steps.fitting import Fitting, in_view
 from behaviours.profiles.cabinet.steps.mission import Mission
 from behaviours.profiles.cabinet.task_list import parse_task_list
-from hal.sim.world.geometry import raycast
+from sim.world.geometry import raycast
 
 
 def _fitting() -> Fitting:

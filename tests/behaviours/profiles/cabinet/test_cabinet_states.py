@@ -13,9 +13,9 @@ from behaviours.profile import BaseProfile
 from behaviours.profiles.cabinet.states import cabinet_states, cabinet_transitions
 from hal.backend import Devices
 from hal.ports import system_wall_clock
-from hal.sim import vclock
 from robotd.config import Settings
 from robotd.config.loader import defaults
+from sim import vclock
 
 SEED_CHECKLIST = {
     # The seed's init blocks, fitting cases 1-4 and relocate cases 1-5, by name.

@@ -10,8 +10,8 @@ from behaviours.profiles.delivery.box import BoxController
 from behaviours.profiles.delivery.outputs import StateOutputs
 from behaviours.profiles.delivery.states import outputs_for
 from hal.readings import LedMode
-from hal.sim import vclock
-from hal.sim.devices.audio_model import SimAudio, write_tone_wav
+from sim import vclock
+from sim.devices.audio_model import SimAudio, write_tone_wav
 
 
 class Servo:

@@ -21,7 +21,7 @@ from behaviours.profiles.delivery.states import (
     outputs_for,
 )
 from hal.readings import LedMode
-from hal.sim import vclock
+from sim import vclock
 
 TRIGGERS = sorted({t["trigger"] for t in states.mission_transitions()})
 

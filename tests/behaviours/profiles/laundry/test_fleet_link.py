@@ -14,7 +14,7 @@ from behaviours.profiles.laundry.fleet_link import FleetLink
 from fleet.app import create_app
 from fleet.clock import loop_clock
 from fleet.site import parse_site
-from hal.sim import vclock
+from sim import vclock
 
 SITE = """
 [[rooms]]

@@ -9,7 +9,7 @@ import httpx
 import pytest
 
 from behaviours.profiles.laundry.fleet_link import FleetLink, TokenFileError, read_token, token_path
-from hal.sim import vclock
+from sim import vclock
 
 
 class TestTokenPath:

@@ -12,10 +12,10 @@ from hypothesis import strategies as st
 from behaviours.profiles.laundry.load_check import LoadCheck, LoadVerdict
 from drivers.hx711 import Hx711
 from hal.readings import WeightReading
-from hal.sim import vclock
-from hal.sim.devices.hx711_model import SimHx711Lines
 from robotd.config.loader import defaults
 from robotd.config.settings import Settings
+from sim import vclock
+from sim.devices.hx711_model import SimHx711Lines
 
 
 def _feed(check: LoadCheck, kgs: list[float], t0_s: float = 0.0, dt_s: float = 0.1) -> None:

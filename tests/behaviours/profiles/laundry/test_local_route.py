@@ -8,7 +8,7 @@ from behaviours.profiles.laundry.directive import Directive
 from behaviours.profiles.laundry.load_check import LoadCheck
 from behaviours.profiles.laundry.local_route import LocalRoute
 from hal.readings import WeightReading
-from hal.sim import vclock
+from sim import vclock
 
 BEACONS = {"AA:00:00:00:00:01": {"room": "base", "rssi_threshold_dbm": -60,
                                  "floor_color": "red"},

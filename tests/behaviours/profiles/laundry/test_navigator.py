@@ -13,9 +13,9 @@ from behaviours.profiles.laundry.directive import Directive
 from behaviours.profiles.laundry.navigator import Navigator
 from hal.backend import Devices
 from hal.readings import BeaconSighting
-from hal.sim import vclock
 from robotd.config.loader import defaults
 from robotd.config.settings import Settings
+from sim import vclock
 
 # The laundry profile's transitions and the core ones it relies on, as (state, trigger) -> dest.
 TABLE = {

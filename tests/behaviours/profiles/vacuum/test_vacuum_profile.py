@@ -11,8 +11,8 @@ from docking_doubles import Rig
 from behaviours.profiles.vacuum.cleaning import Coverage
 from behaviours.profiles.vacuum.profile import VacuumProfile
 from hal.readings import BatteryReading, Bumpers
-from hal.sim import vclock
 from robotd.profiles import PROFILES
+from sim import vclock
 
 
 class TestBatteryCheck:

@@ -1,1 +1,0 @@
-"""The simulator runner: scenarios, the rig of simulated devices, the script, checks and report."""

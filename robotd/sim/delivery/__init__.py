@@ -1,1 +1,0 @@
-"""The simulator's parts for the delivery robot: its success conditions."""

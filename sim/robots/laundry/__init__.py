@@ -1,0 +1,8 @@
+"""The laundry robot's simulator slice: its fleet server, customers and staff, its scenarios."""
+
+from __future__ import annotations
+
+from sim.slice import SimSlice
+
+SIM = SimSlice(actors="sim.robots.laundry.actors:LaundryActors.for_scenario",
+               scenario_tables={"fleet": ("site", "settings", "customers", "washing_s")})

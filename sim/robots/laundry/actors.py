@@ -1,0 +1,339 @@
+"""The laundry fleet server inside the simulator, and the people who use it.
+
+``InProcessFleet`` runs the real fleet app on the simulator's event loop (its clock follows
+virtual time); the robots' real HTTP clients reach it through an ASGI transport
+(``sim.actors.asgi_pipe``). Customers and the laundry staff are actors that use the same
+HTTP API a phone app or an admin page would: they create requests, load and unload the robots'
+bins, confirm, cancel, mark washing done and pay, each as their scenario table says.
+
+Everyone holds a token like on a real site: each robot of the site its own (in a file its
+``fleet.token_file`` names), each customer its own, the laundry staff an admin token. They
+are random for each run and seeded through the site (stored hashed, as always).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import secrets
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+import httpx
+import structlog
+
+from fleet.app import create_app
+from fleet.clock import loop_clock
+from fleet.site import Site
+from robotd.config.settings import Settings
+from sim.actors import ActorContext, ActorTask
+from sim.actors.asgi_pipe import AsgiPipe
+from sim.rig import SimRig
+from sim.scenario import read_beside
+
+log = structlog.get_logger(__name__)
+
+ACTIVE = {"Pending", "Accepted", "ArrivedAtRoom", "LaundryLoaded",
+          "FinishedWashingGoingToRoom", "FinishedWashingArrivedAtRoom",
+          "FinishedWashingGoingToBase"}
+FLEET_URL = "http://fleet.sim"
+Record = Callable[[dict[str, Any]], None]
+SetPayload = Callable[[str, float], None]
+
+
+class InProcessFleet:
+    """The fleet app on this loop, a SQLite file in the run's work directory. ``client`` is
+    the laundry staff's (an admin token); ``customer_client(id)`` a customer's own."""
+
+    def __init__(self, workdir: Path, site: Site, settings: dict[str, Any],
+                 origin: datetime) -> None:
+        loop = asyncio.get_running_loop()
+        self._tokens: dict[tuple[str, str], str] = {
+            ("admin", "laundry-staff"): secrets.token_urlsafe(32),
+            **{("robot", str(r["name"])): secrets.token_urlsafe(32) for r in site.robots},
+            **{("customer", str(c["id"])): secrets.token_urlsafe(32)
+               for c in site.customers if "id" in c},
+        }
+        site = replace(site, tokens=[*site.tokens, *(
+            {"role": role, "subject": subject, "token": token}
+            for (role, subject), token in self._tokens.items())])
+        self._token_dir = workdir / "fleet-tokens"
+        self.app = create_app(f"sqlite:///{workdir / 'fleet.db'}", site=site,
+                              clock=loop_clock(origin, loop.time), settings=settings,
+                              inline_sqlite=True)
+        self.transport = AsgiPipe(self.app)
+        self.client = self._client(self._tokens[("admin", "laundry-staff")])
+        self._clients = [self.client]
+
+    def _client(self, token: str | None) -> httpx.AsyncClient:
+        headers = {"Authorization": f"Bearer {token}"} if token else None
+        return httpx.AsyncClient(transport=self.transport, base_url=FLEET_URL, headers=headers)
+
+    def customer_client(self, customer_id: int) -> httpx.AsyncClient:
+        """A client with this customer's own token (none if the site has no such customer)."""
+        client = self._client(self._tokens.get(("customer", str(customer_id))))
+        self._clients.append(client)
+        return client
+
+    def robot_token_file(self, robot: str) -> Path | None:
+        """A file (mode 0600) holding this robot's token, for its ``fleet.token_file``; None
+        for a robot the site does not have."""
+        token = self._tokens.get(("robot", robot))
+        if token is None:
+            return None
+        self._token_dir.mkdir(mode=0o700, exist_ok=True)
+        path = self._token_dir / robot
+        path.touch(mode=0o600)
+        path.write_text(token + "\n", encoding="ascii")
+        return path
+
+    async def start(self) -> None:
+        await self.app.state.fleet.start()
+
+    async def close(self) -> None:
+        for client in self._clients:
+            await client.aclose()
+        await self.app.state.fleet.stop()
+
+
+@dataclass
+class CustomerPlan:
+    """What one customer does (a ``[[fleet.customers]]`` table of the scenario)."""
+
+    customer: int
+    request_at_s: float
+    load_kg: float = 0.0  # 0: never loads (the request times out)
+    load_after_s: float = 5.0
+    reduce_to_kg: float | None = None  # after an overweight refusal, takes some out
+    unload_after_s: float = 5.0
+    cancel_in: str | None = None  # cancels as soon as the request has this status
+    pays: bool = True
+
+    @classmethod
+    def from_table(cls, t: dict[str, Any], where: str) -> CustomerPlan:
+        known = set(cls.__dataclass_fields__)
+        unknown = set(t) - known
+        if unknown:
+            msg = f"{where}.{sorted(unknown)[0]}: unknown key (known: {', '.join(sorted(known))})"
+            raise ValueError(msg)
+        return cls(**t)
+
+
+async def send_poll(transport: httpx.AsyncBaseTransport, request: httpx.Request
+                    ) -> httpx.Response:
+    """A poll built once by its client (``build_request``: URL, headers, token) sent straight
+    to the transport and read whole. The client's ``send`` adds only its auth flow, redirects,
+    hooks, timers and cookies, which no poll of the fleet uses (no redirects, no cookies),
+    and they were ~100 of the ~350 us of each once-a-second poll."""
+    response = await transport.handle_async_request(request)
+    await response.aread()
+    return response
+
+
+class Customer:
+    def __init__(self, plan: CustomerPlan, client: httpx.AsyncClient, record: Record,
+                 set_payload: SetPayload, transport: httpx.AsyncBaseTransport) -> None:
+        self.plan = plan
+        self.client = client
+        self.transport = transport
+        self.record = record
+        self.set_payload = set_payload
+        self.request_id: int | None = None
+        self.status: str | None = None
+        self.paid = False
+        self._poll: httpx.Request | None = None
+
+    async def run(self) -> None:
+        loop = asyncio.get_running_loop()
+        await asyncio.sleep(max(0.0, self.plan.request_at_s - loop.time()))
+        response = await self.client.post("/api/requests", json={"CustomerId": self.plan.customer})
+        self._note("customer.request", response)
+        if response.status_code != 201:
+            return
+        self.request_id = int(response.json()["Id"])
+        done: set[str] = set()
+        while True:
+            request = await self._get()
+            status = str(request["Status"])
+            if status != self.status:
+                self.status = status
+                self.record({"kind": "request", "customer": self.plan.customer,
+                             "request": self.request_id, "status": status,
+                             "robot": request.get("AssignedRobotName")})
+            robot = request.get("AssignedRobotName")
+            if self.plan.cancel_in == status and "cancel" not in done:
+                done.add("cancel")
+                await self._act("cancel")
+            elif status == "ArrivedAtRoom" and "load" not in done and self.plan.load_kg > 0:
+                done.add("load")
+                await asyncio.sleep(self.plan.load_after_s)
+                await self._load(str(robot))
+            elif status == "FinishedWashingArrivedAtRoom" and "unload" not in done:
+                done.add("unload")
+                await asyncio.sleep(self.plan.unload_after_s)
+                self.set_payload(str(robot), 0.0)
+                await self._confirm("confirm-unloaded")
+            elif status == "Completed" and self.plan.pays and not self.paid:
+                self.paid = (await self._act("pay")).status_code == 200
+            if status in ("Completed", "Cancelled", "Declined") and (
+                    self.paid or not self.plan.pays or status != "Completed"):
+                return
+            await asyncio.sleep(1.0)
+
+    async def _load(self, robot: str) -> None:
+        self.set_payload(robot, self.plan.load_kg)
+        await asyncio.sleep(3.0)  # the robot reports a settled weight within its period
+        if (await self._confirm("confirm-loaded")).status_code == 409 \
+                and self.plan.reduce_to_kg is not None:
+            self.set_payload(robot, self.plan.reduce_to_kg)
+            await asyncio.sleep(3.0)
+            await self._confirm("confirm-loaded")
+
+    async def _confirm(self, action: str) -> httpx.Response:
+        """Confirm, retrying while the robot's weight report catches up (409)."""
+        response = await self._act(action)
+        for _ in range(5):
+            if response.status_code != 409 or "Overweight" in response.text \
+                    or "overweight" in response.text:
+                break
+            await asyncio.sleep(2.0)
+            response = await self._act(action)
+        return response
+
+    async def _act(self, action: str) -> httpx.Response:
+        response = await self.client.post(f"/api/requests/{self.request_id}/{action}")
+        self._note(f"customer.{action}", response)
+        return response
+
+    async def _get(self) -> dict[str, Any]:
+        if self._poll is None:  # the same request every second: built once, like an app would
+            self._poll = self.client.build_request("GET", f"/api/requests/{self.request_id}")
+        response = await send_poll(self.transport, self._poll)
+        body: dict[str, Any] = response.json()
+        return body
+
+    def _note(self, kind: str, response: httpx.Response) -> None:
+        entry: dict[str, Any] = {"kind": kind, "customer": self.plan.customer,
+                                 "code": response.status_code}
+        if response.status_code >= 400:
+            entry["detail"] = response.json().get("detail", response.text[:200])
+        self.record(entry)
+
+
+class Staff:
+    """The laundry room: empties robots that bring laundry, marks washing done after a while."""
+
+    def __init__(self, client: httpx.AsyncClient, record: Record, set_payload: SetPayload,
+                 washing_s: float, transport: httpx.AsyncBaseTransport) -> None:
+        self.client = client
+        self.transport = transport
+        self.record = record
+        self.set_payload = set_payload
+        self.washing_s = washing_s
+        self._washing_since: dict[int, float] = {}
+        self.double_assignments: list[str] = []
+        # The list is asked for every second: the request is built once, like a page would.
+        self._poll = client.build_request("GET", "/api/requests")
+
+    async def run(self) -> None:
+        loop = asyncio.get_running_loop()
+        while True:
+            requests = (await send_poll(self.transport, self._poll)).json()
+            self._audit(requests, loop.time())
+            for r in requests:
+                rid = int(r["Id"])
+                if r["Status"] == "Washing" and rid not in self._washing_since:
+                    self._washing_since[rid] = loop.time()
+                    self.set_payload(str(r["AssignedRobotName"]), 0.0)
+                    self.record({"kind": "staff.unloaded", "request": rid,
+                                 "robot": r["AssignedRobotName"]})
+                elif r["Status"] == "Washing" and \
+                        loop.time() - self._washing_since[rid] >= self.washing_s:
+                    response = await self.client.post(f"/api/requests/{rid}/washing-done")
+                    if response.status_code == 200:
+                        robot = str(response.json()["AssignedRobotName"])
+                        self.set_payload(robot, float(r.get("WeightKg") or 4.0))
+                        self.record({"kind": "staff.washing_done", "request": rid,
+                                     "robot": robot})
+            await asyncio.sleep(1.0)
+
+    def _audit(self, requests: list[dict[str, Any]], t_s: float) -> None:
+        """No robot may serve two active requests at once."""
+        serving: dict[str, list[int]] = {}
+        for r in requests:
+            if r["Status"] in ACTIVE - {"Pending"} and r["AssignedRobotName"]:
+                serving.setdefault(str(r["AssignedRobotName"]), []).append(int(r["Id"]))
+        for robot, ids in serving.items():
+            if len(ids) > 1:
+                problem = f"t={t_s:.1f} s: robot {robot} serves requests {ids}"
+                if problem not in self.double_assignments:
+                    self.double_assignments.append(problem)
+                    self.record({"kind": "double_assignment", "robot": robot, "requests": ids})
+
+
+class LaundryActors:
+    """The laundry site around the robots: the fleet server, its customers and its staff,
+    from the scenario's ``[fleet]`` table (none without one)."""
+
+    def __init__(self, ctx: ActorContext, table: dict[str, Any]) -> None:
+        from fleet.site import parse_site
+
+        self.scenario = ctx.scenario
+        site = parse_site(read_beside(ctx.scenario, str(table.get("site", ""))),
+                          str(table.get("site")))
+        self.fleet = InProcessFleet(ctx.workdir, site, dict(table.get("settings", {})),
+                                    ctx.origin)
+        plans = [CustomerPlan.from_table(t, f"fleet.customers[{i}]")
+                 for i, t in enumerate(table.get("customers", []))]
+        self.customers = [Customer(p, self.fleet.customer_client(p.customer), ctx.record,
+                                   ctx.set_payload, self.fleet.transport) for p in plans]
+        self.staff = Staff(self.fleet.client, ctx.record, ctx.set_payload,
+                           float(table.get("washing_s", 30.0)), self.fleet.transport)
+
+    @classmethod
+    def for_scenario(cls, ctx: ActorContext) -> LaundryActors | None:
+        table = ctx.scenario.raw.get("fleet")
+        return cls(ctx, table) if isinstance(table, dict) else None
+
+    async def start(self) -> None:
+        await self.fleet.start()
+
+    def configure_robot(self, settings: Settings) -> None:
+        settings.set("fleet.url", FLEET_URL)
+        token_file = self.fleet.robot_token_file(settings.get("robot.name"))
+        if token_file is not None:  # each robot its own token, as on a real site
+            settings.set("fleet.token_file", str(token_file))
+
+    def attach(self, rig: SimRig) -> None:
+        rig.devices.network = self.fleet.transport
+
+    def people(self) -> list[ActorTask]:
+        return [(f"customer.{c.plan.customer}", c.run()) for c in self.customers]
+
+    def background(self) -> list[ActorTask]:
+        return [("staff", self.staff.run())]
+
+    def failures(self) -> list[str]:
+        return [*self.staff.double_assignments, *self.request_failures()]
+
+    def request_failures(self) -> list[str]:
+        """``requests = [{ customer, status, paid? }]``: how each customer's request ended."""
+        reasons = []
+        by_id = {c.plan.customer: c for c in self.customers}
+        for want in self.scenario.success.extra.get("requests", []):
+            cid = int(want["customer"])
+            c = by_id.get(cid)
+            if c is None:
+                reasons.append(f"requests: no customer {cid} in [[fleet.customers]]")
+                continue
+            if c.status != want.get("status"):
+                reasons.append(f"customer {cid}'s request ended {c.status}, expected "
+                               f"{want.get('status')}")
+            if "paid" in want and bool(want["paid"]) != c.paid:
+                reasons.append(f"customer {cid} {'did not pay' if want['paid'] else 'paid'}")
+        return reasons
+
+    async def close(self) -> None:
+        await self.fleet.close()

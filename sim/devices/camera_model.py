@@ -26,11 +26,6 @@ from sim.world.body import DiffDriveBody
 from sim.world.floor_plan import PaintedLine, World
 from sim.world.geometry import Pose, SegmentSet
 
-try:
-    from sim.devices import _camera_light
-except ImportError:  # not built (no C compiler or Python headers): placed in Python, same ints
-    _camera_light = None  # type: ignore[assignment]
-
 U8Image = npt.NDArray[Any]  # uint8 BGR
 
 _DRAW_SHIFT = 4  # cv2 fixed-point bits: sub-pixel line positions
@@ -140,9 +135,6 @@ class SimCamera(FrameSource[_Shot]):
             0.0, self.mount.noise_std, (2 * self.height_px, 2 * self.width_px, 3))),
             -127, 127).astype(np.int8)
         self._segments: dict[int, _LinePaint] = {}
-        # How lines are placed: "c" (place_segments in _camera_light.c) or "python".
-        # (An extension built before place_segments was added has not got it: Python then.)
-        self.place_kernel = "c" if hasattr(_camera_light, "place_segments") else "python"
         self._light = FloorLight(self.mount, texture, noise, self._rng.uniform(0, 2 * math.pi, 4))
         self._offsets: list[tuple[int, int]] = []  # noise offsets drawn ahead, last one next
         self._paint_buf = np.empty((self.height_px, self.width_px, 3), np.uint8)
@@ -154,15 +146,6 @@ class SimCamera(FrameSource[_Shot]):
         self._dirty: tuple[U8Image, tuple[int, int, int, int] | None] | None = None
         self._floor: tuple[tuple[int, int, int], U8Image] | None = None
         self.covered = False
-
-    @property
-    def light_kernel(self) -> str:
-        """How frames are lit: "c" (sim/devices/_camera_light.c) or "opencv"."""
-        return self._light.kernel
-
-    @light_kernel.setter
-    def light_kernel(self, kernel: str) -> None:
-        self._light.kernel = kernel
 
     # --- physics-style methods ----------------------------------------------------------------
     def cover(self, covered: bool = True) -> None:
@@ -228,12 +211,8 @@ class SimCamera(FrameSource[_Shot]):
             msg = f"{self.name}: rows {first}..{last} outside 0..{self.height_px - 1}"
             raise IndexError(msg)
         paint = self._paint(shot.pose, shot.wheel_mps, (first, last))
-        lit = self._light.light_rows(paint, shot.pose, shot.noise_at, rows)
-        if lit is None:  # no C pass: the whole frame's rows
-            paint = self._paint(shot.pose, shot.wheel_mps)
-            whole: U8Image = self._light.light(paint, shot.pose, shot.noise_at)
-            return whole[np.asarray(rows, np.intp)]
-        return lit
+        lit: U8Image = self._light.light(paint, shot.pose, shot.noise_at, (first, last))
+        return lit[np.asarray(rows, np.intp) - first]
 
     def _paint(self, pose: Pose, wheel_mps: tuple[float, float],
                band: tuple[int, int] | None = None) -> U8Image:
@@ -281,10 +260,8 @@ class SimCamera(FrameSource[_Shot]):
     def _draw_lines(self, image: U8Image, pose: Pose) -> tuple[int, int, int, int] | None:
         """Paint the lines near the view; returns the box (x0, y0, x1, y1) they touch, if any.
 
-        The segments in view are found and placed in C (``place_segments`` in
-        sim/devices/_camera_light.c: a frame's handful of points cost more in numpy calls
-        and Python arithmetic than in drawing), or by ``_place_segments`` here, the same ints
-        and floats; the anti-aliased lines are OpenCV's.
+        The segments in view are found and placed by ``_place_segments``; the anti-aliased
+        lines are OpenCV's.
         """
         m = self.mount
         c, s = math.cos(pose.heading_rad), math.sin(pose.heading_rad)
@@ -293,12 +270,7 @@ class SimCamera(FrameSource[_Shot]):
             paint = self._line_paint(line)
             if paint.ends.shape[0] == 0:
                 continue
-            if _camera_light is not None and self.place_kernel == "c":
-                placed = _camera_light.place_segments(
-                    paint.ends, pose.x_m, pose.y_m, c, s, paint.limit_m, m.width_px / 2,
-                    m.height_px / 2, m.m_per_px, m.forward_m, float(1 << _DRAW_SHIFT))
-            else:
-                placed = self._place_segments(paint, pose, c, s)
+            placed = self._place_segments(paint, pose, c, s)
             if placed is None:
                 continue
             points, lo_col, lo_row, hi_col, hi_row = placed
@@ -314,7 +286,7 @@ class SimCamera(FrameSource[_Shot]):
 
     def _place_segments(self, paint: _LinePaint, pose: Pose, c: float, s: float) -> _Placed:
         """The segments of a line near the view in fixed-point pixels, and the box of their
-        unrounded ends (None: none near): ``place_segments`` of the C module, in Python."""
+        unrounded ends (None: none near)."""
         m = self.mount
         mpp = m.m_per_px
         cx, cy = pose.to_world(m.forward_m, 0.0)

@@ -2,10 +2,9 @@
 
 The light reaching a pixel is the floor texture (fixed to the world) x the lens and LED falloff
 (fixed to the image) x the room's patches of light and shade (fixed to the world, smooth);
-the painted floor is multiplied by it and sensor noise added. A whole frame is lit by OpenCV
-calls, or by one C pass that gives the same bytes (sim/devices/_camera_light.c); the rows
-the line tracker reads are lit by the C pass alone, which then looks the texture up itself for
-just those rows (as ``cv2.warpAffine`` would), so they are the same bytes as the whole frame's.
+the painted floor is multiplied by it and sensor noise added, by OpenCV calls a band of rows
+at a time. (Until issue 26 a C pass did the same to the bit, and lit the tracker's rows alone;
+the simulator's speed no longer pays for C that only it needs: docs/native.md.)
 """
 
 from __future__ import annotations
@@ -17,16 +16,9 @@ from typing import Any, Protocol
 import cv2
 import numpy as np
 import numpy.typing as npt
-import structlog
 
 from sim.world.geometry import Pose
 
-try:
-    from sim.devices import _camera_light
-except ImportError:  # not built (no C compiler or Python headers): OpenCV calls, same pixels
-    _camera_light = None  # type: ignore[assignment]
-
-log = structlog.get_logger(__name__)
 F32Array = npt.NDArray[Any]  # float32; cv2 returns loosely typed arrays
 U8Image = npt.NDArray[Any]  # uint8 BGR
 Affine = tuple[float, float, float, float, float, float]
@@ -35,7 +27,6 @@ TEXTURE_TILE_PX = 256
 _AMBIENT_GRID = (8, 6)  # coarse grid the world-fixed light field is computed on
 _BAND_ROWS = 32  # rows lit at a time: a band's float images fit in the CPU's cache
 _DARK = 8.0  # what a covered lens sees, grey levels before noise
-_CHECK_POSES = (Pose(0.37, -1.3, 0.7), Pose(-52.1, 13.9, -2.2), Pose(731.0, 7.7, 3.1))
 
 
 class Mount(Protocol):
@@ -102,14 +93,6 @@ class FloorLight:
         self._ambient_grid = (mount.forward_m + (h / 2 - rr - 0.5) * mpp,
                               (w / 2 - cc - 0.5) * mpp)
         self._phases = phases
-        self._coarse64 = np.empty((gh, gw), np.float64)
-        # How the coarse room light is worked out: "c" (_camera_light.ambient_coarse) or "numpy".
-        # (An extension built before ambient_coarse was added has not got it: numpy then.)
-        self.coarse_kernel = ("c" if hasattr(_camera_light, "ambient_coarse")
-                              and self._coarse_agrees() else "numpy")
-        self._ambient_x = _linear_taps(w, gw)  # (gw, w)
-        self._ambient_y = np.ascontiguousarray(_linear_taps(h, gh).T)  # (h, gh)
-        self._ambient_across: tuple[Pose, npt.NDArray[np.float64]] | None = None
         self._texture_buf = np.empty((h, w), np.float32)
         self._ambient_buf = np.empty((h, w), np.float32)
         self._gain_buf = np.empty((h, w), np.float32)
@@ -119,55 +102,28 @@ class FloorLight:
         self._texture_pose: Pose | None = None
         self._ambient_pose: Pose | None = None
         self._gain_pose: Pose | None = None
-        # The C pass rounds as OpenCV does for gains > 0 and lit values below 2**22.
-        bounded = (float(self.texture.min()) > 0 and float(self.static_gain.min()) > 0
-                   and mount.ambient_variation < 1
-                   and 255 * float(self.texture.max()) * float(self.static_gain.max())
-                   * (1 + mount.ambient_variation) < 2**22)
-        self.kernel = "c" if _camera_light is not None and bounded else "opencv"
-        # The rows pass reproduces OpenCV's warpAffine and resize: checked here against the
-        # OpenCV at hand, whose arithmetic another version may change.
-        self.rows_alone = self.kernel == "c" and self._rows_agree()
-        if self.kernel == "c" and not self.rows_alone:
-            log.warning("sim_camera.rows_not_alone", opencv=cv2.__version__,
-                        why="rows lit alone differ from OpenCV's whole frame here; rows are "
-                            "cut from whole frames")
 
     # --- lighting -----------------------------------------------------------------------------
-    def light(self, paint: U8Image, pose: Pose, noise_at: tuple[int, int]) -> U8Image:
-        """The whole frame: ``paint`` (h, w, 3) lit from ``pose``, noise from ``noise_at``."""
+    def light(self, paint: U8Image, pose: Pose, noise_at: tuple[int, int],
+              band: tuple[int, int] | None = None) -> U8Image:
+        """The whole frame: ``paint`` (h, w, 3) lit from ``pose``, noise from ``noise_at``;
+        with ``band`` (first, last) only those rows, the same bytes as the whole frame's
+        (each row is lit on its own, from the whole view's gain)."""
         h, w = self.mount.height_px, self.mount.width_px
-        out: U8Image = np.empty((h, w, 3), np.uint8)
+        top, bottom = (0, h) if band is None else (band[0], band[1] + 1)
+        out: U8Image = np.empty((bottom - top, w, 3), np.uint8)
         oy, ox = noise_at
-        if self.kernel == "c" and _camera_light is not None:
-            # The steps below in one pass, to the bit (sim/devices/_camera_light.c).
-            _camera_light.light(paint, self.texture_gain(pose), self.static_gain,
-                                self.ambient_gain(pose), self.noise, oy, ox, out)
-            return out
         gain = self._gain(pose)
         # Light and noise a band of rows at a time: the float images of a band stay in the
         # cache, where whole-frame ones (1 MB each) went to memory and back at every step.
-        for r0 in range(0, h, _BAND_ROWS):
-            r1 = min(h, r0 + _BAND_ROWS)
+        for r0 in range(top, bottom, _BAND_ROWS):
+            r1 = min(bottom, r0 + _BAND_ROWS)
             n = r1 - r0
             g3, lit = self._gain3[:n], self._lit[:n]
             cv2.merge([gain[r0:r1]] * 3, dst=g3)
             cv2.multiply(paint[r0:r1], g3, dst=lit, dtype=cv2.CV_32F)
-            cv2.add(lit, self.noise[oy + r0:oy + r1, ox:ox + w], dst=out[r0:r1],
+            cv2.add(lit, self.noise[oy + r0:oy + r1, ox:ox + w], dst=out[r0 - top:r1 - top],
                     dtype=cv2.CV_8U)  # saturates to 0-255
-        return out
-
-    def light_rows(self, paint: U8Image, pose: Pose, noise_at: tuple[int, int],
-                   rows: Sequence[int]) -> U8Image | None:
-        """Rows ``rows`` of ``light``'s frame, the same bytes, working on those rows only
-        (the texture looked up and lit in C); None without the C pass."""
-        if self.kernel != "c" or _camera_light is None or not self.rows_alone:
-            return None
-        out: U8Image = np.empty((len(rows), self.mount.width_px, 3), np.uint8)
-        oy, ox = noise_at
-        _camera_light.light_rows(paint, self.texture, self.texture_affine(pose),
-                                 self.static_gain, self.ambient_rows(pose, rows), self.noise, oy,
-                                 ox, rows, out)
         return out
 
     def dark(self, noise_at: tuple[int, int], rows: Sequence[int] | None = None) -> U8Image:
@@ -221,51 +177,10 @@ class FloorLight:
         resized (``cv2.resize``, INTER_LINEAR)."""
         if self._ambient_pose != pose:
             m = self.mount
-            cv2.resize(self._ambient_coarse64(pose).astype(np.float32), (m.width_px, m.height_px),
+            cv2.resize(self._ambient_coarse(pose), (m.width_px, m.height_px),
                        dst=self._ambient_buf, interpolation=cv2.INTER_LINEAR)
             self._ambient_pose = pose
         return self._ambient_buf
-
-    def ambient_rows(self, pose: Pose, rows: Sequence[int]) -> F32Array:
-        """Rows ``rows`` of ``ambient_gain(pose)``, the same floats, working on those rows only.
-
-        OpenCV 5's float32 INTER_LINEAR resize, reproduced to the bit: each coarse row
-        interpolated across in double with float32 weights and rounded to float32, then
-        those rows down in double, rounded to float32 (tests/sim/devices/
-        test_camera_rows.py holds it to cv2.resize). Each step is a product with a matrix of
-        the weights: a pixel's two products are exact in double (float32 values times
-        float32-derived weights) and the other terms exact zeros, so in any order of summing
-        the one rounding is that of the two products' sum, as in OpenCV.
-        """
-        if self._ambient_across is None or self._ambient_across[0] != pose:
-            across = (self._ambient_coarse64(pose) @ self._ambient_x).astype(np.float32)
-            self._ambient_across = (pose, across.astype(np.float64))
-        down = self._ambient_y[np.asarray(rows, np.intp)]
-        out: F32Array = (down @ self._ambient_across[1]).astype(np.float32)
-        return out
-
-    def _ambient_coarse64(self, pose: Pose) -> npt.NDArray[np.float64]:
-        """``_ambient_coarse(pose)`` in float64 (the same values), in C where that gives the
-        numpy steps' values here (libm's sin: numpy's float64 sin is it; checked at start)."""
-        if self.coarse_kernel != "c" or _camera_light is None:
-            return self._ambient_coarse(pose).astype(np.float64)
-        fwd, left = self._ambient_grid
-        p = self._phases
-        out = self._coarse64
-        _camera_light.ambient_coarse(fwd, left, pose.x_m, pose.y_m, math.cos(pose.heading_rad),
-                                     math.sin(pose.heading_rad),
-                                     (float(p[0]), float(p[1]), float(p[2]), float(p[3])),
-                                     self.mount.ambient_variation, out)
-        return out
-
-    def _coarse_agrees(self) -> bool:
-        """Whether the C room light is numpy's here, from a few poses far apart."""
-        self.coarse_kernel = "c"
-        for pose in (*_CHECK_POSES, Pose(3.3, 2.2, -0.4), Pose(-1e4, 2e3, 9.0)):
-            if not np.array_equal(self._ambient_coarse64(pose),
-                                  self._ambient_coarse(pose).astype(np.float64)):
-                return False
-        return True
 
     def _ambient_coarse(self, pose: Pose) -> F32Array:
         """The room light's field on the coarse grid seen from ``pose``."""
@@ -287,18 +202,6 @@ class FloorLight:
             self._gain_pose = pose
         return self._gain_buf
 
-    def _rows_agree(self) -> bool:
-        """Whether rows lit alone are the whole frame's rows, from a few poses far apart."""
-        m = self.mount
-        paint = np.full((m.height_px, m.width_px, 3), 200, np.uint8)
-        every_row = range(m.height_px)
-        for pose in _CHECK_POSES:
-            self.rows_alone = True
-            alone = self.light_rows(paint, pose, (0, 0), every_row)
-            if alone is None or not np.array_equal(alone, self.light(paint, pose, (0, 0))):
-                return False
-        return True
-
     def _make_static_gain(self) -> F32Array:
         m = self.mount
         mpp = m.m_per_px
@@ -312,18 +215,3 @@ class FloorLight:
         gradient = 1.0 + m.light_gradient * (np.linspace(-0.5, 0.5, m.width_px, dtype=np.float32))
         gain = (1.0 - m.vignette * falloff) * gradient[None, :]
         return gain.astype(np.float32)
-
-
-def _linear_taps(size: int, coarse: int) -> npt.NDArray[np.float64]:
-    """The weights (``coarse`` x ``size``) of each of ``size`` pixels resized up from
-    ``coarse`` cells: the two cells it lies between (the same cell twice past the ends), the
-    second one's weight a float32 (as OpenCV's INTER_LINEAR)."""
-    at = (np.arange(size) + 0.5) * (coarse / size) - 0.5
-    first = np.floor(at)
-    weight = (at - first).astype(np.float32).astype(np.float64)
-    cell = first.astype(np.intp)
-    taps = np.zeros((coarse, size))
-    pixels = np.arange(size)
-    np.add.at(taps, (np.clip(cell, 0, coarse - 1), pixels), 1.0 - weight)
-    np.add.at(taps, (np.clip(cell + 1, 0, coarse - 1), pixels), weight)
-    return taps

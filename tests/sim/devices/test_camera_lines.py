@@ -3,12 +3,10 @@ draws and paint reuse give exactly what the plain Python steps give."""
 
 from __future__ import annotations
 
-import importlib.util
 import math
 from typing import Any
 
 import numpy as np
-import pytest
 from camera_floor import LOOP_AND_SPUR
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -17,9 +15,6 @@ from sim.devices.camera_model import CameraMount, SimCamera, _Shot
 from sim.world.body import DiffDriveBody
 from sim.world.floor_plan import PaintedLine, World
 from sim.world.geometry import Pose, segments_array
-
-C_BUILT = importlib.util.find_spec("sim.devices._camera_light") is not None
-pytestmark = pytest.mark.skipif(not C_BUILT, reason="the C camera module was not built")
 
 coords = st.floats(-3.0, 3.0, allow_nan=False)
 points = st.lists(st.tuples(coords, coords), min_size=2, max_size=12)
@@ -44,64 +39,16 @@ def camera(painted: list[PaintedLine], pose: Pose) -> SimCamera:
     return SimCamera(world, DiffDriveBody(world, pose), seed=2)
 
 
-@settings(max_examples=300, deadline=None)
-@given(painted=lines, pose=poses, shift=st.tuples(st.floats(-0.2, 0.2), st.floats(-0.2, 0.2)))
-def test_c_placement_is_the_python_placement(painted: list[PaintedLine], pose: Pose,
-                                             shift: tuple[float, float]) -> None:
-    """place_segments gives the Python's fixed-point ends and box, to the bit."""
-    # Half the time right by a line's first point, where segments are in view.
-    x, y = painted[0].points[0]
-    near = Pose(x + shift[0], y + shift[1], pose.heading_rad)
-    cam = camera(painted, pose)
-    m = cam.mount
-    from sim.devices import _camera_light
-    for at in (pose, near):
-        c, s = math.cos(at.heading_rad), math.sin(at.heading_rad)
-        for line in painted:
-            paint = cam._line_paint(line)
-            fast = _camera_light.place_segments(
-                paint.ends, at.x_m, at.y_m, c, s, paint.limit_m, m.width_px / 2,
-                m.height_px / 2, m.m_per_px, m.forward_m, 16.0)
-            assert bits(fast) == bits(cam._place_segments(paint, at, c, s))
-
-
-@settings(max_examples=60, deadline=None)
-@given(painted=lines, wheel_mps=st.tuples(st.floats(-0.6, 0.6), st.floats(-0.6, 0.6)),
-       shift=st.tuples(st.floats(-0.1, 0.1), st.floats(-0.1, 0.1)),
-       heading=st.floats(-math.pi, math.pi))
-def test_frames_with_lines_placed_in_c_are_the_python_ones(
-        painted: list[PaintedLine], wheel_mps: tuple[float, float],
-        shift: tuple[float, float], heading: float) -> None:
-    """Whole frames and the tracker's rows are the same bytes whichever placement ran."""
-    x, y = painted[0].points[0]
-    pose = Pose(x + shift[0], y + shift[1], heading)
-    cam = camera(painted, pose)
-    shot = _Shot(1, 0.0, pose, wheel_mps, (3, 5))
-    rows = [40, 70, 100, 130, 160, 190]
-    fast, fast_rows = cam._render_shot(shot), cam._render_rows(shot, rows)
-    cam.place_kernel = "python"
-    cam._paint_key = None
-    assert np.array_equal(fast, cam._render_shot(shot))
-    cam._paint_key = None
-    assert np.array_equal(fast_rows, cam._render_rows(shot, rows))
-
-
 def test_segments_of_no_length_and_far_ones() -> None:
     """A zero-length segment is a point; segments beyond the view are not placed."""
     dot = PaintedLine("dot", ((1.0, 1.0), (1.0, 1.0)), "black", 0.02)
     far = PaintedLine("far", ((5.0, 5.0), (6.0, 5.0)), "black", 0.02)
     cam = camera([dot, far], Pose(0.85, 1.0, 0.0))
-    m = cam.mount
-    from sim.devices import _camera_light
-    args = (0.85, 1.0, 1.0, 0.0)
-    placed = _camera_light.place_segments(cam._line_paint(dot).ends, *args,
-                                          cam._line_paint(dot).limit_m, m.width_px / 2,
-                                          m.height_px / 2, m.m_per_px, m.forward_m, 16.0)
+    at = Pose(0.85, 1.0, 0.0)
+    placed = cam._place_segments(cam._line_paint(dot), at, 1.0, 0.0)
     assert placed is not None
     assert len(placed[0]) == 1 and placed[0][0][0] == placed[0][0][1]
-    assert _camera_light.place_segments(cam._line_paint(far).ends, *args,
-                                        cam._line_paint(far).limit_m, m.width_px / 2,
-                                        m.height_px / 2, m.m_per_px, m.forward_m, 16.0) is None
+    assert cam._place_segments(cam._line_paint(far), at, 1.0, 0.0) is None
 
 
 @settings(max_examples=30, deadline=None)
@@ -144,23 +91,3 @@ def test_a_camera_reusing_its_paint_draws_what_a_fresh_one_draws(
         if what != "rows":
             fresh = camera(list(LOOP_AND_SPUR), pose)
             assert np.array_equal(used._render_shot(shot), fresh._render_shot(shot))
-
-
-
-@settings(max_examples=200, deadline=None)
-@given(pose=st.builds(Pose, st.floats(-1e4, 1e4), st.floats(-1e4, 1e4),
-                      st.floats(-4 * math.pi, 4 * math.pi)))
-def test_the_c_room_light_is_numpys(pose: Pose) -> None:
-    """ambient_coarse in C gives _ambient_coarse's numpy values, to the bit."""
-    cam = camera(list(LOOP_AND_SPUR), pose)
-    light = cam._light
-    assert light.coarse_kernel == "c"
-    fast = light._ambient_coarse64(pose).copy()
-    assert np.array_equal(fast, light._ambient_coarse(pose).astype(np.float64))
-    rows = light.ambient_rows(pose, ROWS).copy()
-    whole = light.ambient_gain(pose).copy()
-    light.coarse_kernel = "numpy"
-    light._ambient_across = None
-    light._ambient_pose = None
-    assert np.array_equal(rows, light.ambient_rows(pose, ROWS))
-    assert np.array_equal(whole, light.ambient_gain(pose))

@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-import importlib.util
 import math
 
 import cv2
 import numpy as np
-import pytest
 from camera_floor import loop_world
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -25,23 +23,6 @@ poses = st.builds(lambda x, y, heading, near_spur: Pose(2.0 + (x - 2) / 20, 1.5 
                   st.booleans())
 wheels = st.tuples(st.floats(-0.6, 0.6), st.floats(-0.6, 0.6))
 noise_at = st.tuples(st.integers(0, 239), st.integers(0, 319))
-
-
-C_BUILT = importlib.util.find_spec("sim.devices._camera_light") is not None
-
-
-@pytest.mark.skipif(not C_BUILT, reason="the C lighting was not built")
-@settings(max_examples=60, deadline=None)
-@given(pose=poses, wheel_mps=wheels, at=noise_at)
-def test_c_lighting_gives_the_frames_opencv_gives(pose: Pose, wheel_mps: tuple[float, float],
-                                                  at: tuple[int, int]) -> None:
-    """sim/devices/_camera_light.c and the OpenCV calls it stands for agree to the bit."""
-    camera = SimCamera(WORLD, DiffDriveBody(WORLD, pose), seed=4)
-    assert camera.light_kernel == "c"
-    shot = _Shot(1, 0.0, pose, wheel_mps, at)
-    fast = camera._render_shot(shot)
-    camera.light_kernel = "opencv"
-    assert np.array_equal(fast, camera._render_shot(shot))
 
 
 @settings(max_examples=60, deadline=None)

@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import asyncio
-import importlib.util
 import math
-from collections.abc import Sequence
 
 import numpy as np
 import pytest
@@ -16,14 +14,8 @@ from hypothesis import strategies as st
 from hal.readings import Frame
 from sim import vclock
 from sim.devices.camera_model import CameraMount, SimCamera, _Shot
-from sim.devices.lighting.floor_light import FloorLight
 from sim.world.body import DiffDriveBody
 from sim.world.geometry import Pose
-
-C_BUILT = importlib.util.find_spec("sim.devices._camera_light") is not None
-KERNELS = ["opencv", pytest.param("c", marks=pytest.mark.skipif(
-    not C_BUILT, reason="the C lighting was not built"))]
-
 
 WORLD = loop_world()
 # Near the lines (paint to light and blur), and anywhere on a wide floor (far texture tiles).
@@ -37,17 +29,15 @@ noise_at = st.tuples(st.integers(0, 239), st.integers(0, 319))
 row_sets = st.lists(st.integers(0, 239), max_size=40)
 
 
-@pytest.mark.parametrize("kernel", KERNELS)
 @settings(max_examples=80, deadline=None)
 @given(pose=poses, wheel_mps=wheels, at=noise_at, covered=st.booleans(), rows=row_sets,
        whole_first=st.booleans())
 def test_rows_drawn_alone_are_the_rows_of_the_whole_frame(
-        kernel: str, pose: Pose, wheel_mps: tuple[float, float], at: tuple[int, int],
+        pose: Pose, wheel_mps: tuple[float, float], at: tuple[int, int],
         covered: bool, rows: list[int], whole_first: bool) -> None:
     """Any rows (any order, repeated or none), covered or not, drawn before or after the
-    whole frame: byte for byte the frame's (the blur of a band included)."""
+    whole frame: byte for byte the frame's (the blur and the light of a band included)."""
     camera = SimCamera(WORLD, DiffDriveBody(WORLD, pose), seed=4)
-    camera.light_kernel = kernel
     shot = _Shot(1, 0.0, pose, wheel_mps, at, covered)
     if whole_first:
         whole = camera._render_shot(shot)
@@ -59,22 +49,7 @@ def test_rows_drawn_alone_are_the_rows_of_the_whole_frame(
     assert np.array_equal(alone, whole[rows])
 
 
-@pytest.mark.skipif(not C_BUILT, reason="the C lighting was not built")
-@settings(max_examples=40, deadline=None)
-@given(pose=poses, wheel_mps=wheels, at=noise_at, rows=row_sets)
-def test_rows_alone_in_c_are_the_opencv_frames_rows(
-        pose: Pose, wheel_mps: tuple[float, float], at: tuple[int, int],
-        rows: list[int]) -> None:
-    """The C pass's own texture lookup gives the rows OpenCV's warpAffine and light give."""
-    camera = SimCamera(WORLD, DiffDriveBody(WORLD, pose), seed=5)
-    shot = _Shot(1, 0.0, pose, wheel_mps, at)
-    alone = camera._render_rows(shot, rows)
-    camera.light_kernel = "opencv"
-    assert np.array_equal(alone, camera._render_shot(shot)[rows])
-
-
 @pytest.mark.parametrize("size", [(16, 16), (200, 90), (640, 480)])
-@pytest.mark.skipif(not C_BUILT, reason="the C lighting was not built")
 def test_rows_alone_at_other_resolutions(size: tuple[int, int]) -> None:
     """Other frame sizes (a texture reached at its mirrored border too) give the same rows."""
     mount = CameraMount(width_px=size[0], height_px=size[1])
@@ -140,40 +115,3 @@ class TestFrames:
         assert frame.drawn and frame.shape == (48, 64, 3) and frame.image is image
         assert np.array_equal(frame.rows([5, 0, 47]), image[[5, 0, 47]])
         assert frame.rows([]).shape == (0, 64, 3)
-
-
-@pytest.mark.parametrize("size", [(320, 240), (16, 16), (200, 90), (640, 480), (1280, 960)])
-def test_the_room_light_of_some_rows_is_opencvs_resize(size: tuple[int, int]) -> None:
-    """The room light worked out for rows alone equals cv2.resize's whole field, to the bit."""
-    mount = CameraMount(width_px=size[0], height_px=size[1])
-    pose = Pose(1.0, 0.5, 0.0)
-    light = SimCamera(WORLD, DiffDriveBody(WORLD, pose), mount, seed=8)._light
-    rng = np.random.default_rng(size[0])
-    every_row = list(range(size[1]))
-    for _ in range(40):
-        pose = Pose(*rng.uniform(-100, 100, 2), rng.uniform(-math.pi, math.pi))
-        assert np.array_equal(light.ambient_rows(pose, every_row), light.ambient_gain(pose))
-
-
-def test_an_opencv_that_resizes_otherwise_gets_rows_cut_from_whole_frames(
-        monkeypatch: pytest.MonkeyPatch) -> None:
-    """Where the rows pass would not match OpenCV (another version's rounding), the camera
-    notices at start and cuts rows from whole frames: still the same bytes."""
-    exact = FloorLight.ambient_rows
-
-    def an_ulp_off(self: FloorLight, pose: Pose, rows: Sequence[int]) -> np.ndarray:  # type: ignore[type-arg]
-        return np.nextafter(exact(self, pose, rows), np.float32(2.0))
-
-    monkeypatch.setattr(FloorLight, "ambient_rows", an_ulp_off)
-    pose = Pose(1.0, 0.52, 0.3)
-    camera = SimCamera(WORLD, DiffDriveBody(WORLD, pose), seed=4)
-    assert not camera._light.rows_alone
-    shot = _Shot(1, 0.0, pose, (0.3, 0.2), (4, 9))
-    alone = camera._render_rows(shot, [60, 100])
-    assert np.array_equal(alone, camera._render_shot(shot)[[60, 100]])
-
-
-def test_this_opencv_gets_rows_lit_alone() -> None:
-    """With the OpenCV installed here the check at start passes (where C was built)."""
-    camera = SimCamera(WORLD, DiffDriveBody(WORLD, Pose(1.0, 0.5, 0.0)))
-    assert camera._light.rows_alone == C_BUILT

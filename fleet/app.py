@@ -29,7 +29,6 @@ from fleet.clock import Clock
 from fleet.server import FleetServer
 from fleet.settings import FleetSettings
 from fleet.site import Site
-from fleet.timehold import HoldTimeMiddleware
 
 log = structlog.get_logger(__name__)
 
@@ -66,8 +65,8 @@ def create_app(
         clock: the wall clock (aware UTC datetimes); all server logic takes "now" from it.
         settings: settings written at start over the stored ones.
         monitors: whether the lifespan starts the timeout and offline monitors.
-        inline_sqlite: SQLite calls on the loop's thread, no aiosqlite worker threads (for
-            the simulator's in-process server; see ``fleet.sqlite_inline``).
+        inline_sqlite: SQLite calls on the loop's thread, no aiosqlite worker threads (a
+            single-process server on a local file; see ``fleet.sqlite_inline``).
         auth_failures_per_min: failed authentications a client address may make a minute
             before it gets 429 (0: no limit; ``fleet.ratelimit``).
     """
@@ -94,7 +93,6 @@ def create_app(
         redoc_url=None,
     )
     app.state.fleet = server
-    app.add_middleware(HoldTimeMiddleware)
     app.include_router(requests.router)
     app.include_router(robot.router)
     app.include_router(admin.router)

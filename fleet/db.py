@@ -114,7 +114,7 @@ class Database:
     """The engines and sessions of one database URL.
 
     ``inline_sqlite``: SQLite calls run on the loop's thread instead of aiosqlite's worker
-    threads (for a server inside the simulator; see ``fleet.sqlite_inline``), and the
+    threads (a single-process server on a local file; see ``fleet.sqlite_inline``), and the
     functions given to ``run_read`` and ``run_write`` run on synchronous connections.
     """
 

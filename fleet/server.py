@@ -28,7 +28,6 @@ from fleet.services.offline import check_offline
 from fleet.services.timeouts import any_timed_out, check_timeouts
 from fleet.settings import FleetSettings, load_settings, store_settings
 from fleet.site import Site, apply_site, load_site
-from fleet.timehold import hold_loop_time
 
 log = structlog.get_logger(__name__)
 
@@ -42,7 +41,7 @@ class FleetServer:
         clock: returns aware UTC datetimes; the system clock by default.
         settings: values written to the database at start (``FleetSettings`` or a dict of
             PascalCase keys), over whatever it held.
-        inline_sqlite: run SQLite calls on the loop's thread (a server inside the simulator).
+        inline_sqlite: run SQLite calls on the loop's thread (one process, a local file).
         auth_failures_per_min: failed authentications a client address may make a minute
             before it gets 429 (0: no limit).
     """
@@ -71,20 +70,19 @@ class FleetServer:
 
     async def start(self, *, monitors: bool = True) -> None:
         """Migrate the schema, apply the site and settings, start the monitors."""
-        with hold_loop_time():
-            await self.db.migrate()
-            async with self.db.write() as session:
-                now = self.clock()
-                if self._site is not None:
-                    await apply_site(session, now, self._site)
-                if self._settings:
-                    await store_settings(session, dict(self._settings))
-                if self.db.dialect == "postgresql":
-                    # Site files may give customer ids; keep the id sequence past them.
-                    await session.execute(text(
-                        "SELECT setval(pg_get_serial_sequence('customers', 'id'), "
-                        "COALESCE((SELECT MAX(id) FROM customers), 0) + 1, false)"))
-                await process_queue(session, now)
+        await self.db.migrate()
+        async with self.db.write() as session:
+            now = self.clock()
+            if self._site is not None:
+                await apply_site(session, now, self._site)
+            if self._settings:
+                await store_settings(session, dict(self._settings))
+            if self.db.dialect == "postgresql":
+                # Site files may give customer ids; keep the id sequence past them.
+                await session.execute(text(
+                    "SELECT setval(pg_get_serial_sequence('customers', 'id'), "
+                    "COALESCE((SELECT MAX(id) FROM customers), 0) + 1, false)"))
+            await process_queue(session, now)
         self.cache.invalidate()
         self.auth.invalidate()
         self.started = True
@@ -119,32 +117,28 @@ class FleetServer:
         log.info("fleet.stopped")
 
     async def settings(self) -> FleetSettings:
-        with hold_loop_time():
-            async with self.db.read() as session:
-                return await load_settings(session)
+        async with self.db.read() as session:
+            return await load_settings(session)
 
     async def flush_pings(self) -> int:
         """Write the robots' pending pings (the ping monitor does this every second)."""
-        with hold_loop_time():
-            return await self.views.flush_pings()
+        return await self.views.flush_pings()
 
     async def check_timeouts(self) -> list[int]:
         """One pass of the timeout monitor (seed section 10); returns cancelled request ids."""
         await self.flush_pings()
-        with hold_loop_time():
-            # A quiet pass (nearly all) is one serialized transaction that reads two statements
-            # on a Core connection, as the ORM pass's transaction would but without its cost.
-            if not await self.db.run_write(partial(any_timed_out, now=self.clock())):
-                return []
-            async with self.db.write() as session:
-                return await check_timeouts(session, self.clock(), await load_settings(session))
+        # A quiet pass (nearly all) is one serialized transaction that reads two statements
+        # on a Core connection, as the ORM pass's transaction would but without its cost.
+        if not await self.db.run_write(partial(any_timed_out, now=self.clock())):
+            return []
+        async with self.db.write() as session:
+            return await check_timeouts(session, self.clock(), await load_settings(session))
 
     async def check_offline(self) -> list[str]:
         """One pass of the offline monitor (seed section 13); returns robots gone offline."""
         await self.flush_pings()
-        with hold_loop_time():
-            async with self.db.write() as session:
-                return await check_offline(session, self.clock(), await load_settings(session))
+        async with self.db.write() as session:
+            return await check_offline(session, self.clock(), await load_settings(session))
 
     async def _monitor(
         self, name: str, period: Callable[[FleetSettings], float],
@@ -152,8 +146,7 @@ class FleetServer:
     ) -> None:
         while True:
             try:
-                with hold_loop_time():
-                    cfg = await self.cache.settings()
+                cfg = await self.cache.settings()
             except Exception:
                 log.exception("fleet.monitor.failed", monitor=name)
                 cfg = FleetSettings.model_validate({})

@@ -1,9 +1,10 @@
 """An aiosqlite connection that runs each call on the event loop's own thread.
 
 aiosqlite hands every call (execute, fetch, commit...) to a worker thread and wakes the loop
-when it is done: two thread switches and a loop turn per call. A server that shares its loop
-with a simulator (``robotd sim``), where the database is a local file and each statement takes
-microseconds, spends more on those hand-offs than on SQL. ``InlineConnection`` keeps aiosqlite's
+when it is done: two thread switches and a loop turn per call. A single-process server on a
+local SQLite file (``robotd-fleet serve --sqlite-inline``; the simulator runs its in-process
+server so), where each statement takes microseconds, spends more on those hand-offs than on
+SQL. ``InlineConnection`` keeps aiosqlite's
 API, so SQLAlchemy's aiosqlite dialect and all the fleet code run unchanged, but the calls
 complete at once and their futures are already done when awaited.
 

@@ -24,7 +24,6 @@ from fleet.api.robot import answer, encoded_error
 from fleet.api.schemas import DataExchangeIn
 from fleet.errors import FleetError
 from fleet.server import FleetServer
-from fleet.timehold import hold_loop_time
 from fleet.tokens import Principal
 
 PREFIX = "/api/Robot/"
@@ -40,7 +39,7 @@ _JSON = b"application/json"
 class ExchangeFastPath:
     """ASGI middleware: answers ``POST /api/Robot/{RobotName}/data-exchange`` when the request
     is well formed; passes everything else on. ``FleetApp`` puts it in front of FastAPI's own
-    middleware, so it holds a virtual clock itself (``fleet.timehold``)."""
+    middleware."""
 
     def __init__(self, app: ASGIApp, server: FleetServer) -> None:
         self.app = app
@@ -58,8 +57,7 @@ class ExchangeFastPath:
             await self.app(scope, _replay(messages, receive), send)
             return
         try:
-            with hold_loop_time():
-                reply, status = await answer(self.server, name, parsed), 200
+            reply, status = await answer(self.server, name, parsed), 200
         except FleetError as exc:
             reply, status = encoded_error(exc), exc.status_code
         await send({"type": "http.response.start", "status": status, "headers": [

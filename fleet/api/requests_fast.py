@@ -24,7 +24,6 @@ from fleet.api.robot import encoded_error
 from fleet.api.schemas import RequestOut
 from fleet.errors import FleetError
 from fleet.server import FleetServer
-from fleet.timehold import hold_loop_time
 from fleet.tokens import Principal, Role
 
 LIST_PATH = "/api/requests"
@@ -43,7 +42,7 @@ _LIST = TypeAdapter(list[RequestOut])
 class RequestsFastPath:
     """ASGI middleware: answers ``GET /api/requests`` (no query) and ``GET /api/requests/{id}``
     for a customer or admin caller; passes everything else on. ``FleetApp`` puts it in front of
-    FastAPI's own middleware, so it holds a virtual clock itself (``fleet.timehold``)."""
+    FastAPI's own middleware."""
 
     def __init__(self, app: ASGIApp, server: FleetServer) -> None:
         self.app = app
@@ -68,17 +67,15 @@ class RequestsFastPath:
 
     async def _list(self, caller: Principal) -> tuple[bytes, int]:
         try:
-            with hold_loop_time():
-                return _LIST.dump_json(await newest_requests(self.server, caller),
-                                       by_alias=True), 200
+            return _LIST.dump_json(await newest_requests(self.server, caller),
+                                   by_alias=True), 200
         except FleetError as exc:
             return encoded_error(exc), exc.status_code
 
     async def _one(self, caller: Principal, request_id: int) -> tuple[bytes, int]:
         try:
-            with hold_loop_time():
-                return _ONE.dump_json(await one_request(self.server, caller, request_id),
-                                      by_alias=True), 200
+            return _ONE.dump_json(await one_request(self.server, caller, request_id),
+                                  by_alias=True), 200
         except FleetError as exc:
             return encoded_error(exc), exc.status_code
 

@@ -22,7 +22,6 @@ from fleet.clock import Clock
 from fleet.db import Database
 from fleet.models import Robot
 from fleet.services.offline import restore_many
-from fleet.timehold import hold_loop_time
 
 log = structlog.get_logger(__name__)
 
@@ -56,26 +55,25 @@ class Reconnects(Generic[R]):
         await future
 
     async def _drain(self) -> None:
-        with hold_loop_time():
-            while self._pending:
-                batch: list[tuple[str, R, asyncio.Future[None]]] = []
-                try:
-                    # Waiting for the write lock is when the next reports gather.
-                    async with self._db.write() as session:
-                        batch, self._pending = self._pending[:MAX_BATCH], self._pending[MAX_BATCH:]
-                        await self._restore(session, batch)
-                except Exception as exc:
-                    if not batch:  # failed before taking one: fail those waiting, not loop
-                        batch, self._pending = self._pending, []
-                    log.exception("fleet.reconnect.failed", robots=len(batch))
-                    for _, _, future in batch:
-                        if not future.done():
-                            future.set_exception(exc)
-                    continue
-                self.batches += 1
+        while self._pending:
+            batch: list[tuple[str, R, asyncio.Future[None]]] = []
+            try:
+                # Waiting for the write lock is when the next reports gather.
+                async with self._db.write() as session:
+                    batch, self._pending = self._pending[:MAX_BATCH], self._pending[MAX_BATCH:]
+                    await self._restore(session, batch)
+            except Exception as exc:
+                if not batch:  # failed before taking one: fail those waiting, not loop
+                    batch, self._pending = self._pending, []
+                log.exception("fleet.reconnect.failed", robots=len(batch))
                 for _, _, future in batch:
                     if not future.done():
-                        future.set_result(None)
+                        future.set_exception(exc)
+                continue
+            self.batches += 1
+            for _, _, future in batch:
+                if not future.done():
+                    future.set_result(None)
 
     async def _restore(self, session: AsyncSession,
                        batch: list[tuple[str, R, asyncio.Future[None]]]) -> None:

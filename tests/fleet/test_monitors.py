@@ -226,9 +226,9 @@ class TestOfflineRobots:
 
 class TestMonitorsOnVirtualTime:
     def test_the_monitors_cancel_on_their_own_in_virtual_time(self, tmp_path):
-        """On robotd's virtual-time loop the monitors run every 10 s / 30 s of loop time and
-        the DB work (in aiosqlite's thread) holds the clock: a 2-minute timeout costs
-        nothing and fires at the first monitor pass after it."""
+        """On robotd's virtual-time loop the monitors run every 10 s / 30 s of loop time, and
+        with inline SQLite no DB work is under way outside the loop while its clock jumps: a
+        2-minute timeout costs nothing and fires at the first monitor pass after it."""
         import httpx
 
         async def main() -> tuple[str, float, bool]:
@@ -236,7 +236,7 @@ class TestMonitorsOnVirtualTime:
             clock = loop_clock(datetime(2026, 1, 5, tzinfo=UTC), loop.time)
             app = create_app(f"sqlite:///{tmp_path / 'v.db'}",
                              site=parse_site(SITE_TOML), clock=clock,
-                             settings={"AcceptedTimeoutS": 120})
+                             settings={"AcceptedTimeoutS": 120}, inline_sqlite=True)
             await app.state.fleet.start()
             transport = httpx.ASGITransport(app=app)
             async with httpx.AsyncClient(transport=transport, base_url="http://f",

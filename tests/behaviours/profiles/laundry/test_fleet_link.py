@@ -63,7 +63,7 @@ class TestFleetLink:
             loop = asyncio.get_running_loop()
             app = create_app(f"sqlite:///{tmp_path / 'f.db'}", site=parse_site(SITE),
                              clock=loop_clock(datetime(2026, 1, 1, tzinfo=UTC), loop.time),
-                             monitors=False)
+                             monitors=False, inline_sqlite=True)
             await app.state.fleet.start()
             seen: list[Directive] = []
             async with httpx.AsyncClient(transport=httpx.ASGITransport(app=app),

@@ -13,35 +13,17 @@ from pathlib import Path
 from robotd import __version__
 from robotd.config import ConfigError, Settings, load_config
 from robotd.config.overrides import overrides_path
+from robotd.extensions import simulator_part
 from robotd.probes import PROBES
-from robotd.profiles import DEFAULT_SCENARIO, PROFILES
+from robotd.profiles import PROFILES
 
 DEFAULT_CONFIG = "/etc/robotd/robotd.toml"
 
 
-def _scenario_help() -> str:
-    # The simulator sits above the daemon: ``robotd sim``'s entry imports it by name.
-    try:
-        names: list[str] = importlib.import_module("sim.scenario").builtin_names()
-    except ImportError:
-        return f"a scenario TOML file (default {DEFAULT_SCENARIO})"
-    return (f"built-in scenario ({', '.join(names)}; default {DEFAULT_SCENARIO}) "
-            f"or a TOML file")
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        msg = f"expected a number, got {text!r}"
-        raise argparse.ArgumentTypeError(msg) from None
-    if not value > 0:
-        msg = f"must be > 0, got {text}"
-        raise argparse.ArgumentTypeError(msg)
-    return value
-
-
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The command line; the simulator's own arguments are read only when ``argv`` (default
+    ``sys.argv[1:]``) asks for ``sim`` or for help: ``robotd run`` does not load it."""
+    argv = sys.argv[1:] if argv is None else argv
     parser = argparse.ArgumentParser(prog="robotd", description="An asyncio robot runtime.")
     parser.add_argument("--version", action="version", version=f"robotd {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -49,32 +31,10 @@ def build_parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="run the robot (real hardware); the systemd service")
     run.add_argument("--config", help=f"config file (default $ROBOTD_CONFIG or {DEFAULT_CONFIG})")
 
-    sim = sub.add_parser(
-        "sim", help="run the daemon on the simulator",
-        epilog="exit status: 0 when the scenario's success conditions hold, 1 when one does not "
-               "(the reasons are printed), 2 for a scenario or option that cannot be used; "
-               "more robots than one get sockets PATH.NAME. Robot profiles: " + "; ".join(
-                   f"{spec.name}: {spec.summary}" for spec in PROFILES.specs()))
-    sim.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO, metavar="SCENARIO",
-                     help=_scenario_help())
-    sim.add_argument("--config", help="robot config laid over the scenario's")
-    sim.add_argument("--seed", type=int, help="random seed (same seed, same run)")
-    pace = sim.add_mutually_exclusive_group()
-    pace.add_argument("--realtime", action="store_true", help="run against the wall clock")
-    pace.add_argument("--speed", type=_positive_float, metavar="X",
-                      help="X times faster than real time")
-    sim.add_argument("--socket", help="control socket path (for robotctl)")
-    sim.add_argument("--report", metavar="DIR",
-                     help="write events.jsonl, trajectory.png and run.mcap (virtual time)")
-    sim.add_argument("--viz", action="store_true",
-                     help="serve the Foxglove live view (docs/live-view.md)")
-    sim.add_argument("--viz-host", default="127.0.0.1", metavar="HOST",
-                     help="address the live view listens on (default: %(default)s)")
-    sim.add_argument("--viz-port", type=int, default=8765, metavar="PORT",
-                     help="the live view's port, 0 for any free one (default: %(default)s)")
-    sim.add_argument("--quiet", action="store_true", help="print only the result")
-    sim.add_argument("--mcu", choices=("fake", "simavr"), default="fake",
-                     help="motor board: the Python fake MCU or the firmware in simavr")
+    wants_sim = not argv or argv[0] in ("sim", "-h", "--help")
+    simulator = simulator_part("command") if wants_sim else None
+    if simulator is not None:  # the simulator plugs `robotd sim` in (robotd/extensions.py)
+        simulator.add_arguments(sub.add_parser("sim", help=simulator.HELP))
 
     check = sub.add_parser("check-config", help="check a config file; one line per problem")
     check.add_argument("path", metavar="PATH")
@@ -102,7 +62,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _main(argv: list[str] | None) -> int:
-    args = build_parser().parse_args(argv)
+    args = build_parser(argv).parse_args(argv)
     if args.command == "run":
         return cmd_run(args)
     if args.command == "sim":
@@ -129,13 +89,11 @@ def cmd_check_config(args: argparse.Namespace) -> int:
 
 
 def cmd_sim(args: argparse.Namespace) -> int:
-    try:
-        sim_runner = importlib.import_module("sim.runner")
-    except ImportError as exc:
-        print(f"robotd sim: the simulator is not available in this installation ({exc})",
-              file=sys.stderr)
+    simulator = simulator_part("command")
+    if simulator is None:  # build_parser offered no `sim`: not reached
+        print("robotd sim: the simulator is not installed", file=sys.stderr)
         return 1
-    code: int = sim_runner.run_sim(args)
+    code: int = simulator.run(args)
     return code
 
 

@@ -33,8 +33,8 @@ from sim.devices.motor_board.simavr_bridge import SimavrBridge
 from sim.devices.motor_board.simavr_mcu import SimavrMcu, SimavrUnavailable, missing_toolchain
 from sim.devices.sim_serial import SimSerialPorts
 from sim.nav.map_writer import write_walls_map
-from sim.registry import slice_of
 from sim.scenario import ScenarioError, scenario_dir
+from sim.slice import SimSlice
 from sim.world.body import DiffDriveBody
 from sim.world.floor_plan import World
 from sim.world.lidar_rays import LidarRays
@@ -46,7 +46,8 @@ class SimRig:
     """One robot's simulated hardware, and the bench switches the scenario script uses."""
 
     def __init__(self, world: World, body: DiffDriveBody, settings: Settings, *, seed: int,
-                 index: int, mcu: str = "fake", needs: tuple[str, ...] = ()) -> None:
+                 index: int, mcu: str = "fake", needs: tuple[str, ...] = (),
+                 own: SimSlice | None = None) -> None:
         self.world = world
         self.body = body
         self.settings = settings
@@ -101,7 +102,7 @@ class SimRig:
         self.map_dir: tempfile.TemporaryDirectory[str] | None = None
         if "lidar" in needs:
             self._fit_lidar(seed * 1000 + index)
-        own = slice_of(settings.get("robot.profile"))
+        own = own or SimSlice(scenarios=None)
         if own.fit_devices is not None:  # devices only this robot has
             own.fit_devices(self.devices, world, body, settings, needs, seed * 1000 + index)
         self._deadman_seen = 0
@@ -266,12 +267,14 @@ class SimRig:
 
 
 async def open_sim_rig(world: World, body: DiffDriveBody, settings: Settings, *, seed: int,
-                       index: int, mcu: str = "fake", needs: tuple[str, ...] = ()) -> SimRig:
-    """One robot's simulated hardware; ``mcu="simavr"`` runs the real firmware (wall time)."""
+                       index: int, mcu: str = "fake", needs: tuple[str, ...] = (),
+                       own: SimSlice | None = None) -> SimRig:
+    """One robot's simulated hardware (``own``: its robot's simulator slice, for the devices
+    and files only it has); ``mcu="simavr"`` runs the real firmware (wall time)."""
     if mcu not in ("fake", "simavr"):
         msg = f"--mcu {mcu}: expected fake or simavr"
         raise ValueError(msg)
-    rig = SimRig(world, body, settings, seed=seed, index=index, mcu=mcu, needs=needs)
+    rig = SimRig(world, body, settings, seed=seed, index=index, mcu=mcu, needs=needs, own=own)
     if mcu == "simavr":
         if getattr(asyncio.get_running_loop(), "virtual", False):
             msg = "--mcu simavr: the emulator runs in wall time; add --realtime"

@@ -38,6 +38,7 @@ from sim.config import robot_settings
 from sim.console import SimConsole
 from sim.crash import DaemonKeeper
 from sim.process_tuning import simulator_process
+from sim.registry import slice_of
 from sim.report import draw_trajectory, write_events
 from sim.rig import SimRig, open_sim_rig
 from sim.scenario import RobotSpec, Scenario, ScenarioError, load_scenario
@@ -68,7 +69,7 @@ class SimRobot:
 
 
 def run_sim(args: argparse.Namespace) -> int:
-    """Entry point from the CLI: returns the exit code (0 success, 1 failure, 2 bad input)."""
+    """``robotd sim`` (sim.command): returns the exit code (0 success, 1 failure, 2 bad input)."""
     console = SimConsole(quiet=bool(getattr(args, "quiet", False)))
     try:
         scenario = load_scenario(args.scenario)
@@ -199,7 +200,8 @@ async def _simulate(args: argparse.Namespace, scenario: Scenario, console: SimCo
             profile = PROFILES.build(settings.get("robot.profile"))
             rig = await open_sim_rig(scenario.world, body, settings, seed=seed, index=index,
                                      mcu=getattr(args, "mcu", "fake") or "fake",
-                                     needs=tuple(profile.devices))
+                                     needs=tuple(profile.devices),
+                                     own=slice_of(settings.get("robot.profile")))
             rigs.append(rig)
             if mine is not None:
                 mine.attach(rig)

@@ -10,7 +10,7 @@ and name no robot (``sim.registry``).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Awaitable, Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
@@ -18,7 +18,6 @@ from typing import TYPE_CHECKING, Any, Protocol
 if TYPE_CHECKING:
     from hal.backend import Devices
     from robotd.config.settings import Settings
-    from sim.actions.step import Action
     from sim.world.body import DiffDriveBody
     from sim.world.floor_plan import World
 
@@ -61,6 +60,10 @@ DeviceFitter = Callable[["Devices", "World", "DiffDriveBody", "Settings", tuple[
 """Fits the simulated devices only this robot has: ``fit(devices, world, body, settings,
 needs, seed)``."""
 
+ScriptAction = Callable[[Any], Awaitable[None] | None]
+"""A script action (``sim.actions``): ``action(step)`` with the step a ``sim.actions.Step``
+(typed loosely here: the actions know the rig and the scenario, which know the slices)."""
+
 WorldPart = Callable[[dict[str, Any], Path | None], dict[str, Any]]
 """Expands a scenario's ``[world]`` table (a key only this robot's scenarios use) into the
 floor plan's own keys: ``part(table, base_dir) -> table``."""
@@ -79,7 +82,7 @@ class SimSlice:
     actors: str | None = None
     checks: tuple[SuccessCheck, ...] = ()
     layers: tuple[ReportLayer, ...] = ()
-    actions: Mapping[str, Action] = field(default_factory=dict)
+    actions: Mapping[str, ScriptAction] = field(default_factory=dict)
     fit_devices: DeviceFitter | None = None
     world_parts: tuple[WorldPart, ...] = ()
     scenario_files: tuple[str, ...] = ()

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import importlib
 from collections.abc import Callable, Coroutine
 from typing import Any
 
@@ -53,7 +52,12 @@ def run_probe(run: Callable[[argparse.Namespace], Coroutine[Any, Any, int]],
 
 
 def simulator() -> Any:
-    """``sim.probe_devices``, the simulated devices a ``--sim`` probe reads: imported by name
-    here, the probe's entry into the simulator (as ``robotd sim``'s), because the simulator
-    sits above the daemon and nothing of the runtime imports it."""
-    return importlib.import_module("sim.probe_devices")
+    """The simulated devices a ``--sim`` probe reads (the simulator's ``probe_devices``,
+    plugged in by entry point: robotd/extensions.py)."""
+    from robotd.extensions import simulator_part
+
+    devices = simulator_part("probe_devices")
+    if devices is None:
+        msg = "--sim: the simulator is not installed"
+        raise SystemExit(msg)
+    return devices

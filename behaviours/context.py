@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 from behaviours.persistence import EStopLatch, KeyValueStore, MissionRecord, Persisted
@@ -13,7 +14,18 @@ from hal.telemetry import NULL_TELEMETRY, Telemetry
 if TYPE_CHECKING:
     from hal.settings import SettingsView
 
-__all__ = ["EventSink", "KeyValueStore", "MachineHandle", "RobotContext"]
+__all__ = ["EventSink", "Fault", "KeyValueStore", "MachineHandle", "RobotContext"]
+
+FAULT_STATES = ("recovery",)
+"""Where a robot stands because of a fault (a fault reported elsewhere is over)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Fault:
+    """Why the robot went to ``recovery``: a short code (``line_lost``) and a sentence."""
+
+    code: str
+    message: str
 
 
 @runtime_checkable
@@ -53,6 +65,7 @@ class RobotContext:
         self._machine: MachineHandle | None = None
         self.estop_latch = EStopLatch(store, wall_clock)
         self._persisted: dict[str, Persisted] = {}
+        self._fault: Fault | None = None
 
     def attach(self, machine: MachineHandle) -> None:
         """Called once by the state machine that this context drives."""
@@ -64,10 +77,28 @@ class RobotContext:
         return self._machine.state if self._machine is not None else "boot"
 
     async def trigger(self, name: str, **kwargs: Any) -> bool:
-        """Fire a machine trigger; False (not an exception) when the current state refuses it."""
+        """Fire a machine trigger; False (not an exception) when the current state refuses it.
+
+        ``fault`` takes ``code`` and ``reason``: what ``fault`` then shows while the robot is
+        in recovery."""
         if self._machine is None:
             return False
+        if name == "fault":
+            self.note_fault(str(kwargs.get("code") or "fault"), str(kwargs.get("reason") or ""))
         return await self._machine.trigger(name, **kwargs)
+
+    def note_fault(self, code: str, message: str) -> None:
+        """Remember why the robot is about to go to recovery (``fault`` shows it there)."""
+        self._fault = Fault(code, message)
+
+    @property
+    def fault(self) -> Fault | None:
+        """The fault that keeps the robot in recovery, or None (not in recovery)."""
+        state = self.state
+        if self._fault is None or not any(state == s or state.startswith(s + ".")
+                                          for s in FAULT_STATES):
+            return None
+        return self._fault
 
     def persisted(self, record: MissionRecord) -> Persisted:
         """The live values of ``record``, restored from the store the first time it is asked

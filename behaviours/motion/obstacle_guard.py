@@ -64,6 +64,9 @@ class ObstacleGuard(MotorsPassThrough):
         self.settings = settings
         self.name = f"{getattr(motors, 'name', 'motors')}+guard"
         self.blocked = False
+        self.blocked_since_s: float | None = None
+        """Loop time the current block began (None: not blocked)."""
+        self.blocked_why = ""
         self.blocks = 0
         self._emit = emit
 
@@ -94,6 +97,8 @@ class ObstacleGuard(MotorsPassThrough):
         if blocked == self.blocked:
             return
         self.blocked = blocked
+        self.blocked_since_s = asyncio.get_running_loop().time() if blocked else None
+        self.blocked_why = why if blocked else ""
         if blocked:
             self.blocks += 1
             log.info("guard.blocked", distance_cm=distance_cm, reason=why)

@@ -59,6 +59,7 @@ class _Methods:
             "state": d.state,
             "estop": d.state == "estop" or d.context.estop_latch.latched,
             "estop_latch": d.context.estop_latch.record,
+            "fault": _fault(d),
             "ready": d.ready.is_set(),
             "uptime_s": round(d.uptime_s, 3),
             "services": d.supervisor.status(),
@@ -209,3 +210,9 @@ def _topics(params: dict[str, Any]) -> list[str]:
     if unknown:
         raise RpcError(INVALID_PARAMS, f"topics: unknown {unknown}; known: {list(TOPICS)}")
     return topics
+
+
+def _fault(d: Daemon) -> dict[str, str] | None:
+    """Why the robot is in recovery (``code``, ``message``), or None."""
+    fault = d.context.fault
+    return None if fault is None else {"code": fault.code, "message": fault.message}

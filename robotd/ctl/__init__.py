@@ -171,11 +171,19 @@ def _estop_text(s: dict[str, Any]) -> str:
     return f"YES (latched: {latch.get('source')}, {latch.get('reason')!r}, at {latch.get('at')})"
 
 
+def _fault_text(fault: Any) -> str:
+    """``line_lost: no line for 13 frames`` while in recovery, ``-`` otherwise."""
+    if not isinstance(fault, dict):
+        return "-"
+    return f"{fault.get('code')}: {fault.get('message')}".rstrip(": ")
+
+
 def _render_status(s: dict[str, Any]) -> str:
     lag = s.get("loop_lag_ms", {})
     head: list[list[Any]] = [
         ["robot", s.get("robot")], ["profile", s.get("profile")], ["state", s.get("state")],
-        ["estop", _estop_text(s)], ["uptime", f"{s.get('uptime_s', 0):.1f} s"],
+        ["estop", _estop_text(s)], ["fault", _fault_text(s.get("fault"))],
+        ["uptime", f"{s.get('uptime_s', 0):.1f} s"],
         ["link", s.get("link") or "-"],
         ["loop lag", f"p50 {lag.get('p50_ms', 0):.2f} ms, p99 {lag.get('p99_ms', 0):.2f} ms, "
                      f"max {lag.get('max_ms', 0):.2f} ms"],

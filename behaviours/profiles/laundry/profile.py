@@ -75,8 +75,9 @@ class LaundryProfile(BaseProfile):
         arrival = Arrival.from_settings(tracker, ctx.settings)
         load = LoadCheck.from_settings(d.load_cell, ctx.settings) if d.load_cell else None
         wheels: Motors = d.motors
+        guard = None
         if d.front_range is not None:
-            wheels = ObstacleGuard(d.motors, d.front_range, ctx.settings, ctx.emit)
+            wheels = guard = ObstacleGuard(d.motors, d.front_range, ctx.settings, ctx.emit)
         self.follower = LineFollower(d.camera, wheels, ctx.settings, telemetry=ctx.telemetry)
         memory = LaundryMemory(ctx, str(ctx.settings.get("laundry.base_room")))
         self.memory = memory
@@ -95,7 +96,8 @@ class LaundryProfile(BaseProfile):
         url = str(ctx.settings.get("fleet.url"))
         if url:
             report = RobotReport(ctx.settings.get("robot.name"), ctx.wall_clock, tracker,
-                                 arrival, load, d.front_range, holding=memory.report)
+                                 arrival, load, d.front_range, holding=memory.report,
+                                 ctx=ctx, guard=guard)
             client = fleet_client(url, d.network)
 
             async def follow(directive: Directive) -> None:
@@ -141,4 +143,4 @@ class LaundryProfile(BaseProfile):
             log.error("laundry.line_lost", error=str(exc))
             if self.navigator is not None:
                 self.navigator.line_lost()
-            await ctx.trigger("fault")
+            await ctx.trigger("fault", code="line_lost", reason=str(exc))

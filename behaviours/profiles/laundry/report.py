@@ -8,9 +8,15 @@ from typing import Any
 
 from behaviours.beacons.arrival import Arrival
 from behaviours.beacons.tracker import BeaconTracker
+from behaviours.context import RobotContext
+from behaviours.motion.obstacle_guard import ObstacleGuard
 from behaviours.profiles.laundry.load_check import LoadCheck
 from hal.devices import RangeSensor
 from hal.ports import WallClock
+
+BLOCKED_FAULT_S = 10.0
+"""Stopped this long by something ahead (another robot on the line, a person, a trolley): the
+server is told, as a fault ``blocked``, while it lasts."""
 
 
 class RobotReport:
@@ -18,7 +24,8 @@ class RobotReport:
 
     def __init__(self, robot_name: str, wall_clock: WallClock, tracker: BeaconTracker,
                  arrival: Arrival, load: LoadCheck | None, front_range: RangeSensor | None,
-                 holding: Callable[[], dict[str, Any] | None] | None = None) -> None:
+                 holding: Callable[[], dict[str, Any] | None] | None = None, *,
+                 ctx: RobotContext | None = None, guard: ObstacleGuard | None = None) -> None:
         self.robot_name = robot_name
         self.wall_clock = wall_clock
         self.tracker = tracker
@@ -26,6 +33,8 @@ class RobotReport:
         self.load = load
         self.front_range = front_range
         self.holding = holding
+        self.ctx = ctx
+        self.guard = guard
 
     def build(self) -> dict[str, Any]:
         weight = self.load.weight().kg if self.load is not None else None
@@ -44,4 +53,25 @@ class RobotReport:
             # An extension of the contract (the server ignores names it does not know): what
             # the robot carries and whose, e.g. after a restart with laundry aboard.
             report["Holding"] = held
+        if self.ctx is not None:
+            report.update(self.robot_state(self.ctx))
         return report
+
+    def robot_state(self, ctx: RobotContext) -> dict[str, Any]:
+        """Added to the contract (issue 27): the state path, the e-stop, the fault that keeps
+        the robot from its job (recovery's, or a block ahead that lasts), the battery."""
+        battery = ctx.devices.battery.latest() if ctx.devices.battery is not None else None
+        fault = ctx.fault
+        shown = {"Code": fault.code, "Message": fault.message} if fault is not None else None
+        guard = self.guard
+        if shown is None and guard is not None and guard.blocked_since_s is not None:
+            blocked_s = ctx.loop_time_s() - guard.blocked_since_s
+            if blocked_s >= BLOCKED_FAULT_S:
+                shown = {"Code": "blocked",
+                         "Message": f"{guard.blocked_why} for {blocked_s:.0f} s"}
+        return {
+            "State": ctx.state,
+            "EmergencyStopActive": ctx.estop_latch.latched,
+            "Fault": shown,
+            "BatteryPct": round(battery.percent, 1) if battery is not None else None,
+        }

@@ -21,7 +21,13 @@ from transitions.extensions.asyncio import (
 
 from behaviours.context import RobotContext
 from behaviours.machine_part import MachinePart
-from behaviours.machine_tables import CORE_TRANSITIONS, callback_names, root_states
+from behaviours.machine_tables import (
+    CORE_TRANSITIONS,
+    CoreTrigger,
+    RootState,
+    callback_names,
+    root_states,
+)
 from behaviours.profile import Profile, StateTask
 
 log = structlog.get_logger(__name__)
@@ -47,7 +53,7 @@ class MachineModel:
         self._runtime = runtime
         self._profile = profile
         self._part_callbacks = tuple(p.callbacks for p in parts if p.callbacks is not None)
-        self.state = "boot"
+        self.state = RootState.BOOT
 
     def __getattr__(self, name: str) -> Any:
         # Names in a part's tables are its callbacks' methods; in a profile's, the profile's.
@@ -96,7 +102,7 @@ class RobotMachine:
         self._stop_motors = stop_motors
         self._queue: asyncio.Queue[_Request] = asyncio.Queue()
         self._generation = 0
-        self._before = "boot"
+        self._before: str = RootState.BOOT
         self._driver: asyncio.Task[None] | None = None
         self._tasks: dict[str, asyncio.Task[None]] = {}
         self._state_tasks: dict[str, StateTask] = dict(profile.state_tasks())
@@ -109,7 +115,7 @@ class RobotMachine:
         self.model = MachineModel(self, profile, parts)
         self.machine = _Machine(
             model=self.model, states=self.states, transitions=self.transitions,
-            initial="boot", send_event=True, auto_transitions=False,
+            initial=RootState.BOOT, send_event=True, auto_transitions=False,
             ignore_invalid_triggers=True, after_state_change=[self._changed],
         )
         self._triggers = set(self.machine.events)
@@ -166,7 +172,7 @@ class RobotMachine:
         self._queue.put_nowait(_Request(name, kwargs))
 
     def post_timeout(self) -> None:
-        self._queue.put_nowait(_Request("timeout", {}, generation=self._generation))
+        self._queue.put_nowait(_Request(CoreTrigger.TIMEOUT, {}, generation=self._generation))
 
     def halt_behaviours(self) -> None:
         """Cancel every state task (before the motors are stopped at shutdown)."""
@@ -214,20 +220,20 @@ class RobotMachine:
     async def _latch_estop(self, event: Any) -> None:
         # Latched, durably, before the trigger's caller hears that the robot is in estop.
         kwargs = getattr(event, "kwargs", {}) or {}
-        name = event.event.name if getattr(event, "event", None) is not None else "estop"
+        name = event.event.name if getattr(event, "event", None) is not None else CoreTrigger.ESTOP
         source = str(kwargs.get("source") or name)
         reason = str(kwargs.get("reason") or f"{self._before} {name}")
         await self.ctx.estop_latch.set(source, reason)
 
     async def _unlatch_estop(self, event: Any) -> None:
         transition = getattr(event, "transition", None)
-        if transition is not None and transition.dest == "estop":
+        if transition is not None and transition.dest == RootState.ESTOP:
             return  # estop again: still latched
         await self.ctx.estop_latch.clear(by=event.event.name)
 
     def _enter_hook(self, path: str) -> Callable[[Any], Coroutine[Any, Any, None]]:
         async def entered(event: Any) -> None:
-            if path == "estop":
+            if path == RootState.ESTOP:
                 await self._latch_estop(event)
             self.profile.on_enter(path, self.ctx)
             task_fn = self._state_tasks.get(path)
@@ -241,7 +247,7 @@ class RobotMachine:
             task = self._tasks.pop(path, None)
             if task is not None:
                 task.cancel()
-            if path == "estop":
+            if path == RootState.ESTOP:
                 await self._unlatch_estop(event)
             self.profile.on_exit(path, self.ctx)
         return exited
@@ -254,4 +260,4 @@ class RobotMachine:
         except Exception as exc:  # a failing behaviour sends the robot to recovery
             log.exception("behaviour.failed", state=path)
             self.ctx.emit("behaviour", state=path, status="failed", error=repr(exc))
-            self.post("fault", reason=f"{path}: {exc!r}")
+            self.post(CoreTrigger.FAULT, reason=f"{path}: {exc!r}")

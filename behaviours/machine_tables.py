@@ -6,40 +6,77 @@ the profile, for names in a profile's own tables). State paths are dotted: ``doc
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Final
 
 from behaviours.machine_part import MachinePart
 
 RECOVERY_TIMEOUT_S = 120.0
 
-ROOT_STATES = ("boot", "idle", "mission", "docking", "relocate", "recovery", "estop",
-               "maintenance")
-MOVING_STATES = ["mission", "docking", "relocate", "recovery"]
+
+class RootState:
+    """The root states' names, as they appear in logs, events and on the control socket.
+
+    Plain ``str`` constants, not an Enum: ``transitions`` takes an Enum state by its member
+    name (``IDLE``), not its value, and would rename every state.
+    """
+
+    BOOT: Final = "boot"
+    IDLE: Final = "idle"
+    MISSION: Final = "mission"
+    DOCKING: Final = "docking"
+    RELOCATE: Final = "relocate"
+    RECOVERY: Final = "recovery"
+    ESTOP: Final = "estop"
+    MAINTENANCE: Final = "maintenance"
+
+
+class CoreTrigger:
+    """The triggers of the core transitions (every robot has them)."""
+
+    BOOTED: Final = "booted"
+    START_MISSION: Final = "start_mission"
+    MISSION_DONE: Final = "mission_done"
+    LOST: Final = "lost"
+    RELOCATED: Final = "relocated"
+    FAULT: Final = "fault"
+    RECOVERED: Final = "recovered"
+    TIMEOUT: Final = "timeout"
+    """Fired by a state's own timeout (``timed_out``); a profile's tables may take it too."""
+    ESTOP: Final = "estop"
+    RESUME: Final = "resume"
+    MAINTENANCE: Final = "maintenance"
+    END_MAINTENANCE: Final = "end_maintenance"
+
+
+_S, _T = RootState, CoreTrigger
+ROOT_STATES = (_S.BOOT, _S.IDLE, _S.MISSION, _S.DOCKING, _S.RELOCATE, _S.RECOVERY, _S.ESTOP,
+               _S.MAINTENANCE)
+MOVING_STATES = [_S.MISSION, _S.DOCKING, _S.RELOCATE, _S.RECOVERY]
 
 
 def root_states(mission_children: list[str | dict[str, Any]],
                 parts: tuple[MachinePart, ...] = ()) -> list[dict[str, Any]]:
     """Every root state; the profile's mission states nest under ``mission``, and each part a
     profile plugs in fills its root state (``docking``: the docking capability's phases)."""
-    mission: dict[str, Any] = {"name": "mission"}
+    mission: dict[str, Any] = {"name": _S.MISSION}
     if mission_children:
         first = mission_children[0]
         mission["children"] = mission_children
         mission["initial"] = first if isinstance(first, str) else first["name"]
     states: list[dict[str, Any]] = [
-        {"name": "boot"},
-        {"name": "idle", "on_enter": "stop_motors"},
+        {"name": _S.BOOT},
+        {"name": _S.IDLE, "on_enter": "stop_motors"},
         mission,
-        {"name": "docking"},
-        {"name": "relocate"},
-        {"name": "recovery", "on_enter": "stop_motors", "timeout": RECOVERY_TIMEOUT_S,
+        {"name": _S.DOCKING},
+        {"name": _S.RELOCATE},
+        {"name": _S.RECOVERY, "on_enter": "stop_motors", "timeout": RECOVERY_TIMEOUT_S,
          "on_timeout": "timed_out"},
-        {"name": "estop", "on_enter": "stop_motors"},
-        {"name": "maintenance", "on_enter": "stop_motors"},
+        {"name": _S.ESTOP, "on_enter": "stop_motors"},
+        {"name": _S.MAINTENANCE, "on_enter": "stop_motors"},
     ]
     by_name = {s["name"]: s for s in states}
     for part in parts:
-        if part.root_state not in by_name or part.root_state == "mission":
+        if part.root_state not in by_name or part.root_state == _S.MISSION:
             msg = f"machine part {part.name!r}: no root state {part.root_state!r} to fill"
             raise ValueError(msg)
         by_name[part.root_state].update(part.state)
@@ -47,18 +84,18 @@ def root_states(mission_children: list[str | dict[str, Any]],
 
 
 CORE_TRANSITIONS: list[dict[str, Any]] = [
-    {"trigger": "booted", "source": "boot", "dest": "idle"},
-    {"trigger": "start_mission", "source": "idle", "dest": "mission"},
-    {"trigger": "mission_done", "source": "mission", "dest": "idle"},
-    {"trigger": "lost", "source": ["idle", "mission"], "dest": "relocate"},
-    {"trigger": "relocated", "source": "relocate", "dest": "idle"},
-    {"trigger": "fault", "source": ["mission", "docking", "relocate"], "dest": "recovery"},
-    {"trigger": "recovered", "source": "recovery", "dest": "idle"},
-    {"trigger": "timeout", "source": "recovery", "dest": "estop"},
-    {"trigger": "estop", "source": "*", "dest": "estop"},
-    {"trigger": "resume", "source": "estop", "dest": "idle"},
-    {"trigger": "maintenance", "source": ["idle", *MOVING_STATES], "dest": "maintenance"},
-    {"trigger": "end_maintenance", "source": "maintenance", "dest": "idle"},
+    {"trigger": _T.BOOTED, "source": _S.BOOT, "dest": _S.IDLE},
+    {"trigger": _T.START_MISSION, "source": _S.IDLE, "dest": _S.MISSION},
+    {"trigger": _T.MISSION_DONE, "source": _S.MISSION, "dest": _S.IDLE},
+    {"trigger": _T.LOST, "source": [_S.IDLE, _S.MISSION], "dest": _S.RELOCATE},
+    {"trigger": _T.RELOCATED, "source": _S.RELOCATE, "dest": _S.IDLE},
+    {"trigger": _T.FAULT, "source": [_S.MISSION, _S.DOCKING, _S.RELOCATE], "dest": _S.RECOVERY},
+    {"trigger": _T.RECOVERED, "source": _S.RECOVERY, "dest": _S.IDLE},
+    {"trigger": _T.TIMEOUT, "source": _S.RECOVERY, "dest": _S.ESTOP},
+    {"trigger": _T.ESTOP, "source": "*", "dest": _S.ESTOP},
+    {"trigger": _T.RESUME, "source": _S.ESTOP, "dest": _S.IDLE},
+    {"trigger": _T.MAINTENANCE, "source": [_S.IDLE, *MOVING_STATES], "dest": _S.MAINTENANCE},
+    {"trigger": _T.END_MAINTENANCE, "source": _S.MAINTENANCE, "dest": _S.IDLE},
 ]
 
 CALLBACK_KEYS = ("on_enter", "on_exit", "on_timeout", "before", "after", "prepare",
@@ -86,3 +123,17 @@ def callback_names(states: list[Any], transitions: list[dict[str, Any]]) -> set[
     for transition in transitions:
         collect(transition)
     return names
+
+
+def state_paths(states: list[Any], prefix: str = "", *, leaves_only: bool = False) -> list[str]:
+    """The dotted path of every state in a states table (children after their parent), under
+    ``prefix``; ``leaves_only``: only the states without children."""
+    paths: list[str] = []
+    for item in states:
+        name = item if isinstance(item, str) else item["name"]
+        path = f"{prefix}.{name}" if prefix else name
+        children = [] if isinstance(item, str) else item.get("children", [])
+        if not (leaves_only and children):
+            paths.append(path)
+        paths += state_paths(children, path, leaves_only=leaves_only)
+    return paths

@@ -320,6 +320,7 @@ async def _simulate(args: argparse.Namespace, scenario: Scenario, console: SimCo
     await asyncio.gather(*tasks, *people, return_exceptions=True)
     for a in actors:
         extra += a.failures()
+    extra += player.steps_not_run()
     await close_hardware()
 
     # Interrupted by hand: the unmet conditions say nothing, only that it was stopped.

@@ -34,6 +34,8 @@ class ScriptPlayer:
         self.done = not scenario.script
         self._state_changed = asyncio.Event()
         self._pending: set[asyncio.Task[None]] = set()
+        self.steps_done = 0
+        """How many steps of the script have run (in their time order)."""
         self.actions = script_actions()
         for i, step in enumerate(scenario.script):
             if step.action not in self.actions:
@@ -44,6 +46,17 @@ class ScriptPlayer:
             if robot is not None and robot not in rigs:
                 msg = f"script[{i}].robot: no robot named {robot!r}"
                 raise ScenarioError(msg)
+
+    def steps_not_run(self) -> list[str]:
+        """Each step the run ended before (a ``when_state`` that never came, a time past the
+        run's end), as a reason: a scenario whose script did not happen has not shown it."""
+        reasons = []
+        for step in self.scenario.script[self.steps_done:]:
+            when = step.args.get("when_state")
+            why = (f"its when_state {when!r} never came" if when is not None
+                   else f"the run ended before {step.at_s:g} s")
+            reasons.append(f"script step {step.action} (at_s {step.at_s:g}) never ran: {why}")
+        return reasons
 
     def state_changed(self) -> None:
         """A robot changed state (steps with ``when_state`` wait for this)."""
@@ -64,6 +77,7 @@ class ScriptPlayer:
                     await self._state_changed.wait()
                 await asyncio.sleep(float(step.args.get("delay_s", 0.0)))
             await self._do(step)
+            self.steps_done += 1
         if self._pending:
             await asyncio.gather(*self._pending)
         self.done = True

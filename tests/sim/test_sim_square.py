@@ -91,6 +91,22 @@ class TestSimCommandLine:
         out = capsys.readouterr().out
         assert "FAILED" in out and "time limit of 5 s reached" in out
 
+    def test_a_script_step_that_never_ran_fails_the_run(
+        self, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    ) -> None:
+        """A step waiting for a state the robot never enters is not skipped silently: the
+        run fails, naming the step and the state (issue 28)."""
+        from importlib import resources
+
+        text = (resources.files("sim.robots.square") / "scenarios" / "square.toml").read_text()
+        scenario = tmp_path / "never.toml"
+        scenario.write_text(text + '\n[[script]]\nat_s = 1.0\naction = "robot.kill"\n'
+                            'when_state = "docking.search"\n')
+        assert main(["sim", str(scenario), "--quiet"]) == 1
+        out = capsys.readouterr().out
+        assert "script step robot.kill (at_s 1) never ran: its when_state 'docking.search' " \
+               "never came" in out
+
     def test_bad_config_in_a_scenario_names_the_key(
         self, tmp_path: Path, capsys: pytest.CaptureFixture[str]
     ) -> None:

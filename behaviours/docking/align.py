@@ -18,7 +18,8 @@ from typing import TYPE_CHECKING
 
 from behaviours.docking.beams import FRONT_RECEIVERS, BeamView, front_case, signal_case
 from behaviours.docking.search import FINE_DPS, PERIOD_S, scan_dock_dir
-from behaviours.docking.senses import DockSenses, run_phase
+from behaviours.docking.senses import DockSenses, Handlers, PhaseLoop
+from behaviours.docking.tables import DockState, DockTrigger
 from behaviours.motion.moves import wrap
 
 if TYPE_CHECKING:
@@ -82,7 +83,7 @@ async def center_beam_search(ctx: RobotContext, senses: DockSenses) -> None:
     # Side-on with the dock to the right, the omni receiver sits 12 cm ahead along the sweep:
     # near the axis the beam is behind it, so sweep backwards first; only in the front_right
     # beam alone (the robot off to the dock's left) does the axis lie ahead.
-    towards = 1.0 if front_case(senses.view()) == "front_right_only" else -1.0
+    towards = 1.0 if front_case(senses.view()) == DockTrigger.FRONT_RIGHT_ONLY else -1.0
     await mover.turn_to(dock_dir + math.pi / 2)
     heading = mover.heading_rad
     first = await _sweep(senses, towards, SWEEP_FIRST_M)
@@ -92,7 +93,7 @@ async def center_beam_search(ctx: RobotContext, senses: DockSenses) -> None:
         first = await _sweep(senses, towards, SWEEP_BACK_M)
     if first is None or second is None:
         await mover.turn_to(dock_dir)
-        await ctx.trigger("signal_lost", reason="center_beam_search: no centre beam")
+        await ctx.trigger(DockTrigger.SIGNAL_LOST, reason="center_beam_search: no centre beam")
         return
     middle = (first + second) / 2
     x, y = mover.position()
@@ -100,7 +101,7 @@ async def center_beam_search(ctx: RobotContext, senses: DockSenses) -> None:
     shift = middle + OMNI_FORWARD_M - along  # the centre, not the omni, onto the axis
     await mover.straight(abs(shift), math.copysign(SWEEP_MPS * 2, shift), heading_rad=heading)
     senses.run.dock_dir_rad = heading - math.pi / 2
-    await ctx.trigger("center_found", beam_width_m=round(abs(first - second), 3))
+    await ctx.trigger(DockTrigger.CENTER_FOUND, beam_width_m=round(abs(first - second), 3))
 
 
 def _both_front(view: BeamView) -> bool:
@@ -177,7 +178,7 @@ async def fine_align(ctx: RobotContext, senses: DockSenses) -> None:
     ctx.emit("dock.fine_dir", by=by, off_deg=None if direction is None
              else round(math.degrees(wrap(direction - before)), 2))
     await senses.mover.turn_to(direction if direction is not None else before)
-    await ctx.trigger("compare")
+    await ctx.trigger(DockTrigger.COMPARE)
 
 
 async def signal_compare(ctx: RobotContext, senses: DockSenses) -> None:
@@ -186,7 +187,7 @@ async def signal_compare(ctx: RobotContext, senses: DockSenses) -> None:
     run = senses.run
     run.align_checks += 1
     if signal is None or run.align_checks > MAX_COMPARES:
-        await ctx.trigger("balanced", compares=run.align_checks)
+        await ctx.trigger(DockTrigger.BALANCED, compares=run.align_checks)
         return
     case = signal_case(signal, senses.config.balance_ratio)
     ctx.emit("dock.signal", case=case, left=signal.front_left, right=signal.front_right)
@@ -201,31 +202,35 @@ async def _adjust(ctx: RobotContext, senses: DockSenses, sign: float) -> None:
         run.adjust_rad /= 2
     run.adjust_sign = sign
     await senses.mover.turn_by(sign * run.adjust_rad)
-    await ctx.trigger("adjusted", turned_deg=round(math.degrees(sign * run.adjust_rad), 2))
+    await ctx.trigger(DockTrigger.ADJUSTED,
+                      turned_deg=round(math.degrees(sign * run.adjust_rad), 2))
 
 
 async def balanced(ctx: RobotContext, senses: DockSenses) -> None:
     senses.run.dock_dir_rad = senses.mover.heading_rad  # the heading slow_forward holds
-    await ctx.trigger("aligned")
+    await ctx.trigger(DockTrigger.ALIGNED)
 
 
 async def _go(ctx: RobotContext, senses: DockSenses, trigger: str) -> None:
     await ctx.trigger(trigger)
 
 
-def align_handlers() -> dict[str, object]:
+def _align_handlers() -> Handlers:
     return {
-        "center_beam_search": center_beam_search,
-        "fine_align": fine_align,
-        "signal_compare": signal_compare,
-        "left_stronger": lambda c, s: _go(c, s, "adjust"),
-        "right_stronger": lambda c, s: _go(c, s, "adjust"),
-        "micro_adjust_r": lambda c, s: _adjust(c, s, -1.0),
-        "micro_adjust_l": lambda c, s: _adjust(c, s, 1.0),
-        "balanced": balanced,
+        DockState.CENTER_BEAM_SEARCH: center_beam_search,
+        DockState.FINE_ALIGN: fine_align,
+        DockState.SIGNAL_COMPARE: signal_compare,
+        DockState.LEFT_STRONGER: lambda c, s: _go(c, s, DockTrigger.ADJUST),
+        DockState.RIGHT_STRONGER: lambda c, s: _go(c, s, DockTrigger.ADJUST),
+        DockState.MICRO_ADJUST_R: lambda c, s: _adjust(c, s, -1.0),
+        DockState.MICRO_ADJUST_L: lambda c, s: _adjust(c, s, 1.0),
+        DockState.BALANCED: balanced,
     }
+
+
+ALIGN_LOOP = PhaseLoop(DockState.ALIGN, _align_handlers())
 
 
 async def run_align(ctx: RobotContext, senses: DockSenses) -> None:
     """The ``docking.align`` state's task (phase 3)."""
-    await run_phase(ctx, senses, "docking.align", align_handlers())
+    await ALIGN_LOOP.run(ctx, senses)

@@ -17,7 +17,8 @@ from typing import TYPE_CHECKING
 
 from behaviours.docking.beams import front_case, position_case, skew_case
 from behaviours.docking.search import face_dock
-from behaviours.docking.senses import DockSenses, run_phase
+from behaviours.docking.senses import DockSenses, Handlers, PhaseLoop, PhaseStep
+from behaviours.docking.tables import DockState, DockTrigger
 
 if TYPE_CHECKING:
     from behaviours.context import RobotContext
@@ -43,13 +44,13 @@ async def scan_beams(ctx: RobotContext, senses: DockSenses) -> None:
     case = position_case(view)
     if case is None:
         seen = {r: sorted(b) for r, b in view.reading.beams.items() if b}
-        await ctx.trigger("signal_lost", reason=f"scan_beams: no case for {seen}")
+        await ctx.trigger(DockTrigger.SIGNAL_LOST, reason=f"scan_beams: no case for {seen}")
         return
     senses.run.offset_rad = 0.0
     await ctx.trigger(case)
 
 
-def _side(sign: float) -> dict[str, object]:
+def _side(sign: float) -> dict[str, PhaseStep]:
     """The handlers of a side approach; ``sign`` +1 turns left (from Far-R), -1 right."""
     near = "front_right" if sign > 0 else "front_left"
 
@@ -60,7 +61,8 @@ def _side(sign: float) -> dict[str, object]:
         angle = math.radians(senses.config.side_turn_deg) * (0.5 if far else 1.0)
         senses.run.offset_rad = sign * angle
         await senses.mover.turn_by(sign * angle)
-        await ctx.trigger("turned", turn_deg=round(math.degrees(sign * angle), 1), far=far)
+        await ctx.trigger(DockTrigger.TURNED, turn_deg=round(math.degrees(sign * angle), 1),
+                          far=far)
 
     async def forward(ctx: RobotContext, senses: DockSenses) -> None:
         view, mover = senses.view, senses.mover
@@ -75,28 +77,30 @@ def _side(sign: float) -> dict[str, object]:
             await mover.straight(BUMP_BACK_M, -senses.config.approach_mps)
             await mover.turn_by(-sign * BUMP_TURN_RAD)
         if front_case(view()) is None:
-            await ctx.trigger("signal_lost", reason=f"{near} beam not met in {driven:.2f} m")
+            await ctx.trigger(DockTrigger.SIGNAL_LOST,
+                              reason=f"{near} beam not met in {driven:.2f} m")
             return
-        await ctx.trigger("front_beam_entered", beam=near)
+        await ctx.trigger(DockTrigger.FRONT_BEAM_ENTERED, beam=near)
 
     async def entry(ctx: RobotContext, senses: DockSenses) -> None:
         await senses.mover.turn_by(-senses.run.offset_rad / 2)
-        await ctx.trigger("turned")
+        await ctx.trigger(DockTrigger.TURNED)
 
     async def overlap(ctx: RobotContext, senses: DockSenses) -> None:
         view = senses.view
         await senses.mover.straight(
             OVERLAP_MAX_M, senses.config.approach_mps,
-            until=lambda: front_case(view()) in ("front_both", _far(sign)) or senses.bumped())
+            until=lambda: front_case(view()) in (DockTrigger.FRONT_BOTH, _far(sign))
+            or senses.bumped())
         await face_dock(senses)
-        await ctx.trigger("overlap_reached")
+        await ctx.trigger(DockTrigger.OVERLAP_REACHED)
 
     return {"turn": turn, "forward": forward, "entry": entry, "overlap": overlap}
 
 
 def _far(sign: float) -> str:
     """The front beam beyond the overlap, met when the crossing overshoots it."""
-    return "front_left_only" if sign > 0 else "front_right_only"
+    return DockTrigger.FRONT_LEFT_ONLY if sign > 0 else DockTrigger.FRONT_RIGHT_ONLY
 
 
 async def _micro_step(ctx: RobotContext, senses: DockSenses, sign: float, trigger: str) -> None:
@@ -122,49 +126,49 @@ async def _micro_step(ctx: RobotContext, senses: DockSenses, sign: float, trigge
 async def check_skew(ctx: RobotContext, senses: DockSenses) -> None:
     await asyncio.sleep(SETTLE_S)
     case = skew_case(senses.view())
-    await ctx.trigger(case or "signal_lost", reason="check_skew: no front beam")
+    await ctx.trigger(case or DockTrigger.SIGNAL_LOST, reason="check_skew: no front beam")
 
 
 async def centered(ctx: RobotContext, senses: DockSenses) -> None:
     senses.run.offset_rad = 0.0
     await face_dock(senses)
-    await ctx.trigger("overlap_reached")
+    await ctx.trigger(DockTrigger.OVERLAP_REACHED)
 
 
 async def turn180(ctx: RobotContext, senses: DockSenses) -> None:
     await senses.mover.turn_by(math.pi)
-    await ctx.trigger("turned")
+    await ctx.trigger(DockTrigger.TURNED)
 
 
 async def front_now(ctx: RobotContext, senses: DockSenses) -> None:
     await face_dock(senses)
-    await ctx.trigger("front_ready")
+    await ctx.trigger(DockTrigger.FRONT_READY)
 
 
 async def _go(ctx: RobotContext, senses: DockSenses, trigger: str) -> None:
     await ctx.trigger(trigger)
 
 
-def position_handlers() -> dict[str, object]:
+def _position_handlers() -> Handlers:
     left, right = _side(1.0), _side(-1.0)
     return {
-        "scan_beams": scan_beams,
-        "left_approach.turn_left": left["turn"], "left_approach.forward_l": left["forward"],
-        "left_approach.front_r_entry": left["entry"],
-        "left_approach.overlap_l": left["overlap"],
-        "right_approach.turn_right": right["turn"],
-        "right_approach.forward_r": right["forward"],
-        "right_approach.front_l_entry": right["entry"],
-        "right_approach.overlap_r": right["overlap"],
-        "front_approach.check_skew": check_skew,
-        "front_approach.skew_left": lambda c, s: _go(c, s, "correct"),
-        "front_approach.skew_right": lambda c, s: _go(c, s, "correct"),
-        "front_approach.correct_right": lambda c, s: _micro_step(c, s, -1.0, "corrected"),
-        "front_approach.correct_left": lambda c, s: _micro_step(c, s, 1.0, "corrected"),
-        "front_approach.centered": centered,
-        "rear_approach.turn180": turn180,
-        "rear_approach.front_now": front_now,
+        DockState.SCAN_BEAMS: scan_beams,
+        DockState.TURN_LEFT: left["turn"], DockState.FORWARD_L: left["forward"],
+        DockState.FRONT_R_ENTRY: left["entry"], DockState.OVERLAP_L: left["overlap"],
+        DockState.TURN_RIGHT: right["turn"], DockState.FORWARD_R: right["forward"],
+        DockState.FRONT_L_ENTRY: right["entry"], DockState.OVERLAP_R: right["overlap"],
+        DockState.CHECK_SKEW: check_skew,
+        DockState.SKEW_LEFT: lambda c, s: _go(c, s, DockTrigger.CORRECT),
+        DockState.SKEW_RIGHT: lambda c, s: _go(c, s, DockTrigger.CORRECT),
+        DockState.CORRECT_RIGHT: lambda c, s: _micro_step(c, s, -1.0, DockTrigger.CORRECTED),
+        DockState.CORRECT_LEFT: lambda c, s: _micro_step(c, s, 1.0, DockTrigger.CORRECTED),
+        DockState.CENTERED: centered,
+        DockState.TURN180: turn180,
+        DockState.FRONT_NOW: front_now,
     }
+
+
+POSITION_LOOP = PhaseLoop(DockState.POSITION, _position_handlers())
 
 
 # -- phase 2 --------------------------------------------------------------------------------
@@ -173,13 +177,14 @@ async def front_beam_detect(ctx: RobotContext, senses: DockSenses) -> None:
     view = senses.view()
     case = front_case(view)
     if case is None and view.located("far_left"):
-        case = "front_left_only"
+        case = DockTrigger.FRONT_LEFT_ONLY
     elif case is None and view.located("far_right"):
-        case = "front_right_only"
+        case = DockTrigger.FRONT_RIGHT_ONLY
     if case is not None:
         await ctx.trigger(case)
     elif await face_dock(senses) is None:
-        await ctx.trigger("signal_lost", reason="front_beam_detect: the dock is out of sight")
+        await ctx.trigger(DockTrigger.SIGNAL_LOST,
+                          reason="front_beam_detect: the dock is out of sight")
 
 
 async def overlap_zone(ctx: RobotContext, senses: DockSenses) -> None:
@@ -196,26 +201,30 @@ async def overlap_zone(ctx: RobotContext, senses: DockSenses) -> None:
         CLOSE_IN_MAX_M, senses.config.approach_mps, heading_rad=heading,
         until=lambda: senses.strength() >= near or view().located("force_field")
         or senses.bumped())
-    await ctx.trigger("approached", closed_in_m=round(driven, 3), strength=senses.strength())
+    await ctx.trigger(DockTrigger.APPROACHED, closed_in_m=round(driven, 3),
+                      strength=senses.strength())
 
 
-def approach_handlers() -> dict[str, object]:
+def _approach_handlers() -> Handlers:
     return {
-        "front_beam_detect": front_beam_detect,
-        "left_only": lambda c, s: _go(c, s, "micro_turn"),
-        "right_only": lambda c, s: _go(c, s, "micro_turn"),
-        "micro_right": lambda c, s: _micro_step(c, s, -1.0, "turned"),
-        "micro_left": lambda c, s: _micro_step(c, s, 1.0, "turned"),
-        "both_beams": lambda c, s: _go(c, s, "in_overlap"),
-        "overlap_zone": overlap_zone,
+        DockState.FRONT_BEAM_DETECT: front_beam_detect,
+        DockState.LEFT_ONLY: lambda c, s: _go(c, s, DockTrigger.MICRO_TURN),
+        DockState.RIGHT_ONLY: lambda c, s: _go(c, s, DockTrigger.MICRO_TURN),
+        DockState.MICRO_RIGHT: lambda c, s: _micro_step(c, s, -1.0, DockTrigger.TURNED),
+        DockState.MICRO_LEFT: lambda c, s: _micro_step(c, s, 1.0, DockTrigger.TURNED),
+        DockState.BOTH_BEAMS: lambda c, s: _go(c, s, DockTrigger.IN_OVERLAP),
+        DockState.OVERLAP_ZONE: overlap_zone,
     }
+
+
+APPROACH_LOOP = PhaseLoop(DockState.APPROACH, _approach_handlers())
 
 
 async def run_position(ctx: RobotContext, senses: DockSenses) -> None:
     """The ``docking.position`` state's task (section 2)."""
-    await run_phase(ctx, senses, "docking.position", position_handlers())
+    await POSITION_LOOP.run(ctx, senses)
 
 
 async def run_approach(ctx: RobotContext, senses: DockSenses) -> None:
     """The ``docking.approach`` state's task (phase 2)."""
-    await run_phase(ctx, senses, "docking.approach", approach_handlers())
+    await APPROACH_LOOP.run(ctx, senses)

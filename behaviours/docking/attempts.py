@@ -15,6 +15,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from behaviours.context import KeyValueStore
+from behaviours.docking.tables import DockState, DockTrigger
+from behaviours.machine_tables import CoreTrigger
 from behaviours.persistence import MissionRecord, Persisted
 
 FAILED_TO_STAGE = 903
@@ -27,35 +29,35 @@ ATTEMPTS_RECORD = MissionRecord("docking.attempts", 1,
 """Where a docking stands in section 4's count (kept across a restart)."""
 
 ERROR_CODES = {
-    "signal_lost": FAILED_TO_DETECT_DOCK,
-    "align_lost": FAILED_TO_CONTROL,
-    "contact_failed": FAILED_TO_CONTROL,
-    "voltage_abnormal": FAILED_TO_CHARGE,
-    "dock_ir_lost": FAILED_TO_DETECT_DOCK,
+    DockTrigger.SIGNAL_LOST: FAILED_TO_DETECT_DOCK,
+    DockTrigger.ALIGN_LOST: FAILED_TO_CONTROL,
+    DockTrigger.CONTACT_FAILED: FAILED_TO_CONTROL,
+    DockTrigger.VOLTAGE_ABNORMAL: FAILED_TO_CHARGE,
+    DockTrigger.DOCK_IR_LOST: FAILED_TO_DETECT_DOCK,
 }
 """The error trigger -> its code; a ``timeout`` takes its code from the phase it ended."""
 
 TIMEOUT_CODES = {
-    "docking.search": FAILED_TO_DETECT_DOCK,
-    "docking.position": FAILED_TO_STAGE,
-    "docking.approach": FAILED_TO_STAGE,
-    "docking.align": FAILED_TO_STAGE,
-    "docking.dock": FAILED_TO_CONTROL,
+    DockState.SEARCH: FAILED_TO_DETECT_DOCK,
+    DockState.POSITION: FAILED_TO_STAGE,
+    DockState.APPROACH: FAILED_TO_STAGE,
+    DockState.ALIGN: FAILED_TO_STAGE,
+    DockState.DOCK: FAILED_TO_CONTROL,
 }
 
 SEED_ERRORS = {
-    "align_lost": "align lost: re-align",
-    "contact_failed": "contact failed: back off, re-approach",
-    "voltage_abnormal": "voltage abnormal: check contacts",
-    "signal_lost": "signal lost: restart search",
-    "timeout": "took too long: try again",
+    DockTrigger.ALIGN_LOST: "align lost: re-align",
+    DockTrigger.CONTACT_FAILED: "contact failed: back off, re-approach",
+    DockTrigger.VOLTAGE_ABNORMAL: "voltage abnormal: check contacts",
+    DockTrigger.SIGNAL_LOST: "signal lost: restart search",
+    CoreTrigger.TIMEOUT: "took too long: try again",
 }
 """Section 4's error types and what the robot does about each (in ``dock.result``)."""
 
 
 def error_code(trigger: str, state: str) -> int:
     """The code of a failure fired as ``trigger`` in ``state`` (a dotted path)."""
-    if trigger == "timeout":
+    if trigger == CoreTrigger.TIMEOUT:
         for phase, code in TIMEOUT_CODES.items():
             if state == phase or state.startswith(phase + "."):
                 return code

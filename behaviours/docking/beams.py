@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+from behaviours.docking.tables import DockTrigger
 from hal.readings import DockIrReading, DockSignal
 
 BEAM_ROLES = ("far_left", "far_right", "front_left", "front_right", "centre", "force_field")
@@ -56,16 +57,17 @@ def position_case(view: BeamView) -> str | None:
     beam, the centre beam or only the force field (next to the dock): ``front_seen``.
     Far-R: ``far_right_seen`` (left approach); Far-L: ``far_left_seen`` (right approach)."""
     if view.sees_any("rear") and not view.front_sees():
-        return "rear_seen"
+        return DockTrigger.REAR_SEEN
     if any(view.located(role) for role in ("front_left", "front_right", "centre")):
-        return "front_seen"
+        return DockTrigger.FRONT_SEEN
     if view.located("force_field") and not view.located("far_left") \
             and not view.located("far_right"):
-        return "front_seen"  # next to the dock: alignment backs out to where it can align
+        # Next to the dock: alignment backs out to where it can align.
+        return DockTrigger.FRONT_SEEN
     if view.located("far_right"):
-        return "far_right_seen"
+        return DockTrigger.FAR_RIGHT_SEEN
     if view.located("far_left"):
-        return "far_left_seen"
+        return DockTrigger.FAR_LEFT_SEEN
     return None
 
 
@@ -74,11 +76,11 @@ def front_case(view: BeamView) -> str | None:
     ``front_right_only`` on one side, None in neither front beam."""
     left, right = view.located("front_left"), view.located("front_right")
     if (left and right) or view.located("centre"):
-        return "front_both"
+        return DockTrigger.FRONT_BOTH
     if left:
-        return "front_left_only"
+        return DockTrigger.FRONT_LEFT_ONLY
     if right:
-        return "front_right_only"
+        return DockTrigger.FRONT_RIGHT_ONLY
     return None
 
 
@@ -86,12 +88,12 @@ def skew_case(view: BeamView) -> str | None:
     """Section 2's front case: ``skew_left`` (Front-L only), ``skew_right`` (Front-R only),
     ``centered`` (both); a far beam counts as its side (after a turn from the rear)."""
     case = front_case(view)
-    if case == "front_both" or (case is None and view.located("force_field")):
-        return "centered"
-    if case == "front_left_only" or (case is None and view.located("far_left")):
-        return "skew_left"
-    if case == "front_right_only" or (case is None and view.located("far_right")):
-        return "skew_right"
+    if case == DockTrigger.FRONT_BOTH or (case is None and view.located("force_field")):
+        return DockTrigger.CENTERED
+    if case == DockTrigger.FRONT_LEFT_ONLY or (case is None and view.located("far_left")):
+        return DockTrigger.SKEW_LEFT
+    if case == DockTrigger.FRONT_RIGHT_ONLY or (case is None and view.located("far_right")):
+        return DockTrigger.SKEW_RIGHT
     return None
 
 
@@ -100,5 +102,5 @@ def signal_case(signal: DockSignal, balance_ratio: float) -> str:
     they differ by at most ``balance_ratio`` of the stronger)."""
     left, right = signal.front_left, signal.front_right
     if abs(left - right) <= balance_ratio * max(left, right, 1):
-        return "balanced"
-    return "left_stronger" if left > right else "right_stronger"
+        return DockTrigger.BALANCED
+    return DockTrigger.LEFT_STRONGER if left > right else DockTrigger.RIGHT_STRONGER

@@ -18,15 +18,17 @@ from typing import TYPE_CHECKING
 import structlog
 
 from behaviours.docking import approach, contact, search, station
-from behaviours.docking.align import run_align
+from behaviours.docking.align import ALIGN_LOOP, run_align
 from behaviours.docking.machine_part import docking_part
 from behaviours.docking.senses import (
     DOCKED_RECORD,
     DockingRun,
     DockingUnavailable,
     DockSenses,
+    PhaseLoop,
     show_dock,
 )
+from behaviours.docking.tables import DockState, DockTrigger
 from behaviours.machine_part import MachinePart
 from behaviours.motion.odometry import Odometry
 from behaviours.persistence import Persisted
@@ -38,7 +40,7 @@ if TYPE_CHECKING:
 log = structlog.get_logger(__name__)
 
 WATCH_PERIOD_S = 0.1
-WATCHED = ("docking.position", "docking.approach", "docking.align", "docking.dock")
+WATCHED = (DockState.POSITION, DockState.APPROACH, DockState.ALIGN, DockState.DOCK)
 """Where a lost beam is a lost signal (the search looks for it; on the dock it may hide)."""
 PhaseTask = Callable[["RobotContext", DockSenses], "object"]
 
@@ -82,17 +84,23 @@ class Docking:
             return task
 
         return {
-            "docking": self.watch,
-            "docking.search": phase(search.run_search),
-            "docking.position": phase(approach.run_position),
-            "docking.approach": phase(approach.run_approach),
-            "docking.align": phase(run_align),
-            "docking.dock": phase(contact.run_dock),
-            "docking.charging": phase(station.charging),
-            "docking.emptying": phase(station.run_emptying),
-            "docking.standby": phase(lambda c, s: station.run_standby(c, s, self.next_job)),
-            "docking.undock": phase(station.undock),
+            DockState.DOCKING: self.watch,
+            DockState.SEARCH: phase(search.run_search),
+            DockState.POSITION: phase(approach.run_position),
+            DockState.APPROACH: phase(approach.run_approach),
+            DockState.ALIGN: phase(run_align),
+            DockState.DOCK: phase(contact.run_dock),
+            DockState.CHARGING: phase(station.charging),
+            DockState.EMPTYING: phase(station.run_emptying),
+            DockState.STANDBY: phase(lambda c, s: station.run_standby(c, s, self.next_job)),
+            DockState.UNDOCK: phase(station.undock),
         }
+
+    @staticmethod
+    def phase_loops() -> tuple[PhaseLoop, ...]:
+        """The phases whose ``state_tasks`` run their sub-states' handlers (``run_phase``)."""
+        return (search.SEARCH_LOOP, approach.POSITION_LOOP, approach.APPROACH_LOOP,
+                ALIGN_LOOP, contact.DOCK_LOOP, station.EMPTYING_LOOP)
 
     async def watch(self, ctx: RobotContext) -> None:
         """For the whole of ``docking``: the dock IR device's health and the beam's presence."""
@@ -100,7 +108,7 @@ class Docking:
         try:
             senses = self.senses(ctx)
         except DockingUnavailable as exc:
-            await ctx.trigger("dock_ir_lost", reason=str(exc))
+            await ctx.trigger(DockTrigger.DOCK_IR_LOST, reason=str(exc))
             return
         self.run.ir_errors = int(senses.dock_ir.status().get("line_errors", 0) or 0)
         loop = asyncio.get_running_loop()
@@ -113,7 +121,7 @@ class Docking:
             if trouble is not None:
                 log.warning("dock.ir_lost", reason=trouble, state=ctx.state)
                 await senses.mover.stop()
-                await ctx.trigger("dock_ir_lost", reason=trouble)
+                await ctx.trigger(DockTrigger.DOCK_IR_LOST, reason=trouble)
                 return
             state = ctx.state
             if ctx.telemetry.enabled:
@@ -129,7 +137,7 @@ class Docking:
                     # they are all covered. Nothing tells those from darkness: a lost signal.
                     reason += " and no edge from any receiver (unplugged or covered?)"
                     log.warning("dock.ir_silent", state=state)
-                await ctx.trigger("signal_lost", reason=reason)
+                await ctx.trigger(DockTrigger.SIGNAL_LOST, reason=reason)
                 last_seen = loop.time()
                 edges_then = senses.ir_edges()
 
@@ -147,4 +155,4 @@ class Docking:
             log.info("dock.not_docked_after_restart", contact_mv=senses.contact_mv())
             await senses.set_docked(False)
             return False
-        return await ctx.trigger("resume_charging", contact_mv=senses.contact_mv())
+        return await ctx.trigger(DockTrigger.RESUME_CHARGING, contact_mv=senses.contact_mv())

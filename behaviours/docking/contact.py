@@ -17,7 +17,8 @@ from __future__ import annotations
 import asyncio
 from typing import TYPE_CHECKING
 
-from behaviours.docking.senses import DockSenses, run_phase
+from behaviours.docking.senses import DockSenses, PhaseLoop
+from behaviours.docking.tables import DockState, DockTrigger
 
 if TYPE_CHECKING:
     from behaviours.context import RobotContext
@@ -46,9 +47,10 @@ async def slow_forward(ctx: RobotContext, senses: DockSenses) -> None:
         run.travel_left_m -= await mover.straight(
             max(0.0, run.travel_left_m), cfg.dock_mps, heading_rad=hold, until=touched)
     if touched():
-        await ctx.trigger("touched", contact_mv=senses.contact_mv(), bumped=senses.bumped())
+        await ctx.trigger(DockTrigger.TOUCHED, contact_mv=senses.contact_mv(),
+                          bumped=senses.bumped())
     else:
-        await ctx.trigger("contact_failed",
+        await ctx.trigger(DockTrigger.CONTACT_FAILED,
                           reason=f"no contact after {cfg.contact_travel_m:.2f} m forward")
 
 
@@ -56,9 +58,9 @@ async def contact_check(ctx: RobotContext, senses: DockSenses) -> None:
     await senses.mover.send(0.0, 0.0)
     await asyncio.sleep(CHECK_S)  # the DOCK line comes at 5 Hz
     if senses.contact_mv() > 0:
-        await ctx.trigger("contact_made", contact_mv=senses.contact_mv())
+        await ctx.trigger(DockTrigger.CONTACT_MADE, contact_mv=senses.contact_mv())
     else:
-        await ctx.trigger("no_contact")
+        await ctx.trigger(DockTrigger.NO_CONTACT)
 
 
 async def align_check(ctx: RobotContext, senses: DockSenses) -> None:
@@ -67,14 +69,16 @@ async def align_check(ctx: RobotContext, senses: DockSenses) -> None:
     if senses.bumped() and senses.contact_mv() == 0:
         # The nose met the station's body beside the pads: off the axis.
         await senses.mover.straight(0.05, -senses.config.dock_mps)
-        await ctx.trigger("align_lost", reason="bumped the station beside the contacts")
+        await ctx.trigger(DockTrigger.ALIGN_LOST,
+                          reason="bumped the station beside the contacts")
     elif not senses.view().dock_seen():
-        await ctx.trigger("align_lost", reason="no dock beam at the contacts")
+        await ctx.trigger(DockTrigger.ALIGN_LOST, reason="no dock beam at the contacts")
     elif run.align_checks > MAX_PUSHES:
-        await ctx.trigger("contact_failed", reason=f"no contact after {MAX_PUSHES} pushes")
+        await ctx.trigger(DockTrigger.CONTACT_FAILED,
+                          reason=f"no contact after {MAX_PUSHES} pushes")
     else:
         run.travel_left_m = max(run.travel_left_m, PUSH_M)
-        await ctx.trigger("alignment_ok")
+        await ctx.trigger(DockTrigger.ALIGNMENT_OK)
 
 
 async def voltage_detect(ctx: RobotContext, senses: DockSenses) -> None:
@@ -91,10 +95,10 @@ async def voltage_detect(ctx: RobotContext, senses: DockSenses) -> None:
             break
         await asyncio.sleep(HOLD_PERIOD_S)
     if cfg.contact_ok(worst):
-        await ctx.trigger("voltage_ok", contact_mv=worst)
+        await ctx.trigger(DockTrigger.VOLTAGE_OK, contact_mv=worst)
     else:
         await ctx.trigger(
-            "voltage_abnormal",
+            DockTrigger.VOLTAGE_ABNORMAL,
             reason=f"contact voltage {worst} mV outside {cfg.contact_min_mv}-"
                    f"{cfg.contact_max_mv} mV")
 
@@ -102,7 +106,7 @@ async def voltage_detect(ctx: RobotContext, senses: DockSenses) -> None:
 async def motor_stop(ctx: RobotContext, senses: DockSenses) -> None:
     await senses.mover.stop()
     await senses.set_docked(True)
-    await ctx.trigger("stopped", contact_mv=senses.contact_mv())
+    await ctx.trigger(DockTrigger.STOPPED, contact_mv=senses.contact_mv())
 
 
 async def retry(ctx: RobotContext, senses: DockSenses) -> None:
@@ -114,16 +118,21 @@ async def retry(ctx: RobotContext, senses: DockSenses) -> None:
     ctx.emit("dock.contacts_checked", contact_mv=mv, ok=mv == 0)
     senses.run.travel_left_m = 0.0
     senses.run.align_checks = 0
-    await ctx.trigger("backed_off")
+    await ctx.trigger(DockTrigger.BACKED_OFF)
 
 
-HANDLERS = {"slow_forward": slow_forward, "contact_check": contact_check,
-            "align_check": align_check, "voltage_detect": voltage_detect,
-            "motor_stop": motor_stop, "retry": retry}
+DOCK_LOOP = PhaseLoop(DockState.DOCK, {
+    DockState.SLOW_FORWARD: slow_forward,
+    DockState.CONTACT_CHECK: contact_check,
+    DockState.ALIGN_CHECK: align_check,
+    DockState.VOLTAGE_DETECT: voltage_detect,
+    DockState.MOTOR_STOP: motor_stop,
+    DockState.RETRY: retry,
+})
 
 
 async def run_dock(ctx: RobotContext, senses: DockSenses) -> None:
     """The ``docking.dock`` state's task (phase 4)."""
     senses.run.travel_left_m = 0.0
     senses.run.align_checks = 0
-    await run_phase(ctx, senses, "docking.dock", HANDLERS)
+    await DOCK_LOOP.run(ctx, senses)

@@ -19,7 +19,8 @@ from typing import TYPE_CHECKING
 import structlog
 
 from behaviours.docking.beams import FRONT_RECEIVERS, BeamView
-from behaviours.docking.senses import DockSenses, run_phase
+from behaviours.docking.senses import DockSenses, PhaseLoop
+from behaviours.docking.tables import DockState, DockTrigger
 from behaviours.motion.moves import wrap
 
 if TYPE_CHECKING:
@@ -73,7 +74,7 @@ async def wall_follow(ctx: RobotContext, senses: DockSenses) -> None:
         await asyncio.sleep(PERIOD_S)
     await mover.send(0.0, 0.0)
     run.moved_for_search_m = 0.0
-    await ctx.trigger("beam_detected")
+    await ctx.trigger(DockTrigger.BEAM_DETECTED)
 
 
 async def force_field_detect(ctx: RobotContext, senses: DockSenses) -> None:
@@ -85,21 +86,21 @@ async def force_field_detect(ctx: RobotContext, senses: DockSenses) -> None:
     if view.dock_seen():
         ctx.emit("dock.field", beams={r: sorted(b) for r, b in view.reading.beams.items()
                                       if b})
-        await ctx.trigger("field_detected")
+        await ctx.trigger(DockTrigger.FIELD_DETECTED)
     else:
-        await ctx.trigger("field_lost")
+        await ctx.trigger(DockTrigger.FIELD_LOST)
 
 
 async def direction_turn(ctx: RobotContext, senses: DockSenses) -> None:
     view = senses.view()
     if view.sees_any("rear") and not view.front_sees():
-        await ctx.trigger("direction_found", towards="rear")
+        await ctx.trigger(DockTrigger.DIRECTION_FOUND, towards="rear")
         return
     if await face_dock(senses) is None:
         senses.run.moved_for_search_m = MOVE_ON_M
-        await ctx.trigger("field_lost")
+        await ctx.trigger(DockTrigger.FIELD_LOST)
         return
-    await ctx.trigger("direction_found", towards="front")
+    await ctx.trigger(DockTrigger.DIRECTION_FOUND, towards="front")
 
 
 def _both_front(view: BeamView) -> bool:
@@ -193,8 +194,11 @@ async def face_dock(senses: DockSenses) -> float | None:
     return direction
 
 
-HANDLERS = {"wall_follow": wall_follow, "force_field_detect": force_field_detect,
-            "direction_turn": direction_turn}
+SEARCH_LOOP = PhaseLoop(DockState.SEARCH, {
+    DockState.WALL_FOLLOW: wall_follow,
+    DockState.FORCE_FIELD_DETECT: force_field_detect,
+    DockState.DIRECTION_TURN: direction_turn,
+})
 
 
 async def run_search(ctx: RobotContext, senses: DockSenses) -> None:
@@ -207,4 +211,4 @@ async def run_search(ctx: RobotContext, senses: DockSenses) -> None:
                                     -senses.config.approach_mps)
         await senses.mover.turn_by(math.pi)
         senses.run.moved_for_search_m = MOVE_ON_M
-    await run_phase(ctx, senses, "docking.search", HANDLERS)
+    await SEARCH_LOOP.run(ctx, senses)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import asyncio
 from collections.abc import Awaitable, Callable, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING
 
 from behaviours.docking.beams import BeamView
 from behaviours.docking.config import DockingConfig
@@ -190,20 +190,36 @@ def show_dock(telemetry: Telemetry, senses: DockSenses) -> None:
 
 IDLE_S = 0.05
 PhaseStep = Callable[["RobotContext", "DockSenses"], Awaitable[object]]
+Handlers = Mapping[str, PhaseStep]
+"""A phase's sub-states (dotted paths, ``docking.search.wall_follow``) -> their handlers."""
+
+
+@dataclass(frozen=True, slots=True)
+class PhaseLoop:
+    """A phase whose task runs the handler of its current sub-state (``run_phase``).
+
+    Data, so that a test can hold the handlers against the state table without running
+    anything: a sub-state without a handler would idle until the phase's timeout.
+    """
+
+    phase: str
+    handlers: Handlers
+
+    async def run(self, ctx: RobotContext, senses: DockSenses) -> None:
+        await run_phase(ctx, senses, self.phase, self.handlers)
 
 
 async def run_phase(ctx: RobotContext, senses: DockSenses, phase: str,
-                    handlers: Mapping[str, object]) -> None:
+                    handlers: Handlers) -> None:
     """Run a phase's sub-steps: the handler of whichever sub-state is current, until the
     machine leaves ``phase`` (this task is cancelled then). A handler ends by firing the
     trigger to the next sub-state; one that does not is run again after a short wait."""
     while ctx.state.startswith(phase + "."):
-        leaf = ctx.state[len(phase) + 1:]
-        handler = handlers.get(leaf)
-        if not callable(handler):
+        before = ctx.state
+        handler = handlers.get(before)
+        if handler is None:
             await asyncio.sleep(IDLE_S)
             continue
-        before = ctx.state
-        await cast(PhaseStep, handler)(ctx, senses)
+        await handler(ctx, senses)
         if ctx.state == before:
             await asyncio.sleep(IDLE_S)

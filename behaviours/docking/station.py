@@ -19,7 +19,8 @@ import math
 from collections.abc import Awaitable, Callable
 from typing import TYPE_CHECKING
 
-from behaviours.docking.senses import DockSenses, run_phase
+from behaviours.docking.senses import DockSenses, PhaseLoop
+from behaviours.docking.tables import DockState, DockTrigger
 from hal.devices import LinkDown
 
 if TYPE_CHECKING:
@@ -49,14 +50,14 @@ async def charging(ctx: RobotContext, senses: DockSenses) -> None:
         gone = await _contacts_gone_for(senses, gone)
         if gone is not None and loop.time() - gone > CONTACTS_GONE_S:
             await senses.set_docked(False)
-            await ctx.trigger("contacts_lost", contact_mv=senses.contact_mv())
+            await ctx.trigger(DockTrigger.CONTACTS_LOST, contact_mv=senses.contact_mv())
             return
         if not run.emptied and senses.bin_pct() >= cfg.bin_full_pct:
-            await ctx.trigger("bin_full", bin_pct=senses.bin_pct())
+            await ctx.trigger(DockTrigger.BIN_FULL, bin_pct=senses.bin_pct())
             return
         pct = senses.battery_pct()
         if pct is not None and pct >= cfg.charge_full_pct:
-            await ctx.trigger("charged", battery_pct=round(pct, 1))
+            await ctx.trigger(DockTrigger.CHARGED, battery_pct=round(pct, 1))
             return
         await asyncio.sleep(POLL_S)
 
@@ -78,12 +79,12 @@ async def _suction(senses: DockSenses, on: bool) -> None:
 
 async def door_open(ctx: RobotContext, senses: DockSenses) -> None:
     await _door(senses, True)
-    await ctx.trigger("door_opened")
+    await ctx.trigger(DockTrigger.DOOR_OPENED)
 
 
 async def vacuum_on(ctx: RobotContext, senses: DockSenses) -> None:
     await _suction(senses, True)
-    await ctx.trigger("suction_on")
+    await ctx.trigger(DockTrigger.SUCTION_ON)
 
 
 async def wait_empty(ctx: RobotContext, senses: DockSenses) -> None:
@@ -96,19 +97,19 @@ async def wait_empty(ctx: RobotContext, senses: DockSenses) -> None:
     end = loop.time() + max(0.0, cfg.empty_max_s - cfg.empty_min_s)
     while senses.bin_pct() > cfg.bin_empty_pct and loop.time() < end:  # noqa: ASYNC110
         await asyncio.sleep(POLL_S)  # the BIN line is a 1 Hz reading, not an event
-    await ctx.trigger("bin_emptied", bin_pct=senses.bin_pct(), from_pct=start_pct)
+    await ctx.trigger(DockTrigger.BIN_EMPTIED, bin_pct=senses.bin_pct(), from_pct=start_pct)
 
 
 async def vacuum_off(ctx: RobotContext, senses: DockSenses) -> None:
     await _suction(senses, False)
-    await ctx.trigger("suction_off")
+    await ctx.trigger(DockTrigger.SUCTION_OFF)
 
 
 async def door_close(ctx: RobotContext, senses: DockSenses) -> None:
     await _door(senses, False)
     senses.run.emptied = True
     ctx.emit("dock.emptied", bin_pct=senses.bin_pct())
-    await ctx.trigger("door_closed")
+    await ctx.trigger(DockTrigger.DOOR_CLOSED)
 
 
 async def undock(ctx: RobotContext, senses: DockSenses) -> None:
@@ -116,19 +117,24 @@ async def undock(ctx: RobotContext, senses: DockSenses) -> None:
     await senses.set_docked(False)
     await senses.mover.straight(cfg.undock_distance_m, -cfg.approach_mps)
     await senses.mover.turn_by(math.pi)
-    await ctx.trigger("undocked")
+    await ctx.trigger(DockTrigger.UNDOCKED)
 
 
-EMPTYING = {"door_open": door_open, "vacuum_on": vacuum_on, "wait_empty": wait_empty,
-            "vacuum_off": vacuum_off, "door_close": door_close}
+EMPTYING_LOOP = PhaseLoop(DockState.EMPTYING, {
+    DockState.DOOR_OPEN: door_open,
+    DockState.VACUUM_ON: vacuum_on,
+    DockState.WAIT_EMPTY: wait_empty,
+    DockState.VACUUM_OFF: vacuum_off,
+    DockState.DOOR_CLOSE: door_close,
+})
 
 
 async def run_emptying(ctx: RobotContext, senses: DockSenses) -> None:
     """The ``docking.emptying`` state's task; suction off and door shut if it is cut short."""
     try:
-        await run_phase(ctx, senses, "docking.emptying", EMPTYING)
+        await EMPTYING_LOOP.run(ctx, senses)
     finally:
-        if ctx.state != "docking.charging":
+        if ctx.state != DockState.CHARGING:
             await asyncio.shield(_suction(senses, False))
 
 
@@ -138,4 +144,4 @@ async def run_standby(ctx: RobotContext, senses: DockSenses, next_job: NextJob |
         await asyncio.Event().wait()
         return
     await next_job(ctx)
-    await ctx.trigger("clean_scheduled")
+    await ctx.trigger(DockTrigger.CLEAN_SCHEDULED)

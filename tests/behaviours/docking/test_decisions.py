@@ -114,7 +114,7 @@ class TestPhaseSteps:
         """left_only -> micro_right turns right (heading falls), right_only -> micro_left."""
         rig = Rig(f"docking.approach.{handler}")
         rig.ir.see(omni=("front_left",) if sign < 0 else ("front_right",))
-        step = approach.approach_handlers()[handler]
+        step = approach.APPROACH_LOOP.handlers[f"docking.approach.{handler}"]
         _run(rig, step)
         turned = rig.odometry.pose().theta_rad
         micro = math.radians(rig.settings.get("docking.micro_turn_deg"))

@@ -48,35 +48,35 @@ class CoreTrigger:
     END_MAINTENANCE: Final = "end_maintenance"
 
 
-_S, _T = RootState, CoreTrigger
-ROOT_STATES = (_S.BOOT, _S.IDLE, _S.MISSION, _S.DOCKING, _S.RELOCATE, _S.RECOVERY, _S.ESTOP,
-               _S.MAINTENANCE)
-MOVING_STATES = [_S.MISSION, _S.DOCKING, _S.RELOCATE, _S.RECOVERY]
+S, T = RootState, CoreTrigger
+ROOT_STATES = (S.BOOT, S.IDLE, S.MISSION, S.DOCKING, S.RELOCATE, S.RECOVERY, S.ESTOP,
+               S.MAINTENANCE)
+MOVING_STATES = [S.MISSION, S.DOCKING, S.RELOCATE, S.RECOVERY]
 
 
 def root_states(mission_children: list[str | dict[str, Any]],
                 parts: tuple[MachinePart, ...] = ()) -> list[dict[str, Any]]:
     """Every root state; the profile's mission states nest under ``mission``, and each part a
     profile plugs in fills its root state (``docking``: the docking capability's phases)."""
-    mission: dict[str, Any] = {"name": _S.MISSION}
+    mission: dict[str, Any] = {"name": S.MISSION}
     if mission_children:
         first = mission_children[0]
         mission["children"] = mission_children
         mission["initial"] = first if isinstance(first, str) else first["name"]
     states: list[dict[str, Any]] = [
-        {"name": _S.BOOT},
-        {"name": _S.IDLE, "on_enter": "stop_motors"},
+        {"name": S.BOOT},
+        {"name": S.IDLE, "on_enter": "stop_motors"},
         mission,
-        {"name": _S.DOCKING},
-        {"name": _S.RELOCATE},
-        {"name": _S.RECOVERY, "on_enter": "stop_motors", "timeout": RECOVERY_TIMEOUT_S,
+        {"name": S.DOCKING},
+        {"name": S.RELOCATE},
+        {"name": S.RECOVERY, "on_enter": "stop_motors", "timeout": RECOVERY_TIMEOUT_S,
          "on_timeout": "timed_out"},
-        {"name": _S.ESTOP, "on_enter": "stop_motors"},
-        {"name": _S.MAINTENANCE, "on_enter": "stop_motors"},
+        {"name": S.ESTOP, "on_enter": "stop_motors"},
+        {"name": S.MAINTENANCE, "on_enter": "stop_motors"},
     ]
     by_name = {s["name"]: s for s in states}
     for part in parts:
-        if part.root_state not in by_name or part.root_state == _S.MISSION:
+        if part.root_state not in by_name or part.root_state == S.MISSION:
             msg = f"machine part {part.name!r}: no root state {part.root_state!r} to fill"
             raise ValueError(msg)
         by_name[part.root_state].update(part.state)
@@ -84,18 +84,18 @@ def root_states(mission_children: list[str | dict[str, Any]],
 
 
 CORE_TRANSITIONS: list[dict[str, Any]] = [
-    {"trigger": _T.BOOTED, "source": _S.BOOT, "dest": _S.IDLE},
-    {"trigger": _T.START_MISSION, "source": _S.IDLE, "dest": _S.MISSION},
-    {"trigger": _T.MISSION_DONE, "source": _S.MISSION, "dest": _S.IDLE},
-    {"trigger": _T.LOST, "source": [_S.IDLE, _S.MISSION], "dest": _S.RELOCATE},
-    {"trigger": _T.RELOCATED, "source": _S.RELOCATE, "dest": _S.IDLE},
-    {"trigger": _T.FAULT, "source": [_S.MISSION, _S.DOCKING, _S.RELOCATE], "dest": _S.RECOVERY},
-    {"trigger": _T.RECOVERED, "source": _S.RECOVERY, "dest": _S.IDLE},
-    {"trigger": _T.TIMEOUT, "source": _S.RECOVERY, "dest": _S.ESTOP},
-    {"trigger": _T.ESTOP, "source": "*", "dest": _S.ESTOP},
-    {"trigger": _T.RESUME, "source": _S.ESTOP, "dest": _S.IDLE},
-    {"trigger": _T.MAINTENANCE, "source": [_S.IDLE, *MOVING_STATES], "dest": _S.MAINTENANCE},
-    {"trigger": _T.END_MAINTENANCE, "source": _S.MAINTENANCE, "dest": _S.IDLE},
+    {"trigger": T.BOOTED, "source": S.BOOT, "dest": S.IDLE},
+    {"trigger": T.START_MISSION, "source": S.IDLE, "dest": S.MISSION},
+    {"trigger": T.MISSION_DONE, "source": S.MISSION, "dest": S.IDLE},
+    {"trigger": T.LOST, "source": [S.IDLE, S.MISSION], "dest": S.RELOCATE},
+    {"trigger": T.RELOCATED, "source": S.RELOCATE, "dest": S.IDLE},
+    {"trigger": T.FAULT, "source": [S.MISSION, S.DOCKING, S.RELOCATE], "dest": S.RECOVERY},
+    {"trigger": T.RECOVERED, "source": S.RECOVERY, "dest": S.IDLE},
+    {"trigger": T.TIMEOUT, "source": S.RECOVERY, "dest": S.ESTOP},
+    {"trigger": T.ESTOP, "source": "*", "dest": S.ESTOP},
+    {"trigger": T.RESUME, "source": S.ESTOP, "dest": S.IDLE},
+    {"trigger": T.MAINTENANCE, "source": [S.IDLE, *MOVING_STATES], "dest": S.MAINTENANCE},
+    {"trigger": T.END_MAINTENANCE, "source": S.MAINTENANCE, "dest": S.IDLE},
 ]
 
 CALLBACK_KEYS = ("on_enter", "on_exit", "on_timeout", "before", "after", "prepare",

@@ -11,7 +11,7 @@ from typing import Any
 
 from behaviours.context import RobotContext
 from behaviours.profile import ControlMethod, ControlRefused
-from behaviours.profiles.delivery.states import LOADING, path
+from behaviours.profiles.delivery.states import LOADING, DeliveryTrigger, path
 
 MAX_BY_CHARS = 64
 
@@ -39,7 +39,7 @@ class LoadingConfirmation:
         if state != path(LOADING):
             msg = f"not waiting for a parcel (state {state}); nothing confirmed"
             raise ControlRefused(msg)
-        if not await self.ctx.trigger("loading_confirmed", by=by):
+        if not await self.ctx.trigger(DeliveryTrigger.LOADING_CONFIRMED, by=by):
             msg = f"loading_confirmed refused in state {self.ctx.state}"
             raise ControlRefused(msg)
         self.confirmations += 1

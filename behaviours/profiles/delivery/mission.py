@@ -29,12 +29,14 @@ from dataclasses import dataclass
 import structlog
 
 from behaviours.context import RobotContext
+from behaviours.machine_tables import CoreTrigger
 from behaviours.nav.localisation.filter import LIDAR_LOST, LOCALISED
 from behaviours.nav.localisation.people import Person
 from behaviours.nav.navigator import NavOutcome, NavStack
 from behaviours.profiles.delivery.memory import DeliveryMemory
 from behaviours.profiles.delivery.orders import Accepted, OrderVerifier
 from behaviours.profiles.delivery.recovery import GoodCorrection, category_of, face, relocalise
+from behaviours.profiles.delivery.states import DeliveryTrigger
 from hal.tasks import cancel_and_wait
 
 log = structlog.get_logger(__name__)
@@ -125,7 +127,7 @@ class DeliveryMission:
         self.last_category = category
         ctx.emit("delivery.error", category=category, detail=outcome.detail,
                  state=ctx.state)
-        await ctx.trigger("navigation_error", category=category)
+        await ctx.trigger(DeliveryTrigger.NAVIGATION_ERROR, category=category)
 
     def _dismiss(self, x_m: float, y_m: float) -> None:
         now = asyncio.get_running_loop().time()
@@ -156,11 +158,11 @@ class DeliveryMission:
         if resume and memory.parcel_in_box and memory.order_id is not None \
                 and memory.customer_position() is not None:
             ctx.emit("delivery.resumed", order_id=memory.order_id, parcel_in_box=True)
-            await ctx.trigger("resume_delivery", order_id=memory.order_id)
+            await ctx.trigger(DeliveryTrigger.RESUME_DELIVERY, order_id=memory.order_id)
             return
         if resume and memory.order_id is not None and memory.customer_position() is not None:
             ctx.emit("delivery.resumed", order_id=memory.order_id, parcel_in_box=False)
-            await ctx.trigger("resume_order", order_id=memory.order_id)
+            await ctx.trigger(DeliveryTrigger.RESUME_ORDER, order_id=memory.order_id)
             return
         if self.distance_home_m() > self.places.tolerance_m:
             outcome = await self.go(ctx, *self.places.home, why="home")
@@ -169,7 +171,7 @@ class DeliveryMission:
                 self.last_category = category
                 ctx.emit("delivery.error", category=category, detail=outcome.detail,
                          state=ctx.state)
-                await ctx.trigger("error", category=category)
+                await ctx.trigger(DeliveryTrigger.ERROR, category=category)
                 return
             ctx.emit("delivery.at_home", error_m=round(outcome.remaining_m, 4))
         loop = asyncio.get_running_loop()
@@ -184,7 +186,7 @@ class DeliveryMission:
                                  map_y_m=round(float(person.map_y_m), 3),
                                  rel_x_m=round(float(person.x_m), 3),
                                  rel_y_m=round(float(person.y_m), 3))
-                        await ctx.trigger("person_detected", track_id=person.track_id)
+                        await ctx.trigger(DeliveryTrigger.PERSON_DETECTED, track_id=person.track_id)
                         return
             await asyncio.sleep(WATCH_S)
 
@@ -211,7 +213,7 @@ class DeliveryMission:
     async def approaching(self, ctx: RobotContext) -> None:
         target = self.customer
         if target is None:
-            await ctx.trigger("person_lost", why="no customer")
+            await ctx.trigger(DeliveryTrigger.PERSON_LOST, why="no customer")
             return
         loop = asyncio.get_running_loop()
         seen_s = loop.time()
@@ -232,7 +234,7 @@ class DeliveryMission:
                     ctx.emit("delivery.person_lost", track_id=target.track_id,
                              why="not seen" if gone else "left the zone")
                     self._dismiss(target.map_x_m, target.map_y_m)
-                    await ctx.trigger("person_lost")
+                    await ctx.trigger(DeliveryTrigger.PERSON_LOST)
                     return
                 pose = self.nav.pose()
                 range_m = math.hypot(target.map_x_m - pose.x_m, target.map_y_m - pose.y_m)
@@ -245,7 +247,7 @@ class DeliveryMission:
                              gap_m=round(float(range_m) - BODIES_M, 3),
                              map_x_m=round(float(target.map_x_m), 3),
                              map_y_m=round(float(target.map_y_m), 3))
-                    await ctx.trigger("reached_customer")
+                    await ctx.trigger(DeliveryTrigger.REACHED_CUSTOMER)
                     return
                 moved = math.hypot(target.map_x_m - aimed[0], target.map_y_m - aimed[1])
                 if drive is None or moved > RETARGET_M:
@@ -294,16 +296,16 @@ class DeliveryMission:
                                                    stand_y_m=round(pose.y_m, 4))
                 ctx.emit("delivery.order_valid", order_id=verdict.order_id,
                          customer_x_m=round(float(cx), 3), customer_y_m=round(float(cy), 3))
-                await ctx.trigger("order_valid", order_id=verdict.order_id)
+                await ctx.trigger(DeliveryTrigger.ORDER_VALID, order_id=verdict.order_id)
                 return
             ctx.emit("delivery.order_invalid", reason=verdict.reason, detail=verdict.detail)
             if customer is not None:
                 self._dismiss(customer.map_x_m, customer.map_y_m)
-            await ctx.trigger("order_invalid", reason=verdict.reason)
+            await ctx.trigger(DeliveryTrigger.ORDER_INVALID, reason=verdict.reason)
             return
         if self.customer is not None:
             self._dismiss(self.customer.map_x_m, self.customer.map_y_m)
-        await ctx.trigger("timeout")  # the configured limit; the table's 30 s is the cap
+        await ctx.trigger(CoreTrigger.TIMEOUT)  # the configured limit; the table's 30 s is the cap
 
     async def _camera_failed(self, ctx: RobotContext, detail: str) -> None:
         """The error table's camera failure: a warning, the customer hears the failure sound
@@ -312,13 +314,13 @@ class DeliveryMission:
         ctx.emit("delivery.camera_failure", category="camera_failure", detail=detail)
         if self.customer is not None:
             self._dismiss(self.customer.map_x_m, self.customer.map_y_m)
-        await ctx.trigger("order_invalid", reason="camera_failure")
+        await ctx.trigger(DeliveryTrigger.ORDER_INVALID, reason="camera_failure")
 
     async def to_warehouse(self, ctx: RobotContext) -> None:
         outcome = await self.go(ctx, *self.places.warehouse, why="warehouse")
         if outcome.reached:
             ctx.emit("delivery.at_warehouse", error_m=round(outcome.remaining_m, 4))
-            await ctx.trigger("reached_warehouse")
+            await ctx.trigger(DeliveryTrigger.REACHED_WAREHOUSE)
         else:
             await self.nav_failed(ctx, outcome)
 
@@ -326,7 +328,7 @@ class DeliveryMission:
         await asyncio.sleep(self.places.loading_s)
         self.last_category = "loading_timeout"
         ctx.emit("delivery.error", category="loading_timeout", state=ctx.state)
-        await ctx.trigger("timeout")
+        await ctx.trigger(CoreTrigger.TIMEOUT)
 
     async def to_customer(self, ctx: RobotContext) -> None:
         await self.memory.loaded()
@@ -346,7 +348,7 @@ class DeliveryMission:
         if customer is not None:
             await self.face(*customer)
         ctx.emit("delivery.at_customer", error_m=round(outcome.remaining_m, 4))
-        await ctx.trigger("reached_customer")
+        await ctx.trigger(DeliveryTrigger.REACHED_CUSTOMER)
 
     async def delivering(self, ctx: RobotContext) -> None:
         order_id = self.memory.order_id
@@ -360,13 +362,13 @@ class DeliveryMission:
         ctx.emit("delivery.delivered", order_id=order_id)
         if self.customer is not None:
             self._dismiss(self.customer.map_x_m, self.customer.map_y_m)
-        await ctx.trigger("delivery_complete", order_id=order_id)
+        await ctx.trigger(DeliveryTrigger.DELIVERY_COMPLETE, order_id=order_id)
 
     async def resetting(self, ctx: RobotContext) -> None:
         outcome = await self.go(ctx, *self.places.home, why="home")
         if outcome.reached:
             ctx.emit("delivery.at_home", error_m=round(outcome.remaining_m, 4))
-            await ctx.trigger("reached_home")
+            await ctx.trigger(DeliveryTrigger.REACHED_HOME)
         else:
             await self.nav_failed(ctx, outcome)
 

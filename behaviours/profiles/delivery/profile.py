@@ -24,11 +24,12 @@ from __future__ import annotations
 
 import asyncio
 import math
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from typing import TYPE_CHECKING, Any
 
 import structlog
 
+from behaviours.machine_tables import CoreTrigger
 from behaviours.motion.encoder_watch import CommandedMotors, EncoderWatch, EncoderWatchConfig
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker
@@ -61,9 +62,9 @@ a daemon killed on the way back to a customer must know where it is)."""
 _STORE_POSE_S = 1.0
 
 RESUME_TRANSITIONS: list[dict[str, Any]] = [
-    {"trigger": "resume_delivery", "source": states.path(states.WAITING),
+    {"trigger": states.DeliveryTrigger.RESUME_DELIVERY, "source": states.path(states.WAITING),
      "dest": states.path(states.TO_CUSTOMER)},
-    {"trigger": "resume_order", "source": states.path(states.WAITING),
+    {"trigger": states.DeliveryTrigger.RESUME_ORDER, "source": states.path(states.WAITING),
      "dest": states.path(states.TO_WAREHOUSE)},
 ]
 """After a restart with a verified order in the store (not in the seed's diagram)."""
@@ -167,7 +168,7 @@ class DeliveryProfile(BaseProfile):
         async def autostart() -> None:
             """The mission starts once localisation runs: waiting at home."""
             nav.watch_scans()
-            await ctx.trigger("start_mission")
+            await ctx.trigger(CoreTrigger.START_MISSION)
             await asyncio.Event().wait()
 
         return [
@@ -188,25 +189,26 @@ class DeliveryProfile(BaseProfile):
 
     # -- tasks and hooks -----------------------------------------------------------------------
     def state_tasks(self) -> dict[str, StateTask]:
-        p = states.path
+        p, m = states.path, DeliveryMission
         return {
-            p(states.WAITING): self._task("waiting"),
-            p(states.APPROACHING): self._task("approaching"),
-            p(states.VERIFYING): self._task("verifying"),
-            p(states.TO_WAREHOUSE): self._task("to_warehouse"),
-            p(states.LOADING): self._task("loading"),
-            p(states.TO_CUSTOMER): self._task("to_customer"),
-            p(states.DELIVERING): self._task("delivering"),
-            p(states.RESETTING): self._task("resetting"),
+            p(states.WAITING): self._task(m.waiting),
+            p(states.APPROACHING): self._task(m.approaching),
+            p(states.VERIFYING): self._task(m.verifying),
+            p(states.TO_WAREHOUSE): self._task(m.to_warehouse),
+            p(states.LOADING): self._task(m.loading),
+            p(states.TO_CUSTOMER): self._task(m.to_customer),
+            p(states.DELIVERING): self._task(m.delivering),
+            p(states.RESETTING): self._task(m.resetting),
             p(states.ERROR_RECOVERY): self._recover,
         }
 
-    def _task(self, name: str) -> StateTask:
+    def _task(self, step: Callable[[DeliveryMission, RobotContext], Awaitable[None]]
+              ) -> StateTask:
         async def run(ctx: RobotContext) -> None:
             mission = self.mission
             if mission is None:
                 return  # services not built (a table-only test)
-            await getattr(mission, name)(ctx)
+            await step(mission, ctx)
         return run
 
     async def _recover(self, ctx: RobotContext) -> None:
@@ -215,7 +217,7 @@ class DeliveryProfile(BaseProfile):
 
     def on_enter(self, state: str, ctx: RobotContext) -> None:
         if state == states.path(states.WAITING) and not self._previous.startswith("mission"):
-            self._post(self._previous, "start_mission", states.WAITING)
+            self._post(self._previous, CoreTrigger.START_MISSION, states.WAITING)
 
     def on_exit(self, state: str, ctx: RobotContext) -> None:
         self._previous = state
@@ -228,7 +230,7 @@ class DeliveryProfile(BaseProfile):
         trigger = str(event.event.name)
         if dst == states.ERROR_RECOVERY and self.recovery is not None:
             category = event.kwargs.get("category")
-            if trigger == "timeout":
+            if trigger == CoreTrigger.TIMEOUT:
                 category = f"{src}_timeout"
             self.recovery.category = str(category or trigger)
         self._post(src, trigger, dst)

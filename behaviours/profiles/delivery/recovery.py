@@ -38,7 +38,7 @@ from behaviours.nav.localisation.filter import DIVERGED, LIDAR_LOST, LOCALISED, 
 from behaviours.nav.localisation.motion_model import compose, inverse
 from behaviours.nav.navigator import NavStack
 from behaviours.profiles.delivery.memory import DeliveryMemory
-from behaviours.profiles.delivery.states import MAX_RECOVERY_ATTEMPTS
+from behaviours.profiles.delivery.states import MAX_RECOVERY_ATTEMPTS, DeliveryTrigger
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -215,9 +215,9 @@ class ErrorRecovery:
                      remaining_m=round(outcome.remaining_m, 3))
             if outcome.reached:
                 self.category = None
-                await ctx.trigger("recovery_complete", category=category)
+                await ctx.trigger(DeliveryTrigger.RECOVERY_COMPLETE, category=category)
                 return
             await asyncio.sleep(RETRY_PAUSE_S)
         ctx.emit("delivery.recovery_failed", category=category, attempts=self.attempts)
-        await ctx.trigger("recovery_failed", reason=f"home unreachable after {category}",
-                          source="delivery")
+        await ctx.trigger(DeliveryTrigger.RECOVERY_FAILED,
+                          reason=f"home unreachable after {category}", source="delivery")

@@ -9,8 +9,9 @@ and the box (properties 20, 21), as tables too, and ``outputs_for`` reading them
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Final
 
+from behaviours.machine_tables import CoreTrigger, RootState
 from hal.readings import LedMode
 
 VERIFYING_TIMEOUT_S = 30.0
@@ -34,6 +35,28 @@ RESETTING, ERROR_RECOVERY = "resetting", "error_recovery"
 STATES = (WAITING, APPROACHING, VERIFYING, TO_WAREHOUSE, LOADING, TO_CUSTOMER, DELIVERING,
           RESETTING, ERROR_RECOVERY)
 """The seed's nine states, in its order (snake_case of WAITING ... ERROR_RECOVERY)."""
+
+
+class DeliveryTrigger:
+    """The triggers of RelayBot's transitions (the seed's arrows; ``timeout`` is the core's)."""
+
+    PERSON_DETECTED: Final = "person_detected"
+    PERSON_LOST: Final = "person_lost"
+    REACHED_CUSTOMER: Final = "reached_customer"
+    ORDER_VALID: Final = "order_valid"
+    ORDER_INVALID: Final = "order_invalid"
+    REACHED_WAREHOUSE: Final = "reached_warehouse"
+    LOADING_CONFIRMED: Final = "loading_confirmed"
+    DELIVERY_COMPLETE: Final = "delivery_complete"
+    REACHED_HOME: Final = "reached_home"
+    NAVIGATION_ERROR: Final = "navigation_error"
+    ERROR: Final = "error"
+    RECOVERY_COMPLETE: Final = "recovery_complete"
+    RECOVERY_FAILED: Final = "recovery_failed"
+    RESUME_DELIVERY: Final = "resume_delivery"
+    """After a restart, a parcel in the box: back to the customer (not in the seed)."""
+    RESUME_ORDER: Final = "resume_order"
+    """After a restart, a verified order not loaded yet: to the warehouse (not in the seed)."""
 
 
 def path(state: str) -> str:
@@ -73,26 +96,26 @@ def mission_states(timers: Timers | None = None) -> list[str | dict[str, Any]]:
 
 def mission_transitions() -> list[dict[str, Any]]:
     """The diagram's arrows, the error table's timeouts, and recovery's way out (to estop)."""
-    p = path
+    p, t = path, DeliveryTrigger
     return [
-        {"trigger": "person_detected", "source": p(WAITING), "dest": p(APPROACHING)},
-        {"trigger": "person_lost", "source": p(APPROACHING), "dest": p(WAITING)},
-        {"trigger": "reached_customer", "source": p(APPROACHING), "dest": p(VERIFYING)},
-        {"trigger": "order_valid", "source": p(VERIFYING), "dest": p(TO_WAREHOUSE)},
-        {"trigger": "order_invalid", "source": p(VERIFYING), "dest": p(WAITING)},
-        {"trigger": "timeout", "source": p(VERIFYING), "dest": p(WAITING)},
-        {"trigger": "reached_warehouse", "source": p(TO_WAREHOUSE), "dest": p(LOADING)},
-        {"trigger": "loading_confirmed", "source": p(LOADING), "dest": p(TO_CUSTOMER)},
-        {"trigger": "timeout", "source": p(LOADING), "dest": p(ERROR_RECOVERY)},
-        {"trigger": "reached_customer", "source": p(TO_CUSTOMER), "dest": p(DELIVERING)},
-        {"trigger": "delivery_complete", "source": p(DELIVERING), "dest": p(RESETTING)},
-        {"trigger": "timeout", "source": p(DELIVERING), "dest": p(ERROR_RECOVERY)},
-        {"trigger": "reached_home", "source": p(RESETTING), "dest": p(WAITING)},
-        {"trigger": "navigation_error", "source": NAVIGATING, "dest": p(ERROR_RECOVERY)},
-        {"trigger": "error", "source": [p(s) for s in STATES if s != ERROR_RECOVERY],
+        {"trigger": t.PERSON_DETECTED, "source": p(WAITING), "dest": p(APPROACHING)},
+        {"trigger": t.PERSON_LOST, "source": p(APPROACHING), "dest": p(WAITING)},
+        {"trigger": t.REACHED_CUSTOMER, "source": p(APPROACHING), "dest": p(VERIFYING)},
+        {"trigger": t.ORDER_VALID, "source": p(VERIFYING), "dest": p(TO_WAREHOUSE)},
+        {"trigger": t.ORDER_INVALID, "source": p(VERIFYING), "dest": p(WAITING)},
+        {"trigger": CoreTrigger.TIMEOUT, "source": p(VERIFYING), "dest": p(WAITING)},
+        {"trigger": t.REACHED_WAREHOUSE, "source": p(TO_WAREHOUSE), "dest": p(LOADING)},
+        {"trigger": t.LOADING_CONFIRMED, "source": p(LOADING), "dest": p(TO_CUSTOMER)},
+        {"trigger": CoreTrigger.TIMEOUT, "source": p(LOADING), "dest": p(ERROR_RECOVERY)},
+        {"trigger": t.REACHED_CUSTOMER, "source": p(TO_CUSTOMER), "dest": p(DELIVERING)},
+        {"trigger": t.DELIVERY_COMPLETE, "source": p(DELIVERING), "dest": p(RESETTING)},
+        {"trigger": CoreTrigger.TIMEOUT, "source": p(DELIVERING), "dest": p(ERROR_RECOVERY)},
+        {"trigger": t.REACHED_HOME, "source": p(RESETTING), "dest": p(WAITING)},
+        {"trigger": t.NAVIGATION_ERROR, "source": NAVIGATING, "dest": p(ERROR_RECOVERY)},
+        {"trigger": t.ERROR, "source": [p(s) for s in STATES if s != ERROR_RECOVERY],
          "dest": p(ERROR_RECOVERY)},
-        {"trigger": "recovery_complete", "source": p(ERROR_RECOVERY), "dest": p(WAITING)},
-        {"trigger": "recovery_failed", "source": p(ERROR_RECOVERY), "dest": "estop"},
+        {"trigger": t.RECOVERY_COMPLETE, "source": p(ERROR_RECOVERY), "dest": p(WAITING)},
+        {"trigger": t.RECOVERY_FAILED, "source": p(ERROR_RECOVERY), "dest": RootState.ESTOP},
     ]
 
 
@@ -111,8 +134,8 @@ STATE_LEDS: dict[str, LedMode] = {
 """Property 19: the LED command sent on entering each state."""
 
 TRANSITION_LEDS: dict[str, LedMode] = {
-    "order_valid": LedMode.SUCCESS_SCAN,
-    "order_invalid": LedMode.FAILURE_SCAN,
+    DeliveryTrigger.ORDER_VALID: LedMode.SUCCESS_SCAN,
+    DeliveryTrigger.ORDER_INVALID: LedMode.FAILURE_SCAN,
 }
 """The seed's existing scan effects, shown before the next state's animation."""
 
@@ -125,8 +148,8 @@ STATE_SOUNDS: dict[str, tuple[str, ...]] = {
 """Property 23: sounds on entering a state; ``{order_id}`` is the order being served."""
 
 TRANSITION_SOUNDS: dict[str, tuple[str, ...]] = {
-    "order_valid": ("successScan", "order_accepted"),
-    "order_invalid": ("failureScan", "order_rejected"),
+    DeliveryTrigger.ORDER_VALID: ("successScan", "order_accepted"),
+    DeliveryTrigger.ORDER_INVALID: ("failureScan", "order_rejected"),
 }
 
 BOX_ON_ENTER: dict[str, int] = {LOADING: BOX_OPEN_DEG, DELIVERING: BOX_OPEN_DEG,

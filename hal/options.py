@@ -2,13 +2,20 @@
 
 from __future__ import annotations
 
+import copy
+import dataclasses
+import functools
 import itertools
 import math
 import re
 import tomllib
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from enum import Enum
+from typing import TYPE_CHECKING, Any, TypeVar, get_args, get_origin, get_type_hints
+
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
 
 
 @dataclass(frozen=True, slots=True)
@@ -138,6 +145,8 @@ class Section:
     name: str
     help: str
     options: tuple[Option, ...]
+    configs: tuple[type[DataclassInstance], ...] = field(default=(), repr=False, compare=False)
+    """The dataclasses whose ``setting`` fields declare ``options`` (``section_of``), if any."""
     by_key: dict[str, Option] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -166,6 +175,137 @@ class Order:
             word = "above" if self.strict else "at least"
             return high, f"must be {word} {low} ({_num(lo)}), got {_num(hi)}"
         return None
+
+
+T = TypeVar("T")
+C = TypeVar("C", bound="DataclassInstance")
+
+_DECLARED = "hal.options.setting"
+"""The key of a ``setting`` field's metadata."""
+
+
+@dataclass(frozen=True, slots=True)
+class _Declared:
+    """What ``setting`` was told, less the key (the field's name) and the kind (its type)."""
+
+    default: Any
+    help: str
+    min: float | None
+    max: float | None
+    choices: tuple[str, ...] | tuple[int, ...] | None
+    tunable: bool
+    required: bool
+    unknown: str | None
+    pattern: tuple[str, str] | None
+
+
+def setting(default: T, help: str, *, min: float | None = None, max: float | None = None,
+            choices: tuple[str, ...] | tuple[int, ...] | None = None, tunable: bool = False,
+            required: bool = False, unknown: str | None = None,
+            pattern: tuple[str, str] | None = None) -> T:
+    """A dataclass field that is a config key: its name is the key, its type the kind.
+
+    Args:
+        default: the value when the file has none; an Enum member's value is the key's (its
+            members' values are the choices unless ``choices`` says otherwise).
+        help: one sentence for the example config and ``robotctl tune get``.
+        min, max, choices, tunable, required, unknown, pattern: as ``Option``'s.
+    """
+    declared = _Declared(default, help, min, max, choices, tunable, required, unknown, pattern)
+    metadata = {_DECLARED: declared}
+    if isinstance(default, list | dict):
+        return field(default_factory=lambda: copy.deepcopy(default), metadata=metadata)
+    return field(default=default, metadata=metadata)
+
+
+@dataclass(frozen=True, slots=True)
+class _Key:
+    """One ``setting`` field: its Option and how a checked value becomes the field's."""
+
+    option: Option
+    convert: Callable[[Any], Any]
+
+
+def options_of(config: type[DataclassInstance]) -> tuple[Option, ...]:
+    """The Options of a dataclass's ``setting`` fields, in the order they are declared."""
+    return tuple(key.option for key in _keys(config))
+
+
+def section_of(configs: type[DataclassInstance] | Sequence[type[DataclassInstance]], name: str,
+               help: str) -> Section:
+    """The config section ``name`` whose keys are the ``setting`` fields of ``configs`` (one
+    dataclass, or several whose keys follow one another)."""
+    configs = tuple(configs) if isinstance(configs, Sequence) else (configs,)
+    options = tuple(option for config in configs for option in options_of(config))
+    return Section(name, help, options, configs=configs)
+
+
+def load(config: type[C], values: Mapping[str, Any], /, **derived: Any) -> C:
+    """``config`` built from a section's checked values, each field from the key of its name.
+
+    Args:
+        config: a dataclass with ``setting`` fields.
+        values: the section's values (``settings.section(name)``), already checked.
+        derived: the dataclass's other fields (not config keys), e.g. one read from
+            another section.
+    """
+    read = {key.option.key: key.convert(values[key.option.key]) for key in _keys(config)}
+    return config(**read, **derived)
+
+
+def is_setting(spec: dataclasses.Field[Any]) -> bool:
+    """Whether a dataclass field was declared with ``setting``."""
+    return _DECLARED in spec.metadata
+
+
+@functools.cache
+def _keys(config: type[DataclassInstance]) -> tuple[_Key, ...]:
+    hints = get_type_hints(config)
+    keys = []
+    for spec in dataclasses.fields(config):
+        if not is_setting(spec):
+            continue
+        declared: _Declared = spec.metadata[_DECLARED]
+        kind, convert, choices = _kind(hints[spec.name], f"{config.__name__}.{spec.name}")
+        default = declared.default
+        if isinstance(default, Enum):
+            default = default.value
+        elif isinstance(default, tuple):
+            default = list(default)
+        option = Option(spec.name, kind, default, declared.help, min=declared.min,
+                        max=declared.max, choices=declared.choices or choices,
+                        tunable=declared.tunable, required=declared.required,
+                        unknown=declared.unknown, pattern=declared.pattern)
+        keys.append(_Key(option, convert))
+    return tuple(keys)
+
+
+_SCALARS: dict[Any, str] = {bool: "bool", int: "int", float: "float", str: "str"}
+_ITEMS: dict[Any, str] = {str: "list[str]", float: "list[float]"}
+
+
+def _kind(hint: Any, where: str) -> tuple[str, Callable[[Any], Any], tuple[str, ...] | None]:
+    """(Option kind, checked value -> field value, choices) of a field's type."""
+    if hint in _SCALARS:
+        return _SCALARS[hint], _same, None
+    if isinstance(hint, type) and issubclass(hint, Enum):
+        values = tuple(member.value for member in hint)
+        if all(isinstance(v, str) for v in values):
+            return "str", hint, values
+    origin, args = get_origin(hint), get_args(hint)
+    if origin is list and len(args) == 1 and args[0] in _ITEMS:
+        return _ITEMS[args[0]], list, None
+    if origin is tuple and len(args) == 2 and args[1] is Ellipsis and args[0] in _ITEMS:
+        return _ITEMS[args[0]], tuple, None
+    if origin is dict and args[:1] == (str,):
+        return "table", dict, None
+    msg = (f"{where}: {hint!r} cannot be a config key (bool, int, float, str, a str Enum, "
+           "list[str], list[float], their tuple[..., ...], or dict[str, ...])")
+    raise TypeError(msg)
+
+
+def _same(value: Any) -> Any:
+    return value
 
 
 def _show(value: Any) -> str:

@@ -15,13 +15,14 @@ import asyncio
 import contextlib
 import math
 from collections import deque
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 import structlog
 
 from behaviours.line.colours import parse_colour
-from behaviours.line.tracker import LineReading, LineTracker, TrackerParams
+from behaviours.line.config import FollowConfig
+from behaviours.line.tracker import LineReading, LineTracker
 from hal.devices import Camera, DeviceUnavailable, LinkDown, Motors
 from hal.looptime.deadline import DeadlineSleeper
 from hal.readings import Frame, MotorCommand
@@ -39,39 +40,6 @@ _SHOW_PERIOD_S = 0.1
 
 class LineLostError(RuntimeError):
     """The line stayed out of sight too long; the robot has been stopped."""
-
-
-@dataclass(frozen=True, slots=True)
-class FollowConfig:
-    """The ``line_follow`` section, read once per change."""
-
-    kp: float
-    ki: float
-    kd: float
-    fps: float
-    bands_px: tuple[float, float, float]
-    bands_width_px: int  # the frame width the bands are in pixels of (camera.width)
-    speed: float
-    gentle_speed: float
-    strong_speed: float
-    turn_speed: float
-    max_integral: float
-    lost_frames: int
-    colour: str
-    tracker: TrackerParams
-
-    @classmethod
-    def from_settings(cls, settings: SettingsView) -> FollowConfig:
-        """The section as it stands: the settings keep the bands rising and the ROI's top
-        above its bottom (config.sections.ORDERS), in the file and in live tuning."""
-        s = settings.section("line_follow")
-        return cls(s["kp"], s["ki"], s["kd"], s["fps"],
-                   (s["band_forward_px"], s["band_gentle_px"], s["band_strong_px"]),
-                   settings.get("camera.width"), s["speed"], s["gentle_speed"],
-                   s["strong_speed"], s["turn_speed"],
-                   s["max_integral"], s["lost_frames"], s["colour"],
-                   TrackerParams(roi_top=s["roi_top"], roi_bottom=s["roi_bottom"],
-                                 min_contrast=s["min_contrast"]))
 
 
 class LineFollower:

@@ -12,6 +12,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from typing import overload
 
 from behaviours.docking.config import DOCKING_OPTIONS, DOCKING_ORDERS
+from behaviours.line.config import LINE_FOLLOW, LINE_FOLLOW_ORDERS
 from behaviours.nav.config import NAV_SECTIONS
 from behaviours.nav.localisation.config import NAV_LOCALISATION_ORDERS, NAV_LOCALISATION_SECTIONS
 from drivers.arduino.config import SERIAL
@@ -83,41 +84,7 @@ _CORE: tuple[Section, ...] = (
         opt("tolerance_m", "float", 0.01, "A waypoint is reached this close.", min=0.001,
             max=1, tunable=True),
     )),
-    Section("line_follow", "Camera line following (seed 000 section 6).", (
-        opt("kp", "float", 0.5, "Proportional gain.", min=0, max=100, tunable=True),
-        opt("ki", "float", 0.0, "Integral gain.", min=0, max=100, tunable=True),
-        opt("kd", "float", 0.1, "Derivative gain.", min=0, max=100, tunable=True),
-        opt("fps", "float", 13.0, "Control loop rate (13 = the seed's 77 ms).", min=1, max=120,
-          tunable=True),
-        opt("band_forward_px", "float", 30.0, "Below this error: straight on at full speed.",
-          min=0, max=10000, tunable=True),
-        opt("band_gentle_px", "float", 80.0, "Below this: gentle correction.", min=0, max=10000,
-          tunable=True),
-        opt("band_strong_px", "float", 150.0,
-            "Below this: strong correction; above: full turn.",
-          min=0, max=10000, tunable=True),
-        opt("speed", "float", 0.55, "Wheel duty (0-1) when straight on.", min=0, max=1,
-          tunable=True),
-        opt("gentle_speed", "float", 0.8, "Speed in the gentle band, fraction of speed.",
-          min=0, max=1, tunable=True),
-        opt("strong_speed", "float", 0.5, "Speed in the strong band, fraction of speed.",
-          min=0, max=1, tunable=True),
-        opt("turn_speed", "float", 0.4, "Wheel duty of a full turn and of the recovery turn.",
-          min=0, max=1, tunable=True),
-        opt("max_integral", "float", 0.3, "Anti-windup: cap of the integral term (duty).",
-          min=0, max=1, tunable=True),
-        opt("lost_frames", "int", 20, "Frames without the line before stopping with an error.",
-          min=1, max=1000, tunable=True),
-        opt("colour", "str", "black", "Line colour when the fleet server names none.",
-          choices=("black", "white", "red", "green", "blue", "yellow", "cyan", "magenta"),
-          tunable=True),
-        opt("roi_top", "float", 0.25, "Top of the scanned band, fraction of the image height.",
-          min=0, max=1, tunable=True),
-        opt("roi_bottom", "float", 0.6, "Bottom of the scanned band (> roi_top).", min=0, max=1,
-          tunable=True),
-        opt("min_contrast", "float", 0.2, "Contrast against the floor that counts as line.",
-          min=0.01, max=1, tunable=True),
-    )),
+    LINE_FOLLOW,
     Section("camera", "The line camera (USB/UVC, Pi camera module, or a recorded video).", (
         opt("source", "str", "uvc", "uvc: V4L2 device; picamera: Pi camera; file: a video.",
           choices=("uvc", "picamera", "file")),
@@ -210,9 +177,7 @@ _CORE: tuple[Section, ...] = (
 _CORE_ORDERS: tuple[Order, ...] = (
     Order(("supervisor.restart_base_s", "supervisor.restart_max_s"), strict=False),
     Order(("drive.min_mps", "drive.cruise_mps"), strict=False),
-    Order(("line_follow.band_forward_px", "line_follow.band_gentle_px",
-           "line_follow.band_strong_px")),
-    Order(("line_follow.roi_top", "line_follow.roi_bottom")),
+    *LINE_FOLLOW_ORDERS,
     Order(("safety.stop_distance_cm", "safety.resume_distance_cm"), strict=False),
     *LIDAR_ORDERS,
     *NAV_LOCALISATION_ORDERS,

@@ -13,9 +13,11 @@ from __future__ import annotations
 
 import asyncio
 import math
+from collections.abc import Awaitable, Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
+from behaviours.machine_tables import CoreTrigger
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker
 from behaviours.nav.navigator import NavStack
@@ -25,11 +27,8 @@ from behaviours.profiles.cabinet.config import CabinetConfig
 from behaviours.profiles.cabinet.map_reader import SiteFileError, parse_site_map, read_json
 from behaviours.profiles.cabinet.site import build_site, resolve
 from behaviours.profiles.cabinet.states import (
-    ACTION,
-    FAILED,
-    FITTING,
-    INIT,
-    RELOCATE,
+    CabinetState,
+    CabinetTrigger,
     cabinet_states,
     cabinet_transitions,
 )
@@ -87,7 +86,7 @@ class CabinetProfile(BaseProfile):
                 stop()
 
         async def autostart() -> None:
-            await ctx.trigger("start_mission")
+            await ctx.trigger(CoreTrigger.START_MISSION)
             await asyncio.Event().wait()
 
         return [
@@ -126,7 +125,7 @@ class CabinetProfile(BaseProfile):
             return
         m.block_status["task_manager"] = "ready"
         ctx.emit("init.task_manager", blocks=list(m.block_modes), task_file=c.task_file)
-        await ctx.trigger("tasks_read")
+        await ctx.trigger(CabinetTrigger.TASKS_READ)
 
     async def _perceptor(self, ctx: RobotContext) -> None:
         m = self.mission
@@ -156,7 +155,7 @@ class CabinetProfile(BaseProfile):
                  rooms=len(site_map.rooms), cabinets=[cab.name for cab in site_map.cabinets],
                  tasks=[t.cabinet for t in m.tasks.tasks], order=m.tasks.order,
                  on_unreachable=m.tasks.on_unreachable)
-        await ctx.trigger("map_read")
+        await ctx.trigger(CabinetTrigger.MAP_READ)
 
     async def _path_planner(self, ctx: RobotContext) -> None:
         m = self.mission
@@ -169,7 +168,7 @@ class CabinetProfile(BaseProfile):
         ctx.emit("graph.built", nodes=[[n.name, round(n.x_m, 3), round(n.y_m, 3)]
                                        for n in graph.nodes.values()],
                  links=[list(k) for k in links])
-        await ctx.trigger("graph_built")
+        await ctx.trigger(CabinetTrigger.GRAPH_BUILT)
 
     async def _drive_controller(self, ctx: RobotContext) -> None:
         m = self.mission
@@ -182,34 +181,41 @@ class CabinetProfile(BaseProfile):
         m.last_node = m.next_node = None
         ctx.emit("init.drive_controller", heading_pid=[m.drive.heading.kp, m.drive.heading.ki,
                                                        m.drive.heading.kd])
-        await ctx.trigger("controllers_ready")
+        await ctx.trigger(CabinetTrigger.CONTROLLERS_READY)
 
     async def _init_failed(self, ctx: RobotContext, block: str, problems: list[str]) -> None:
         m = self.mission
         assert m is not None
         m.block_status[block] = "failed"
         ctx.emit("mission.failed", block=block, reason="; ".join(problems), problems=problems)
-        await ctx.trigger("init_failed", reason=problems[0] if problems else block)
+        await ctx.trigger(CabinetTrigger.INIT_FAILED, reason=problems[0] if problems else block)
 
     def state_tasks(self) -> dict[str, StateTask]:
         fit, rel, act = _Late(self, Fitting), _Late(self, Relocate), _Late(self, CabinetAction)
-        tasks: dict[str, StateTask] = {
-            f"{INIT}.task_manager": self._task_manager, f"{INIT}.perceptor": self._perceptor,
-            f"{INIT}.path_planner": self._path_planner,
-            f"{INIT}.drive_controller": self._drive_controller,
+        s = CabinetState
+        return {
+            s.TASK_MANAGER: self._task_manager, s.PERCEPTOR: self._perceptor,
+            s.PATH_PLANNER: self._path_planner, s.DRIVE_CONTROLLER: self._drive_controller,
+            s.FIT: fit.step(Fitting.fit),
+            s.CHANGE_ORIENTATION: fit.step(Fitting.change_orientation),
+            s.DRIVE: fit.step(Fitting.drive),
+            s.GO_ROOM_MIDDLE: fit.step(Fitting.go_room_middle),
+            s.CREATE_PATH: rel.step(Relocate.create_path),
+            s.PROCEED_PATH: rel.step(Relocate.proceed_path),
+            s.DRIVE_TO_NODE: rel.step(Relocate.drive_to_node),
+            s.BREAK_LINK: rel.step(Relocate.break_link),
+            s.RESET_LINKS: rel.step(Relocate.reset_links),
+            s.FACE_FRONT: act.step(CabinetAction.face_front),
+            s.APPROACH: act.step(CabinetAction.approach),
+            s.ACT: act.step(CabinetAction.act),
+            s.REPORT: act.step(CabinetAction.report),
+            s.BACK_OFF: act.step(CabinetAction.back_off),
         }
-        for name in ("fit", "change_orientation", "drive", "go_room_middle"):
-            tasks[f"{FITTING}.{name}"] = fit.step(name)
-        for name in ("create_path", "proceed_path", "drive_to_node", "break_link",
-                     "reset_links"):
-            tasks[f"{RELOCATE}.{name}"] = rel.step(name)
-        for name in ("face_front", "approach", "act", "report", "back_off"):
-            tasks[f"{ACTION}.{name}"] = act.step(name)
-        return tasks
 
     def on_enter(self, state: str, ctx: RobotContext) -> None:
-        if state == FAILED and self.mission is not None and self.mission.drive is not None:
-            self.mission.path = []
+        m = self.mission
+        if state == CabinetState.FAILED and m is not None and m.drive is not None:
+            m.path = []
 
     def status(self) -> dict[str, Any]:
         """The navigation figures for ``robotctl sensors`` (pose, spread, scan rate)."""
@@ -249,21 +255,24 @@ class CabinetProfile(BaseProfile):
         return self.mission.site
 
 
-class _Late:
+_Phase = TypeVar("_Phase", Fitting, Relocate, CabinetAction)
+
+
+class _Late(Generic[_Phase]):
     """A phase's step tasks, bound to the mission once ``services`` has made it."""
 
-    def __init__(self, profile: CabinetProfile, kind: Any) -> None:
+    def __init__(self, profile: CabinetProfile, kind: Callable[[Mission], _Phase]) -> None:
         self.profile = profile
-        self.kind = kind
-        self.obj: Any = None
+        self.kind: Callable[[Mission], _Phase] = kind
+        self.obj: _Phase | None = None
 
-    def step(self, name: str) -> StateTask:
+    def step(self, method: Callable[[_Phase, RobotContext], Awaitable[None]]) -> StateTask:
         async def run(ctx: RobotContext) -> None:
             m = self.profile.mission
             assert m is not None
             if self.obj is None or self.obj.m is not m:
                 self.obj = self.kind(m)
-            await getattr(self.obj, name)(ctx)
+            await method(self.obj, ctx)
         return run
 
 

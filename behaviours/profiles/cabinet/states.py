@@ -11,7 +11,9 @@ absolute (``mission.relocate.break_link``) in the transitions.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Final
+
+from behaviours.machine_tables import CoreTrigger, RootState
 
 INIT_STEP_TIMEOUT_S = 10.0
 """Reading files, building the grid and the graph: seconds on a Pi, never minutes."""
@@ -30,39 +32,110 @@ CABINET_STEP_TIMEOUT_S = 30.0
 ACTION_TIMEOUT_S = 60.0
 """The configured action (open a latch, announce, take a snapshot)."""
 
-INIT = "mission.init"
-FITTING = "mission.fitting"
-RELOCATE = "mission.relocate"
-ACTION = "mission.cabinet_action"
-FAILED = "mission.failed"
 
-INIT_STEPS = ("task_manager", "perceptor", "path_planner", "drive_controller")
-FITTING_CASES = ("fit", "change_orientation", "drive", "go_room_middle")
-RELOCATE_CASES = ("create_path", "proceed_path", "drive_to_node", "break_link", "reset_links")
-ACTION_STEPS = ("face_front", "approach", "act", "report", "back_off")
+class CabinetState:
+    """Every mission state's dotted path (the names in logs, events and tests).
+
+    Plain ``str`` constants (``transitions`` would take an Enum state by its member name).
+    """
+
+    INIT: Final = "mission.init"
+    TASK_MANAGER: Final = "mission.init.task_manager"
+    PERCEPTOR: Final = "mission.init.perceptor"
+    PATH_PLANNER: Final = "mission.init.path_planner"
+    DRIVE_CONTROLLER: Final = "mission.init.drive_controller"
+    FITTING: Final = "mission.fitting"
+    FIT: Final = "mission.fitting.fit"
+    CHANGE_ORIENTATION: Final = "mission.fitting.change_orientation"
+    DRIVE: Final = "mission.fitting.drive"
+    GO_ROOM_MIDDLE: Final = "mission.fitting.go_room_middle"
+    RELOCATE: Final = "mission.relocate"
+    CREATE_PATH: Final = "mission.relocate.create_path"
+    PROCEED_PATH: Final = "mission.relocate.proceed_path"
+    DRIVE_TO_NODE: Final = "mission.relocate.drive_to_node"
+    BREAK_LINK: Final = "mission.relocate.break_link"
+    RESET_LINKS: Final = "mission.relocate.reset_links"
+    ACTION: Final = "mission.cabinet_action"
+    FACE_FRONT: Final = "mission.cabinet_action.face_front"
+    APPROACH: Final = "mission.cabinet_action.approach"
+    ACT: Final = "mission.cabinet_action.act"
+    REPORT: Final = "mission.cabinet_action.report"
+    BACK_OFF: Final = "mission.cabinet_action.back_off"
+    FAILED: Final = "mission.failed"
 
 
-def _steps(names: tuple[str, ...], timeouts: dict[str, float]) -> list[dict[str, Any]]:
-    return [{"name": n, "timeout": timeouts[n], "on_timeout": "timed_out"} for n in names]
+class CabinetTrigger:
+    """The triggers of the cabinet robot's transitions (``timeout`` and ``mission_done`` are
+    the core's)."""
+
+    # Init.
+    TASKS_READ: Final = "tasks_read"
+    MAP_READ: Final = "map_read"
+    GRAPH_BUILT: Final = "graph_built"
+    CONTROLLERS_READY: Final = "controllers_ready"
+    INIT_FAILED: Final = "init_failed"
+    # Fitting.
+    FITTED: Final = "fitted"
+    NO_FIT: Final = "no_fit"
+    FULL_TURN: Final = "full_turn"
+    NO_FIT_ANYWHERE: Final = "no_fit_anywhere"
+    ORIENTATION_SET: Final = "orientation_set"
+    ROOM_MIDDLE_SET: Final = "room_middle_set"
+    DRIVEN: Final = "driven"
+    # Relocate.
+    PATH_FOUND: Final = "path_found"
+    NO_PATH_LINKS_BROKEN: Final = "no_path_links_broken"
+    NO_PATH: Final = "no_path"
+    NEXT_NODE: Final = "next_node"
+    PATH_DONE: Final = "path_done"
+    NODE_REACHED: Final = "node_reached"
+    BLOCKED: Final = "blocked"
+    LOST_POSE: Final = "lost_pose"
+    LINK_BROKEN: Final = "link_broken"
+    LINKS_RESET: Final = "links_reset"
+    RESET_LIMIT: Final = "reset_limit"
+    # Cabinet action.
+    FACED: Final = "faced"
+    AT_STANDOFF: Final = "at_standoff"
+    ACTED: Final = "acted"
+    REPORTED: Final = "reported"
+    NEXT_TASK: Final = "next_task"
+    SKIP_TASK: Final = "skip_task"
+    ACKNOWLEDGED: Final = "acknowledged"
+
+
+S, T = CabinetState, CabinetTrigger
+
+
+def _name(path: str) -> str:
+    return path.rpartition(".")[2]
+
+
+def _phase(path: str, timeouts: dict[str, float]) -> dict[str, Any]:
+    """A phase of steps, the first its initial one; each step with its named timeout."""
+    steps = [{"name": _name(step), "timeout": timeout_s, "on_timeout": "timed_out"}
+             for step, timeout_s in timeouts.items()]
+    for step in timeouts:
+        if step.rpartition(".")[0] != path:
+            msg = f"cabinet table: {step!r} is not a step of {path!r}"
+            raise ValueError(msg)
+    return {"name": _name(path), "initial": steps[0]["name"], "children": steps}
 
 
 def cabinet_states() -> list[str | dict[str, Any]]:
     """The mission's children: the seed's phases and cases, each with its named timeout."""
     return [
-        {"name": "init", "initial": INIT_STEPS[0],
-         "children": _steps(INIT_STEPS, dict.fromkeys(INIT_STEPS, INIT_STEP_TIMEOUT_S))},
-        {"name": "fitting", "initial": "fit", "children": _steps(FITTING_CASES, {
-            "fit": FIT_TIMEOUT_S, "change_orientation": TURN_TIMEOUT_S,
-            "drive": DRIVE_TIMEOUT_S, "go_room_middle": TURN_TIMEOUT_S})},
-        {"name": "relocate", "initial": "create_path", "children": _steps(RELOCATE_CASES, {
-            "create_path": PLAN_TIMEOUT_S, "proceed_path": PLAN_TIMEOUT_S,
-            "drive_to_node": DRIVE_TO_NODE_TIMEOUT_S, "break_link": PLAN_TIMEOUT_S,
-            "reset_links": PLAN_TIMEOUT_S})},
-        {"name": "cabinet_action", "initial": "face_front", "children": _steps(ACTION_STEPS, {
-            "face_front": CABINET_STEP_TIMEOUT_S, "approach": CABINET_STEP_TIMEOUT_S,
-            "act": ACTION_TIMEOUT_S, "report": CABINET_STEP_TIMEOUT_S,
-            "back_off": CABINET_STEP_TIMEOUT_S})},
-        {"name": "failed", "on_enter": "stop_motors"},
+        _phase(S.INIT, dict.fromkeys((S.TASK_MANAGER, S.PERCEPTOR, S.PATH_PLANNER,
+                                      S.DRIVE_CONTROLLER), INIT_STEP_TIMEOUT_S)),
+        _phase(S.FITTING, {S.FIT: FIT_TIMEOUT_S, S.CHANGE_ORIENTATION: TURN_TIMEOUT_S,
+                           S.DRIVE: DRIVE_TIMEOUT_S, S.GO_ROOM_MIDDLE: TURN_TIMEOUT_S}),
+        _phase(S.RELOCATE, {S.CREATE_PATH: PLAN_TIMEOUT_S, S.PROCEED_PATH: PLAN_TIMEOUT_S,
+                            S.DRIVE_TO_NODE: DRIVE_TO_NODE_TIMEOUT_S,
+                            S.BREAK_LINK: PLAN_TIMEOUT_S, S.RESET_LINKS: PLAN_TIMEOUT_S}),
+        _phase(S.ACTION, {S.FACE_FRONT: CABINET_STEP_TIMEOUT_S,
+                          S.APPROACH: CABINET_STEP_TIMEOUT_S, S.ACT: ACTION_TIMEOUT_S,
+                          S.REPORT: CABINET_STEP_TIMEOUT_S, S.BACK_OFF: CABINET_STEP_TIMEOUT_S}),
+        {"name": _name(S.FAILED), "on_enter": "stop_motors"},
     ]
 
 
@@ -70,61 +143,56 @@ def _t(trigger: str, source: str | list[str], dest: str) -> dict[str, Any]:
     return {"trigger": trigger, "source": source, "dest": dest}
 
 
-def _all(phase: str, names: tuple[str, ...]) -> list[str]:
-    return [f"{phase}.{n}" for n in names]
-
-
 def cabinet_transitions() -> list[dict[str, Any]]:
     """Every move between the steps; a timeout of a step goes where its failure would."""
-    i, f, r, a = INIT, FITTING, RELOCATE, ACTION
+    timeout = CoreTrigger.TIMEOUT
+    init_steps = [S.TASK_MANAGER, S.PERCEPTOR, S.PATH_PLANNER, S.DRIVE_CONTROLLER]
     return [
         # Init: the four blocks in the seed's order, then fitting; a bad file fails the mission.
-        _t("tasks_read", f"{i}.task_manager", f"{i}.perceptor"),
-        _t("map_read", f"{i}.perceptor", f"{i}.path_planner"),
-        _t("graph_built", f"{i}.path_planner", f"{i}.drive_controller"),
-        _t("controllers_ready", f"{i}.drive_controller", f"{f}.fit"),
-        _t("init_failed", _all(i, INIT_STEPS), FAILED),
-        _t("timeout", _all(i, INIT_STEPS), FAILED),
+        _t(T.TASKS_READ, S.TASK_MANAGER, S.PERCEPTOR),
+        _t(T.MAP_READ, S.PERCEPTOR, S.PATH_PLANNER),
+        _t(T.GRAPH_BUILT, S.PATH_PLANNER, S.DRIVE_CONTROLLER),
+        _t(T.CONTROLLERS_READY, S.DRIVE_CONTROLLER, S.FIT),
+        _t(T.INIT_FAILED, init_steps, S.FAILED),
+        _t(timeout, init_steps, S.FAILED),
         # Fitting: case 1 fit; on failure case 2 (turn by cabinet.change_orientation_deg) and
         # case 3 drive, then fit again; after a full turn case 4 (the room's middle) and
         # case 3; after a full turn there too, recovery with the best score in the reason.
-        _t("fitted", f"{f}.fit", f"{r}.create_path"),
-        _t("no_fit", f"{f}.fit", f"{f}.change_orientation"),
-        _t("full_turn", f"{f}.fit", f"{f}.go_room_middle"),
-        _t("no_fit_anywhere", f"{f}.fit", "recovery"),
-        _t("timeout", f"{f}.fit", f"{f}.change_orientation"),
-        _t("orientation_set", f"{f}.change_orientation", f"{f}.drive"),
-        _t("room_middle_set", f"{f}.go_room_middle", f"{f}.drive"),
-        _t("driven", f"{f}.drive", f"{f}.fit"),
-        _t("timeout", [f"{f}.change_orientation", f"{f}.drive", f"{f}.go_room_middle"],
-           f"{f}.fit"),
+        _t(T.FITTED, S.FIT, S.CREATE_PATH),
+        _t(T.NO_FIT, S.FIT, S.CHANGE_ORIENTATION),
+        _t(T.FULL_TURN, S.FIT, S.GO_ROOM_MIDDLE),
+        _t(T.NO_FIT_ANYWHERE, S.FIT, RootState.RECOVERY),
+        _t(timeout, S.FIT, S.CHANGE_ORIENTATION),
+        _t(T.ORIENTATION_SET, S.CHANGE_ORIENTATION, S.DRIVE),
+        _t(T.ROOM_MIDDLE_SET, S.GO_ROOM_MIDDLE, S.DRIVE),
+        _t(T.DRIVEN, S.DRIVE, S.FIT),
+        _t(timeout, [S.CHANGE_ORIENTATION, S.DRIVE, S.GO_ROOM_MIDDLE], S.FIT),
         # Relocate: case 1 A* over the open links; case 2 the next node; case 3 drive to it;
         # case 4 a blocked link is broken (event link.closed) and the path made again; case 5
         # no path while links are broken: reset them (bounded) and plan again.
-        _t("path_found", f"{r}.create_path", f"{r}.proceed_path"),
-        _t("no_path_links_broken", f"{r}.create_path", f"{r}.reset_links"),
-        _t("no_path", f"{r}.create_path", FAILED),
-        _t("next_node", f"{r}.proceed_path", f"{r}.drive_to_node"),
-        _t("path_done", f"{r}.proceed_path", f"{a}.face_front"),
-        _t("node_reached", f"{r}.drive_to_node", f"{r}.proceed_path"),
-        _t("blocked", f"{r}.drive_to_node", f"{r}.break_link"),
-        _t("timeout", f"{r}.drive_to_node", f"{r}.break_link"),
-        _t("lost_pose", f"{r}.drive_to_node", f"{f}.fit"),
-        _t("link_broken", f"{r}.break_link", f"{r}.create_path"),
-        _t("links_reset", f"{r}.reset_links", f"{r}.create_path"),
-        _t("reset_limit", f"{r}.reset_links", FAILED),
-        _t("timeout", [f"{r}.create_path", f"{r}.proceed_path", f"{r}.break_link",
-                       f"{r}.reset_links"], FAILED),
+        _t(T.PATH_FOUND, S.CREATE_PATH, S.PROCEED_PATH),
+        _t(T.NO_PATH_LINKS_BROKEN, S.CREATE_PATH, S.RESET_LINKS),
+        _t(T.NO_PATH, S.CREATE_PATH, S.FAILED),
+        _t(T.NEXT_NODE, S.PROCEED_PATH, S.DRIVE_TO_NODE),
+        _t(T.PATH_DONE, S.PROCEED_PATH, S.FACE_FRONT),
+        _t(T.NODE_REACHED, S.DRIVE_TO_NODE, S.PROCEED_PATH),
+        _t(T.BLOCKED, S.DRIVE_TO_NODE, S.BREAK_LINK),
+        _t(timeout, S.DRIVE_TO_NODE, S.BREAK_LINK),
+        _t(T.LOST_POSE, S.DRIVE_TO_NODE, S.FIT),
+        _t(T.LINK_BROKEN, S.BREAK_LINK, S.CREATE_PATH),
+        _t(T.LINKS_RESET, S.RESET_LINKS, S.CREATE_PATH),
+        _t(T.RESET_LIMIT, S.RESET_LINKS, S.FAILED),
+        _t(timeout, [S.CREATE_PATH, S.PROCEED_PATH, S.BREAK_LINK, S.RESET_LINKS], S.FAILED),
         # Cabinet action: face the front, approach to the LiDAR-measured standoff, act,
         # report cabinet.arrived with the pose error, back off; then the next task or idle.
-        _t("faced", f"{a}.face_front", f"{a}.approach"),
-        _t("at_standoff", f"{a}.approach", f"{a}.act"),
-        _t("acted", f"{a}.act", f"{a}.report"),
-        _t("reported", f"{a}.report", f"{a}.back_off"),
-        _t("next_task", f"{a}.back_off", f"{r}.create_path"),
-        _t("skip_task", f"{r}.create_path", f"{r}.create_path"),
-        _t("timeout", [f"{a}.face_front", f"{a}.approach", f"{a}.back_off"], FAILED),
-        _t("timeout", f"{a}.act", f"{a}.report"),
-        _t("timeout", f"{a}.report", f"{a}.back_off"),
-        _t("acknowledged", FAILED, "idle"),
+        _t(T.FACED, S.FACE_FRONT, S.APPROACH),
+        _t(T.AT_STANDOFF, S.APPROACH, S.ACT),
+        _t(T.ACTED, S.ACT, S.REPORT),
+        _t(T.REPORTED, S.REPORT, S.BACK_OFF),
+        _t(T.NEXT_TASK, S.BACK_OFF, S.CREATE_PATH),
+        _t(T.SKIP_TASK, S.CREATE_PATH, S.CREATE_PATH),
+        _t(timeout, [S.FACE_FRONT, S.APPROACH, S.BACK_OFF], S.FAILED),
+        _t(timeout, S.ACT, S.REPORT),
+        _t(timeout, S.REPORT, S.BACK_OFF),
+        _t(T.ACKNOWLEDGED, S.FAILED, RootState.IDLE),
     ]

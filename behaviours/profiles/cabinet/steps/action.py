@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from behaviours.profiles.cabinet.states import CabinetTrigger
 from behaviours.profiles.cabinet.steps.drive_control import wrap
 from behaviours.profiles.cabinet.steps.mission import Mission
 
@@ -60,7 +61,7 @@ class CabinetAction:
         assert m.drive is not None
         _name, _x, _y, heading, _standoff = self._cabinet()
         await m.drive.turn_to(heading)
-        await ctx.trigger("faced")
+        await ctx.trigger(CabinetTrigger.FACED)
 
     async def approach(self, ctx: RobotContext) -> None:
         m = self.m
@@ -74,7 +75,7 @@ class CabinetAction:
         await m.drive.drive_straight(gap, timeout_s=20.0)
         await m.fresh_scan(1.0)
         self.measured_m = self.ahead_m()
-        await ctx.trigger("at_standoff")
+        await ctx.trigger(CabinetTrigger.AT_STANDOFF)
 
     async def act(self, ctx: RobotContext) -> None:
         m = self.m
@@ -97,7 +98,7 @@ class CabinetAction:
             step = max(1, pts.shape[0] // _SNAPSHOT_POINTS)
             ctx.emit("cabinet.snapshot", cabinet=name, points=int(pts.shape[0]),
                      xy=[[round(float(x), 3), round(float(y), 3)] for x, y in pts[::step]])
-        await ctx.trigger("acted")
+        await ctx.trigger(CabinetTrigger.ACTED)
 
     async def report(self, ctx: RobotContext) -> None:
         m = self.m
@@ -114,7 +115,7 @@ class CabinetAction:
                  standoff_m=standoff,
                  measured_standoff_m=None if self.measured_m is None
                  else round(self.measured_m, 4))
-        await ctx.trigger("reported")
+        await ctx.trigger(CabinetTrigger.REPORTED)
 
     async def back_off(self, ctx: RobotContext) -> None:
         m = self.m
@@ -133,4 +134,4 @@ class CabinetAction:
         m.last_node = m.site.graph.cabinet_node(cabinet.name)
         m.current = None
         m.path, m.path_pos = [], 0
-        await ctx.trigger("next_task")
+        await ctx.trigger(CabinetTrigger.NEXT_TASK)

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from behaviours.nav.icp import transform
+from behaviours.profiles.cabinet.states import CabinetTrigger
 from behaviours.profiles.cabinet.steps.drive_control import wrap
 from behaviours.profiles.cabinet.steps.mission import FloatArray, Mission
 
@@ -66,7 +67,7 @@ class Fitting:
         assert m.site is not None and m.matcher is not None and m.drive is not None
         scan = await m.fresh_scan()
         if scan is None:
-            await ctx.trigger("no_fit_anywhere", reason="fitting: no LiDAR scan")
+            await ctx.trigger(CabinetTrigger.NO_FIT_ANYWHERE, reason="fitting: no LiDAR scan")
             return
         view = in_view(scan.points_xy(), m.config.fit_fov_deg)
         m.local_points.append(_odom_points(m, view))
@@ -111,7 +112,7 @@ class Fitting:
             ctx.emit("fit.found", est_x_m=round(x, 4), est_y_m=round(y, 4),
                      est_heading_deg=round(math.degrees(theta), 2), score=round(fit.score, 3),
                      rival_score=round(fit.rival_score, 3), attempts=m.fits)
-            await ctx.trigger("fitted")
+            await ctx.trigger(CabinetTrigger.FITTED)
             return
         await self._no_fit(ctx)
 
@@ -119,11 +120,11 @@ class Fitting:
         """Turn on (case 2), or after a full turn the room's middle (case 4), or give up."""
         m = self.m
         if m.turned_rad < FULL_TURN_RAD:
-            await ctx.trigger("no_fit")
+            await ctx.trigger(CabinetTrigger.NO_FIT)
         elif not m.room_middle_tried:
-            await ctx.trigger("full_turn")
+            await ctx.trigger(CabinetTrigger.FULL_TURN)
         else:
-            await ctx.trigger("no_fit_anywhere", reason=(
+            await ctx.trigger(CabinetTrigger.NO_FIT_ANYWHERE, reason=(
                 f"fitting: no fit after a full turn here and in the room's middle (best score "
                 f"{m.best_score:.2f}, fit_min_score {m.config.fit_min_score:.2f})"))
 
@@ -156,7 +157,7 @@ class Fitting:
         m.turned_rad += step
         ctx.emit("fit.change_orientation", turn_deg=round(math.degrees(step), 1),
                  turned_deg=round(math.degrees(m.turned_rad), 1))
-        await ctx.trigger("orientation_set")
+        await ctx.trigger(CabinetTrigger.ORIENTATION_SET)
 
     async def go_room_middle(self, ctx: RobotContext) -> None:
         m = self.m
@@ -173,7 +174,7 @@ class Fitting:
         m.local_points.clear()
         ctx.emit("fit.go_room_middle", odom_x_m=round(m.desired_point[0], 3),
                  odom_y_m=round(m.desired_point[1], 3))
-        await ctx.trigger("room_middle_set")
+        await ctx.trigger(CabinetTrigger.ROOM_MIDDLE_SET)
 
     async def drive(self, ctx: RobotContext) -> None:
         m = self.m
@@ -184,4 +185,4 @@ class Fitting:
             m.desired_point = None
         else:
             await m.drive.turn_to(m.desired_heading_rad)
-        await ctx.trigger("driven")
+        await ctx.trigger(CabinetTrigger.DRIVEN)

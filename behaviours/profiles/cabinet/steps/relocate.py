@@ -22,8 +22,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from behaviours.machine_tables import CoreTrigger
 from behaviours.nav.localisation.filter import DIVERGED, LIDAR_LOST
 from behaviours.profiles.cabinet.node_graph import NoPath, line_clear
+from behaviours.profiles.cabinet.states import CabinetTrigger
 from behaviours.profiles.cabinet.steps.mission import Mission, show_graph
 
 if TYPE_CHECKING:
@@ -92,7 +94,7 @@ class Relocate:
             if m.current is None and not self._next_task():
                 m.path, m.path_pos = [], 0
                 ctx.emit("mission.done", done=list(m.done), skipped=list(m.skipped))
-                await ctx.trigger("mission_done")
+                await ctx.trigger(CoreTrigger.MISSION_DONE)
                 return
             assert m.current is not None
             cabinet = m.current.cabinet
@@ -105,7 +107,7 @@ class Relocate:
             except NoPath as exc:
                 if graph.broken and graph.may_reset():
                     ctx.emit("path.none", cabinet=cabinet, reason=exc.reason, will_reset=True)
-                    await ctx.trigger("no_path_links_broken")
+                    await ctx.trigger(CabinetTrigger.NO_PATH_LINKS_BROKEN)
                     return
                 reason = (f"cabinet {cabinet}: {exc.reason}" if not graph.broken else
                           f"cabinet {cabinet}: {exc.reason}; the broken links were reset "
@@ -116,13 +118,13 @@ class Relocate:
                     m.skipped.append(cabinet)
                     m.current = None
                     continue
-                await self._fail(ctx, reason, "no_path")
+                await self._fail(ctx, reason, CabinetTrigger.NO_PATH)
                 return
             m.path, m.path_pos = path, 0
             ctx.emit("path.planned", cabinet=cabinet, nodes=path,
                      length_m=round(_length(m, path), 3), broken=len(graph.broken))
             show_graph(ctx.telemetry, m, with_path=True)
-            await ctx.trigger("path_found")
+            await ctx.trigger(CabinetTrigger.PATH_FOUND)
             return
 
     async def _fail(self, ctx: RobotContext, reason: str, trigger: str) -> None:
@@ -137,10 +139,10 @@ class Relocate:
         m = self.m
         if m.path_pos >= len(m.path):
             m.next_node = None
-            await ctx.trigger("path_done")
+            await ctx.trigger(CabinetTrigger.PATH_DONE)
             return
         m.next_node = m.path[m.path_pos]
-        await ctx.trigger("next_node")
+        await ctx.trigger(CabinetTrigger.NEXT_NODE)
 
     async def drive_to_node(self, ctx: RobotContext) -> None:
         m = self.m
@@ -153,7 +155,7 @@ class Relocate:
             ctx.emit("node.reached", node=node.name, error_m=round(result.remaining_m, 3))
             m.last_node, m.next_node = node.name, None
             m.path_pos += 1
-            await ctx.trigger("node_reached")
+            await ctx.trigger(CabinetTrigger.NODE_REACHED)
             return
         if result.reason.startswith("localisation"):
             ctx.emit("localisation.lost", reason=result.reason)
@@ -161,12 +163,12 @@ class Relocate:
             m.local_points.clear()
             m.turned_rad, m.room_middle_tried, m.best_score = 0.0, False, 0.0
             m.drive.pose = m.odom_pose
-            await ctx.trigger("lost_pose")
+            await ctx.trigger(CabinetTrigger.LOST_POSE)
             return
         m.blocked_reason = result.reason
         ctx.emit("link.blocked", a=m.last_node, b=node.name, reason=result.reason,
                  remaining_m=round(result.remaining_m, 3))
-        await ctx.trigger("blocked")
+        await ctx.trigger(CabinetTrigger.BLOCKED)
 
     def _blocked(self, x_m: float, y_m: float) -> str | None:
         """Why the drive must stop (the localisation lost, the corridor seen blocked), or
@@ -224,7 +226,7 @@ class Relocate:
                      broken=[list(k) for k in graph.broken_links()])
         m.next_node = None
         show_graph(ctx.telemetry, m)
-        await ctx.trigger("link_broken")
+        await ctx.trigger(CabinetTrigger.LINK_BROKEN)
 
     async def reset_links(self, ctx: RobotContext) -> None:
         m = self.m
@@ -235,7 +237,7 @@ class Relocate:
             await self._fail(ctx, f"cabinet {cabinet}: no path while links are broken, and "
                                   f"the broken links were reset {graph.resets_this_task} "
                                   f"time(s) already (cabinet.max_link_resets "
-                                  f"{graph.max_resets})", "reset_limit")
+                                  f"{graph.max_resets})", CabinetTrigger.RESET_LIMIT)
             return
         # A moment for a dynamic obstacle (a person) to move on before the same links again.
         await asyncio.sleep(min(m.config.blocked_s, _RESET_PAUSE_S))
@@ -244,7 +246,7 @@ class Relocate:
                  max_resets=graph.max_resets,
                  cabinet=m.current.cabinet if m.current else None)
         show_graph(ctx.telemetry, m)
-        await ctx.trigger("links_reset")
+        await ctx.trigger(CabinetTrigger.LINKS_RESET)
 
 
 def _length(m: Mission, path: list[str]) -> float:

@@ -62,6 +62,7 @@ async def get_robot(name: Name, http: HttpRequest) -> RobotOut:
 async def patch_robot(name: Name, body: RobotPatch, http: HttpRequest) -> RobotOut:
     """Enable/disable a robot, emergency stop, maintenance mode."""
     server = server_of(http)
+    await server.flush_pings()  # a robot released now is dispatched on its latest report
     async with server.db.write() as session:
         robot = await admin.update_robot(
             session, server.clock(), await _robot(session, name), is_active=body.IsActive,

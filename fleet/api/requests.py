@@ -37,6 +37,7 @@ async def create(body: RequestCreate, http: HttpRequest, caller: CustomerOrAdmin
     """A customer asks for a pickup (409 if they already have an active request)."""
     check_customer(caller, body.CustomerId, f"customer {body.CustomerId}")
     server = server_of(http)
+    await server.flush_pings()  # assignment sees every robot's latest report
     async with server.db.write() as session:
         cfg = await load_settings(session)
         request = await create_request(session, server.clock(), cfg, body.CustomerId)
@@ -68,6 +69,10 @@ async def act(request_id: RequestId, action: Action, http: HttpRequest,
     washing-done, pay; 409 with a message when the status does not allow it. A customer may
     cancel, confirm-loaded, confirm-unloaded and pay its own requests."""
     server = server_of(http)
+    if caller.role != Role.ADMIN:
+        async with server.db.read() as session:
+            await _check_may_act(session, caller, request_id, action)
+    await server.flush_pings()  # a freed robot is dispatched on its latest report
     async with server.db.write() as session:
         await _check_may_act(session, caller, request_id, action)
         cfg = await load_settings(session)

@@ -96,19 +96,19 @@ async def put_customer(
 
 
 async def add_robot(session: AsyncSession, now: datetime, name: str, *, exist_ok: bool) -> Robot:
-    """Register a robot; it counts as seen now, so it goes offline if it never pings."""
+    """Register a robot. It is offline until its first data exchange: online means reported
+    (a robot that was never heard from must not be sent to a customer)."""
     robot = (await session.execute(select(Robot).where(Robot.name == name))).scalar_one_or_none()
     if robot is not None:
         if exist_ok:
             return robot
         msg = f"robot {name!r} already exists"
         raise Conflict(msg)
-    robot = Robot(name=name, is_active=True, is_offline=False, emergency_stop=False,
-                  maintenance_mode=False, is_in_target=False, last_ping_at=now)
+    robot = Robot(name=name, is_active=True, is_offline=True, emergency_stop=False,
+                  maintenance_mode=False, is_in_target=False, last_ping_at=None)
     session.add(robot)
     await session.flush()
     log.info("fleet.robot.added", robot=name)
-    await process_queue(session, now)
     return robot
 
 

@@ -12,7 +12,7 @@ from fleet.errors import NoRobotAvailable
 from fleet.models import Request, Robot
 from fleet.services.common import can_serve, is_available, release, set_status
 from fleet.services.notify import notify
-from fleet.settings import FleetSettings
+from fleet.settings import FleetSettings, load_settings
 from fleet.status import Status
 
 log = structlog.get_logger(__name__)
@@ -20,10 +20,12 @@ log = structlog.get_logger(__name__)
 _NEVER = datetime.min.replace(tzinfo=UTC)
 
 
-async def serving_robots(session: AsyncSession) -> list[Robot]:
+async def serving_robots(
+    session: AsyncSession, now: datetime, cfg: FleetSettings
+) -> list[Robot]:
     """All active online robots, in a stable order ("first available" = lowest id)."""
     robots = (await session.execute(select(Robot).order_by(Robot.id))).scalars().all()
-    return [r for r in robots if can_serve(r)]
+    return [r for r in robots if can_serve(r, now, cfg)]
 
 
 def dispatch(
@@ -46,7 +48,7 @@ async def assign_new(
 
     Raises NoRobotAvailable when no active online robot exists at all.
     """
-    robots = await serving_robots(session)
+    robots = await serving_robots(session, now, cfg)
     if not robots:
         msg = "no robot available: no active online robot"
         raise NoRobotAvailable(msg)
@@ -56,7 +58,7 @@ async def assign_new(
     elif cfg.preempt_busy_robot:
         await _preempt_least_recent(session, now, robots, request)
     request.is_approved = cfg.auto_accept
-    await process_queue(session, now)
+    await process_queue(session, now, cfg)
 
 
 async def _preempt_least_recent(
@@ -89,13 +91,17 @@ async def _preempt_least_recent(
 _QUEUED = and_(Request.status == Status.PENDING, Request.is_approved.is_(True))
 
 
-async def process_queue(session: AsyncSession, now: datetime) -> list[Request]:
+async def process_queue(
+    session: AsyncSession, now: datetime, cfg: FleetSettings | None = None
+) -> list[Request]:
     """Dispatch approved Pending requests, oldest first, while robots are available."""
     # Usually nothing waits: then no need to load every robot (a robot's reconnect, a cancel
     # and a timeout all run this).
     if (await session.execute(select(Request.id).where(_QUEUED).limit(1))).first() is None:
         return []
-    robots = [r for r in await serving_robots(session) if is_available(r)]
+    if cfg is None:
+        cfg = await load_settings(session)
+    robots = [r for r in await serving_robots(session, now, cfg) if is_available(r, now, cfg)]
     if not robots:
         return []
     pending = (await session.execute(
@@ -115,9 +121,11 @@ async def process_queue(session: AsyncSession, now: datetime) -> list[Request]:
     return dispatched
 
 
-async def pick_delivery_robot(session: AsyncSession, request: Request) -> Robot:
+async def pick_delivery_robot(
+    session: AsyncSession, now: datetime, cfg: FleetSettings, request: Request
+) -> Robot:
     """An available robot for delivering clean laundry (the original one if it is free)."""
-    robots = [r for r in await serving_robots(session) if is_available(r)]
+    robots = [r for r in await serving_robots(session, now, cfg) if is_available(r, now, cfg)]
     if not robots:
         msg = f"no robot available to deliver request {request.id}; try again later"
         raise NoRobotAvailable(msg)

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from datetime import datetime
+from datetime import datetime, timedelta
 
 import structlog
 from sqlalchemy import select
 from sqlalchemy.ext.asyncio import AsyncSession
 
 from fleet.models import Request, Robot
+from fleet.settings import FleetSettings
 from fleet.status import Status
 
 log = structlog.get_logger(__name__)
@@ -25,14 +26,21 @@ def set_status(request: Request, status: Status, now: datetime) -> None:
     log.info("fleet.request.status", request_id=request.id, old=old, new=str(status))
 
 
-def can_serve(robot: Robot) -> bool:
+def is_online(robot: Robot, now: datetime, cfg: FleetSettings) -> bool:
+    """Online means reported: the robot has made a data exchange and its last one is younger
+    than ``OfflineAfterS`` (a robot registered but never heard from is not online)."""
+    return (not robot.is_offline and robot.last_ping_at is not None
+            and now - robot.last_ping_at <= timedelta(seconds=cfg.offline_after_s))
+
+
+def can_serve(robot: Robot, now: datetime, cfg: FleetSettings) -> bool:
     """Active, online, not stopped: the seed's "active online robot"."""
-    return (robot.is_active and not robot.is_offline and not robot.maintenance_mode
-            and not robot.emergency_stop)
+    return (robot.is_active and not robot.maintenance_mode and not robot.emergency_stop
+            and is_online(robot, now, cfg))
 
 
-def is_available(robot: Robot) -> bool:
-    return can_serve(robot) and robot.current_request_id is None
+def is_available(robot: Robot, now: datetime, cfg: FleetSettings) -> bool:
+    return can_serve(robot, now, cfg) and robot.current_request_id is None
 
 
 async def robot_by_name(session: AsyncSession, name: str) -> Robot | None:

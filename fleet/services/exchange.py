@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from datetime import datetime
+from datetime import datetime, timedelta
 from typing import Any, cast
 
 from sqlalchemy import Connection, Table, bindparam, select, update
@@ -23,9 +23,11 @@ from fleet.errors import NotFound
 from fleet.models import Request, Robot
 from fleet.services import weight
 from fleet.services.arrival import Sighting, handle_arrival
+from fleet.services.assignment import process_queue
 from fleet.services.common import current_request, robot_by_name
 from fleet.services.navigation import Navigation, navigation
 from fleet.services.reconnect import Reconnects
+from fleet.settings import FleetSettings
 from fleet.status import Status
 
 
@@ -63,11 +65,13 @@ class _Light:
     status: str
     customer_id: int
     robot_returned: bool
+    last_ping_at: datetime | None
 
 
 _LIGHT_QUERY = (
     select(Robot.name, Robot.id, Robot.is_offline, Robot.emergency_stop, Robot.maintenance_mode,
-           Request.id, Request.status, Request.customer_id, Request.robot_returned)
+           Request.id, Request.status, Request.customer_id, Request.robot_returned,
+           Robot.last_ping_at)
     .select_from(Robot)
     .outerjoin(Request, Request.id == Robot.current_request_id)
 )
@@ -78,9 +82,9 @@ def _read_lights(conn: Connection) -> dict[str, _Light]:
 
 
 def _light(row: Any) -> _Light:
-    rid, offline, estop, maintenance, req_id, status, customer, returned = row
+    rid, offline, estop, maintenance, req_id, status, customer, returned, ping = row
     return _Light(rid, offline, estop or maintenance, estop, maintenance,
-                  req_id, status or "", customer or 0, bool(returned))
+                  req_id, status or "", customer or 0, bool(returned), ping)
 
 
 class RobotViews:
@@ -141,8 +145,15 @@ _PING_UPDATE = (
 _PING_CHUNK = 200
 
 
-def _may_change(light: _Light, report: Report) -> bool:
-    if light.is_offline:
+def _stale(light: _Light, now: datetime, cfg: FleetSettings) -> bool:
+    """Silent past the offline limit, though the monitor has not marked it offline yet: not
+    assignable until this report is written (then it serves the queue)."""
+    return light.last_ping_at is None or (
+        now - light.last_ping_at > timedelta(seconds=cfg.offline_after_s))
+
+
+def _may_change(light: _Light, report: Report, stale: bool = False) -> bool:
+    if light.is_offline or stale:
         return True
     if light.request_id is None:
         return False
@@ -157,7 +168,8 @@ async def exchange(
     light = await views.get(report.robot_name)
     cfg = await cache.settings()
     site = await cache.site()
-    if not _may_change(light, report):
+    stale = not light.is_offline and _stale(light, clock(), cfg)
+    if not _may_change(light, report, stale):
         views.note_ping(light.robot_id, clock(), report)
         request = light if light.request_id is not None else None
         nav = navigation(site, cfg, request, stopped=light.stopped)
@@ -180,6 +192,8 @@ async def exchange(
             msg = f"robot {report.robot_name!r} is not registered"
             raise NotFound(msg)
         _apply_report(robot, now, report)
+        if stale:
+            await process_queue(session, now, cfg)
         if report.is_in_target:
             await handle_arrival(session, now, robot, report.sightings, site)
         current = await current_request(session, robot)

@@ -72,7 +72,7 @@ async def apply_action(
     match action:
         case Action.ACCEPT:
             request.is_approved = True
-            await process_queue(session, now)
+            await process_queue(session, now, cfg)
         case Action.DECLINE:
             set_status(request, Status.DECLINED, now)
             request.assigned_robot_id = None
@@ -81,7 +81,7 @@ async def apply_action(
         case Action.CANCEL:
             await cancel(session, now, request, reason="Cancelled",
                          message=f"Request {request.id} was cancelled.")
-            await process_queue(session, now)
+            await process_queue(session, now, cfg)
         case Action.CONFIRM_LOADED:
             if not can_confirm_loaded(request, cfg):
                 msg = (f"cannot confirm-loaded request {request_id}: the robot reports "
@@ -101,7 +101,7 @@ async def apply_action(
                 raise Conflict(msg)
             request.washing_started_at = now
         case Action.WASHING_DONE:
-            robot = await pick_delivery_robot(session, request)
+            robot = await pick_delivery_robot(session, now, cfg, request)
             if request.washing_started_at is None:
                 request.washing_started_at = now
             dispatch(request, robot, now, Status.GOING_TO_ROOM)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from datetime import datetime, timedelta
 
 import structlog
@@ -72,9 +73,15 @@ async def restore(session: AsyncSession, now: datetime, robot: Robot) -> None:
     await restore_many(session, now, [robot])
 
 
-async def restore_many(session: AsyncSession, now: datetime, robots: list[Robot]) -> None:
+async def restore_many(session: AsyncSession, now: datetime, robots: list[Robot],
+                       first_reports: Collection[str] = ()) -> None:
     """Robots that pinged again, back online together: each resumes its work (its request's
-    offline alert is cleared, the admin told), then the queue is served once for all."""
+    offline alert is cleared, the admin told), then the queue is served once for all.
+
+    Args:
+        first_reports: names of robots heard from for the first time (registered, never
+            reported): they come online rather than back.
+    """
     ids = [r.current_request_id for r in robots if r.current_request_id is not None]
     requests = {r.id: r for r in (await session.execute(
         select(Request).where(Request.id.in_(ids)))).scalars()} if ids else {}
@@ -84,6 +91,11 @@ async def restore_many(session: AsyncSession, now: datetime, robots: list[Robot]
                    if robot.current_request_id is not None else None)
         if request is not None and request.admin_alert is not None:
             request.admin_alert = None
+        if robot.name in first_reports:
+            notify(session, now, recipient="admin", kind="robot.online", robot_name=robot.name,
+                   message=f"Robot {robot.name} reported for the first time.")
+            log.info("fleet.robot.first_report", robot=robot.name)
+            continue
         notify(session, now, recipient="admin", kind="robot.reconnected", robot_name=robot.name,
                request=request, message=f"Robot {robot.name} is back online.")
         log.info("fleet.robot.reconnected", robot=robot.name)

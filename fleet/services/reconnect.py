@@ -81,9 +81,10 @@ class Reconnects(Generic[R]):
         reports = {name: report for name, report, _ in batch}
         robots = list((await session.execute(
             select(Robot).where(Robot.name.in_(list(reports))).order_by(Robot.id))).scalars())
+        first = {r.name for r in robots if r.last_ping_at is None}
         for robot in robots:
             self._apply_report(robot, now, reports[robot.name])
         offline = [r for r in robots if r.is_offline]
         if offline:
-            await restore_many(session, now, offline)
+            await restore_many(session, now, offline, first_reports=first)
             log.info("fleet.reconnect.batch", robots=len(offline))

@@ -74,5 +74,5 @@ async def check_timeouts(session: AsyncSession, now: datetime, cfg: FleetSetting
             robot.is_offline = True
             log.warning("fleet.robot.disconnected", robot=robot.name, request_id=request.id)
     if cancelled:
-        await process_queue(session, now)
+        await process_queue(session, now, cfg)
     return cancelled

@@ -156,9 +156,14 @@ class Fleet:
     """The app, its server, a client and helpers named after what customers/robots do."""
 
     def __init__(self, db_url: str, settings: dict[str, Any] | None = None,
-                 site_toml: str = SITE_TOML, auth_failures_per_min: int = 0) -> None:
+                 site_toml: str = SITE_TOML, auth_failures_per_min: int = 0,
+                 *, report: bool = True) -> None:
         self.clock = FakeClock()
-        self.app = create_app(db_url, site=parse_site(site_toml, "test-site"), clock=self.clock,
+        site = parse_site(site_toml, "test-site")
+        # Online means reported: the site's robots make their first data exchange at start,
+        # as real ones do within a second (``report=False``: they stay unheard of).
+        self.reporting = [str(r["name"]) for r in site.robots] if report else []
+        self.app = create_app(db_url, site=site, clock=self.clock,
                               settings=settings, auth_failures_per_min=auth_failures_per_min)
         self.server: FleetServer = self.app.state.fleet
         self.http = httpx.AsyncClient(transport=httpx.ASGITransport(app=self.app),
@@ -166,7 +171,15 @@ class Fleet:
 
     async def __aenter__(self) -> Fleet:
         await self.server.start(monitors=False)
+        for robot in self.reporting:
+            await self.exchange(robot)
         return self
+
+    async def report_all(self) -> None:
+        """Every reporting robot makes a data exchange now (after the clock moved on, so that
+        they still count as online)."""
+        for robot in self.reporting:
+            await self.exchange(robot)
 
     async def __aexit__(self, *exc: object) -> None:
         await self.http.aclose()

@@ -241,6 +241,8 @@ class TestMonitorsOnVirtualTime:
             transport = httpx.ASGITransport(app=app)
             async with httpx.AsyncClient(transport=transport, base_url="http://f",
                                          auth=SiteAuth()) as http:
+                for name in ("robot-1", "robot-2"):  # online means reported
+                    await http.post(f"/api/Robot/{name}/data-exchange", json={})
                 created = (await http.post("/api/requests", json={"CustomerId": 1})).json()
                 start = loop.time()
                 while True:

@@ -27,11 +27,16 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from hal.files import FileRefused, read_bounded, read_bounded_text
+
 FREE = 0
 OCCUPIED = 100
 UNKNOWN = -1
 
 _MODES = ("trinary", "scale", "raw")
+MAX_YAML_BYTES = 64 * 1024
+MAX_IMAGE_BYTES = 256 * 1024 * 1024
+"""A map image's bound: 16k x 16k cells of 8 bits (the warehouse map is 1.7 MB)."""
 _KEYS = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh", "mode")
 _MAX_CELLS = 20_000 * 20_000
 
@@ -72,19 +77,18 @@ def read_map_yaml(path: str | Path) -> OccupancyMap:
     """The map a ``map_server`` YAML file describes; MapFileError says ``PATH: what``."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        msg = f"{path}: cannot read: {exc}"
-        raise MapFileError(msg) from exc
+        text = read_bounded_text(path, MAX_YAML_BYTES, "map YAML")
+    except FileRefused as exc:
+        raise MapFileError(str(exc)) from None
     meta = parse_map_yaml(text, str(path))
     image = Path(str(meta["image"])).expanduser()
     if not image.is_absolute():
         image = path.parent / image
     try:
-        data = image.read_bytes()
-    except OSError as exc:
-        msg = f"{path}: image {str(meta['image'])!r}: cannot read {image}: {exc.strerror}"
-        raise MapFileError(msg) from exc
+        data = read_bounded(image, MAX_IMAGE_BYTES, "map image")
+    except FileRefused as exc:
+        msg = f"{path}: image: {exc}"
+        raise MapFileError(msg) from None
     pixels, max_value = parse_pgm(data, str(image))
     return occupancy_from_pixels(pixels, max_value, meta, str(path))
 
@@ -98,7 +102,8 @@ def parse_map_yaml(text: str, where: str) -> dict[str, object]:
             continue
         m = re.fullmatch(r"([A-Za-z_][A-Za-z0-9_]*)\s*:\s*(.*)", stripped)
         if m is None or line[:1].isspace():
-            msg = f"{where}:{number}: expected 'key: value', got {line.strip()!r}"
+            # Not quoted: a path that is not a map (/etc/shadow) must not be echoed.
+            msg = f"{where}:{number}: expected 'key: value'"
             raise MapFileError(msg)
         raw[m.group(1)] = (number, m.group(2).strip())
     meta: dict[str, object] = {}
@@ -122,7 +127,7 @@ def parse_map_yaml(text: str, where: str) -> dict[str, object]:
         elif key == "mode":
             mode = _unquote(value).lower()
             if mode not in _MODES:
-                msg = f"{at}: expected one of {', '.join(_MODES)}, got {value!r}"
+                msg = f"{at}: expected one of {', '.join(_MODES)}"
                 raise MapFileError(msg)
             meta[key] = mode
         # Other keys (map_saver's none; extensions such as elevation layers) are ignored, as
@@ -163,14 +168,14 @@ def _number(value: str, at: str) -> float:
     except ValueError:
         number = math.nan
     if not math.isfinite(number):
-        msg = f"{at}: expected a number, got {value!r}"
+        msg = f"{at}: expected a number"
         raise MapFileError(msg)
     return number
 
 
 def _origin(value: str, at: str) -> tuple[float, float, float]:
     if not (value.startswith("[") and value.endswith("]")):
-        msg = f"{at}: expected [x, y, yaw], got {value!r}"
+        msg = f"{at}: expected [x, y, yaw]"
         raise MapFileError(msg)
     parts = [p.strip() for p in value[1:-1].split(",") if p.strip()]
     if len(parts) != 3:
@@ -191,7 +196,7 @@ def _negate(value: str, at: str) -> bool:
         return False
     if word in ("1", "true", "yes", "on"):
         return True
-    msg = f"{at}: expected 0 or 1, got {value!r}"
+    msg = f"{at}: expected 0 or 1"
     raise MapFileError(msg)
 
 
@@ -201,7 +206,7 @@ def parse_pgm(data: bytes, where: str) -> tuple[npt.NDArray[np.uint16], int]:
     pos = 0
     magic = data[:2]
     if magic not in (b"P5", b"P2"):
-        msg = f"{where}: not a PGM image (magic {magic!r}, expected b'P5' or b'P2')"
+        msg = f"{where}: not a PGM image (it does not start with P5 or P2)"
         raise MapFileError(msg)
     pos = 2
     while len(tokens) < 3:

@@ -15,10 +15,14 @@ from importlib.resources.abc import Traversable
 from pathlib import Path
 from typing import Any
 
+from hal.files import FileRefused, read_bounded_text
 from robotd.profiles import DEFAULT_SIM_PROFILE
 from sim.registry import scenario_folders, slices
 from sim.world.body import BodyParams
 from sim.world.floor_plan import World, WorldError
+
+MAX_SCENARIO_BYTES = 4 * 1024 * 1024
+"""A scenario or a site file it names (the laundry world's line is the longest: 20 kB)."""
 
 
 class ScenarioError(ValueError):
@@ -91,10 +95,10 @@ def read_beside(scenario: Scenario, name: str) -> str:
         return (builtins()[builtin] / name).read_text(encoding="utf-8")
     path = Path(scenario.source).parent / name
     try:
-        return path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        msg = f"{scenario.source}: {name}: cannot read: {exc}"
-        raise ScenarioError(msg) from exc
+        return read_bounded_text(path, MAX_SCENARIO_BYTES, "file a scenario names")
+    except FileRefused as exc:
+        msg = f"{scenario.source}: {name}: cannot read: {exc.why}"
+        raise ScenarioError(msg) from None
 
 
 def scenario_dir(source: str) -> Path:
@@ -141,10 +145,9 @@ def load_scenario(name_or_path: str) -> Scenario:
                f"(built-in: {', '.join(folders)})")
         raise ScenarioError(msg)
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        msg = f"{path}: cannot read: {exc}"
-        raise ScenarioError(msg) from exc
+        text = read_bounded_text(path, MAX_SCENARIO_BYTES, "scenario")
+    except FileRefused as exc:
+        raise ScenarioError(str(exc)) from None
     return parse_scenario(text, str(path))
 
 

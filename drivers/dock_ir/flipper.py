@@ -22,6 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from hal.files import FileRefused, read_bounded_text
 from hal.ports import IrEdge
 
 FILETYPE = "IR signals file"
@@ -55,13 +56,17 @@ class IrFile:
     """What was skipped and why (parsed blocks), as ``FILE:LINE: note``."""
 
 
+MAX_IR_FILE_BYTES = 4 * 1024 * 1024
+"""A capture of a few hundred signals is tens of kilobytes."""
+
+
 def read_ir_file(path: str | Path) -> IrFile:
     """Read a Flipper ``.ir`` file; raise FlipperFormatError (or OSError) when it is bad."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError as exc:
-        raise FlipperFormatError(str(path), 1, f"not a text file ({exc.reason})") from None
+        text = read_bounded_text(path, MAX_IR_FILE_BYTES, "Flipper .ir capture")
+    except FileRefused as exc:
+        raise FlipperFormatError(str(path), 1, f"cannot read: {exc.why}") from None
     return parse_ir_text(text, str(path))
 
 

@@ -108,7 +108,7 @@ BAD_YAML = [
     ("image: m.pgm\norigin: [0, 0, 0]\noccupied_thresh: 0.65\nfree_thresh: 0.2\n",
      "resolution: required key is missing"),
     ("image: m.pgm\nresolution: fast\norigin: [0, 0, 0]\noccupied_thresh: 0.65\n"
-     "free_thresh: 0.2\n", ":2: resolution: expected a number, got 'fast'"),
+     "free_thresh: 0.2\n", ":2: resolution: expected a number"),
     ("image: m.pgm\nresolution: -1\norigin: [0, 0, 0]\noccupied_thresh: 0.65\n"
      "free_thresh: 0.2\n", "resolution: must be > 0"),
     ("image: m.pgm\nresolution: 0.05\norigin: [0, 0]\noccupied_thresh: 0.65\n"
@@ -165,7 +165,7 @@ class TestErrors:
         with pytest.raises(MapFileError, match=r"nope\.yaml: cannot read"):
             read_map_yaml(tmp_path / "nope.yaml")
         path = _write(tmp_path, [[0]], image="gone.pgm")
-        with pytest.raises(MapFileError, match=r"map.yaml: image 'gone.pgm': cannot read"):
+        with pytest.raises(MapFileError, match=r"map.yaml: image: .*gone.pgm: cannot read"):
             read_map_yaml(path)
 
 

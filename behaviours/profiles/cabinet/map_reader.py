@@ -24,6 +24,7 @@ from behaviours.profiles.cabinet.site_map import (
     door_on_wall,
     polygon_of_rect,
 )
+from hal.files import FileRefused, read_bounded_text
 
 
 class SiteFileError(Exception):
@@ -49,12 +50,16 @@ class Problems:
             raise SiteFileError(self.items)
 
 
+MAX_SITE_FILE_BYTES = 16 * 1024 * 1024
+"""A site map or task list of thousands of nodes is a few megabytes of JSON."""
+
+
 def read_json(path: Path, shown: str) -> Any:
     """The parsed document; a file that cannot be read or is not JSON is a SiteFileError."""
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SiteFileError([f"{shown}: file: cannot read: {exc}"]) from None
+        text = read_bounded_text(path, MAX_SITE_FILE_BYTES, "site file")
+    except FileRefused as exc:
+        raise SiteFileError([f"{shown}: file: cannot read: {exc.path}: {exc.why}"]) from None
     try:
         doc = json.loads(text, parse_constant=_Constant)
     except json.JSONDecodeError as exc:

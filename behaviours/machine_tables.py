@@ -83,6 +83,19 @@ def root_states(mission_children: list[str | dict[str, Any]],
     return states
 
 
+def mission_children(*paths: str) -> list[str | dict[str, Any]]:
+    """The names, under ``mission``, of states given by their paths (``mission.plan`` ->
+    ``plan``): a profile names its states by path everywhere else."""
+    names: list[str | dict[str, Any]] = []
+    for path in paths:
+        parent, _, name = path.rpartition(".")
+        if parent != S.MISSION:
+            msg = f"{path!r} is not a state directly under {S.MISSION!r}"
+            raise ValueError(msg)
+        names.append(name)
+    return names
+
+
 CORE_TRANSITIONS: list[dict[str, Any]] = [
     {"trigger": T.BOOTED, "source": S.BOOT, "dest": S.IDLE},
     {"trigger": T.START_MISSION, "source": S.IDLE, "dest": S.MISSION},

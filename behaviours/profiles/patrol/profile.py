@@ -12,10 +12,11 @@ from __future__ import annotations
 
 import asyncio
 import math
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Final
 
 import structlog
 
+from behaviours.machine_tables import CoreTrigger, mission_children
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker
 from behaviours.nav.localisation.filter import LocalisedPose
@@ -52,6 +53,22 @@ _STORE_POSE_S = 5.0
 _CLOUD_POINTS = 150
 
 
+class PatrolState:
+    """The mission's states."""
+
+    PLAN: Final = "mission.plan"
+    DRIVE: Final = "mission.drive"
+    AT_GOAL: Final = "mission.at_goal"
+
+
+class PatrolTrigger:
+    """The mission's own triggers."""
+
+    PLANNED: Final = "planned"
+    ARRIVED: Final = "arrived"
+    NEXT_GOAL: Final = "next_goal"
+
+
 class PatrolProfile(BaseProfile):
     name = "patrol"
     devices = ("motors", "encoders", "lidar")
@@ -63,13 +80,14 @@ class PatrolProfile(BaseProfile):
         self.last_outcome: NavOutcome | None = None
 
     def mission_states(self) -> list[str | dict[str, Any]]:
-        return ["plan", "drive", "at_goal"]
+        return mission_children(PatrolState.PLAN, PatrolState.DRIVE, PatrolState.AT_GOAL)
 
     def mission_transitions(self) -> list[dict[str, Any]]:
+        s, t = PatrolState, PatrolTrigger
         return [
-            {"trigger": "planned", "source": "mission.plan", "dest": "mission.drive"},
-            {"trigger": "arrived", "source": "mission.drive", "dest": "mission.at_goal"},
-            {"trigger": "next_goal", "source": "mission.at_goal", "dest": "mission.plan"},
+            {"trigger": t.PLANNED, "source": s.PLAN, "dest": s.DRIVE},
+            {"trigger": t.ARRIVED, "source": s.DRIVE, "dest": s.AT_GOAL},
+            {"trigger": t.NEXT_GOAL, "source": s.AT_GOAL, "dest": s.PLAN},
         ]
 
     def mission_records(self) -> tuple[MissionRecord, ...]:
@@ -95,7 +113,7 @@ class PatrolProfile(BaseProfile):
             nav.watch_scans()
             goals = ctx.settings.get("patrol.goals")
             if ctx.settings.get("patrol.autostart") and goals:
-                await ctx.trigger("start_mission")
+                await ctx.trigger(CoreTrigger.START_MISSION)
             await asyncio.Event().wait()
 
         return [
@@ -167,8 +185,8 @@ class PatrolProfile(BaseProfile):
         ctx.emit("nav.particles", why=why, count=len(poses), xy=xy)
 
     def state_tasks(self) -> dict[str, StateTask]:
-        return {"mission.plan": self._plan, "mission.drive": self._drive,
-                "mission.at_goal": self._at_goal}
+        return {PatrolState.PLAN: self._plan, PatrolState.DRIVE: self._drive,
+                PatrolState.AT_GOAL: self._at_goal}
 
     def _goal(self, ctx: RobotContext) -> tuple[float, float]:
         goals = ctx.settings.get("patrol.goals")
@@ -178,11 +196,11 @@ class PatrolProfile(BaseProfile):
     async def _plan(self, ctx: RobotContext) -> None:
         goals = ctx.settings.get("patrol.goals")
         if not goals:
-            await ctx.trigger("mission_done")
+            await ctx.trigger(CoreTrigger.MISSION_DONE)
             return
         x, y = self._goal(ctx)
         ctx.emit("nav.goal", index=self.goal_index, loop=self.loop, goal_x_m=x, goal_y_m=y)
-        await ctx.trigger("planned")
+        await ctx.trigger(PatrolTrigger.PLANNED)
 
     async def _drive(self, ctx: RobotContext) -> None:
         nav = self.nav
@@ -193,7 +211,7 @@ class PatrolProfile(BaseProfile):
             ctx.emit("nav.goal_reached", index=self.goal_index, goal_x_m=x, goal_y_m=y,
                      est_error_m=round(outcome.remaining_m, 4), replans=outcome.replans,
                      duration_s=round(outcome.duration_s, 2))
-            await ctx.trigger("arrived")
+            await ctx.trigger(PatrolTrigger.ARRIVED)
             return
         ctx.emit("nav.failed", index=self.goal_index, reason=outcome.reason,
                  detail=outcome.detail, goal_x_m=x, goal_y_m=y)
@@ -201,7 +219,7 @@ class PatrolProfile(BaseProfile):
             ctx.emit("localisation.diverged", spread_m=round(
                 min(nav.localiser.estimate.spread_m if nav.localiser.estimate else 99.0, 99.0),
                 4), match_fraction=round(nav.localiser.match_fraction, 3))
-        await ctx.trigger("fault", reason=outcome.reason)
+        await ctx.trigger(CoreTrigger.FAULT, reason=outcome.reason)
 
     async def _at_goal(self, ctx: RobotContext) -> None:
         nav = self.nav
@@ -217,9 +235,9 @@ class PatrolProfile(BaseProfile):
         loops = ctx.settings.get("patrol.loops")
         if loops and self.loop >= loops:
             ctx.emit("patrol.done", loops=self.loop)
-            await ctx.trigger("mission_done")
+            await ctx.trigger(CoreTrigger.MISSION_DONE)
             return
-        await ctx.trigger("next_goal")
+        await ctx.trigger(PatrolTrigger.NEXT_GOAL)
 
     def status(self) -> dict[str, Any]:
         """The navigation figures for ``robotctl status``."""

@@ -7,10 +7,11 @@ the state machine, and is the simulator's first scenario. The side length is tun
 from __future__ import annotations
 
 import asyncio
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Final
 
 import structlog
 
+from behaviours.machine_tables import CoreTrigger, mission_children
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker, WaypointDrive
 from behaviours.persistence import MissionRecord
@@ -23,6 +24,8 @@ if TYPE_CHECKING:
 log = structlog.get_logger(__name__)
 
 
+SQUARE: Final = "mission.square"
+"""The mission's one state."""
 SQUARE_MISSION = MissionRecord("square.mission", 1, {"done": False})
 """The square is driven once per state directory."""
 LEGACY_DONE_KEY = "square.done"
@@ -41,7 +44,7 @@ class SquareProfile(BaseProfile):
         self._odometry: Odometry | None = None
 
     def mission_states(self) -> list[str | dict[str, Any]]:
-        return ["square"]
+        return mission_children(SQUARE)
 
     def mission_records(self) -> tuple[MissionRecord, ...]:
         return (SQUARE_MISSION,)
@@ -58,7 +61,7 @@ class SquareProfile(BaseProfile):
             if ctx.persisted(SQUARE_MISSION)["done"] or ctx.store.get(LEGACY_DONE_KEY, False):
                 log.info("square.already_done")
             else:
-                await ctx.trigger("start_mission")
+                await ctx.trigger(CoreTrigger.START_MISSION)
             await _forever()
 
         return [TaskService("odometry", OdometryTracker(encoders, odometry,
@@ -67,7 +70,7 @@ class SquareProfile(BaseProfile):
                 TaskService("square.autostart", autostart, depends_on=("odometry",))]
 
     def state_tasks(self) -> dict[str, StateTask]:
-        return {"mission.square": self._drive_square}
+        return {SQUARE: self._drive_square}
 
     async def _drive_square(self, ctx: RobotContext) -> None:
         motors = ctx.devices.motors
@@ -85,4 +88,4 @@ class SquareProfile(BaseProfile):
         await drive.stop()
         ctx.persisted(SQUARE_MISSION).set(done=True)
         ctx.emit("square.done", link_waits=drive.waits_for_link)
-        await ctx.trigger("mission_done")
+        await ctx.trigger(CoreTrigger.MISSION_DONE)

@@ -11,12 +11,14 @@ from __future__ import annotations
 
 import asyncio
 import random
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Final
 
 import structlog
 
 from behaviours.docking.capability import Docking
+from behaviours.docking.tables import DockTrigger
 from behaviours.machine_part import MachinePart
+from behaviours.machine_tables import CoreTrigger, RootState, mission_children
 from behaviours.motion.moves import Mover
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker
@@ -33,6 +35,20 @@ DEVICES = ("motors", "encoders", "battery", "servo", "dock_ir", "dock_signal",
            "dock_contacts", "bumpers", "wall", "bin", "station")
 
 
+class VacuumState:
+    """The mission's states (the docking ones are ``DockState``)."""
+
+    CLEANING: Final = "mission.cleaning"
+    BATTERY_CHECK: Final = "mission.battery_check"
+
+
+class VacuumTrigger:
+    """The mission's own triggers (below the threshold it fires ``DockTrigger.GO_DOCK``)."""
+
+    CHECK_BATTERY: Final = "check_battery"
+    BATTERY_OK: Final = "battery_ok"
+
+
 async def _forever() -> None:
     await asyncio.Event().wait()
 
@@ -47,14 +63,13 @@ class VacuumProfile(BaseProfile):
         self._rng = random.Random(0)
 
     def mission_states(self) -> list[str | dict[str, Any]]:
-        return ["cleaning", "battery_check"]
+        return mission_children(VacuumState.CLEANING, VacuumState.BATTERY_CHECK)
 
     def mission_transitions(self) -> list[dict[str, Any]]:
+        s, t = VacuumState, VacuumTrigger
         return [
-            {"trigger": "check_battery", "source": "mission.cleaning",
-             "dest": "mission.battery_check"},
-            {"trigger": "battery_ok", "source": "mission.battery_check",
-             "dest": "mission.cleaning"},
+            {"trigger": t.CHECK_BATTERY, "source": s.CLEANING, "dest": s.BATTERY_CHECK},
+            {"trigger": t.BATTERY_OK, "source": s.BATTERY_CHECK, "dest": s.CLEANING},
         ]
 
     def services(self, ctx: RobotContext) -> list[Service]:
@@ -69,7 +84,7 @@ class VacuumProfile(BaseProfile):
             """Once booted: back to charging if it was docked, else start cleaning."""
             if not await self.docking.resume_if_docked(ctx) \
                     and ctx.settings.get("vacuum.autostart"):
-                await ctx.trigger("start_mission")
+                await ctx.trigger(CoreTrigger.START_MISSION)
             await _forever()
 
         return [TaskService("odometry", OdometryTracker(encoders, odometry,
@@ -81,8 +96,8 @@ class VacuumProfile(BaseProfile):
         return (self.docking.machine_part(ctx),)
 
     def state_tasks(self) -> dict[str, StateTask]:
-        return {"mission": self._clean, "mission.cleaning": self._battery_timer,
-                "mission.battery_check": self._battery_check, **self.docking.state_tasks()}
+        return {RootState.MISSION: self._clean, VacuumState.CLEANING: self._battery_timer,
+                VacuumState.BATTERY_CHECK: self._battery_check, **self.docking.state_tasks()}
 
     def _mover(self, ctx: RobotContext) -> Mover:
         if ctx.devices.motors is None or self._odometry is None:
@@ -97,7 +112,7 @@ class VacuumProfile(BaseProfile):
 
     async def _battery_timer(self, ctx: RobotContext) -> None:
         await asyncio.sleep(float(ctx.settings.get("vacuum.battery_check_s")))
-        await ctx.trigger("check_battery")
+        await ctx.trigger(VacuumTrigger.CHECK_BATTERY)
 
     async def _battery_check(self, ctx: RobotContext) -> None:
         battery = ctx.devices.battery
@@ -106,9 +121,9 @@ class VacuumProfile(BaseProfile):
         if reading is not None and reading.percent < threshold:
             ctx.emit("clean.battery_low", battery_pct=round(reading.percent, 1),
                      threshold_pct=threshold)
-            await ctx.trigger("go_dock", reason="battery low")
+            await ctx.trigger(DockTrigger.GO_DOCK, reason="battery low")
         else:
-            await ctx.trigger("battery_ok")
+            await ctx.trigger(VacuumTrigger.BATTERY_OK)
 
     async def _next_clean(self, ctx: RobotContext) -> None:
         await asyncio.sleep(float(ctx.settings.get("vacuum.standby_s")))

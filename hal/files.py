@@ -1,4 +1,6 @@
-"""Reading a file that a config or a scenario points to: a regular file, of a bounded size.
+"""Files a robot reads because it was told to, and files it writes where it was told to.
+
+Reading a file that a config or a scenario points to: a regular file, of a bounded size.
 
 A path in a config is input like any other: ``/dev/zero`` as a map would be read until the
 memory runs out, a FIFO with no writer would hang the daemon, ``/etc/shadow`` must not be
@@ -6,6 +8,10 @@ quoted back in an error. ``read_bounded`` opens the file non-blocking, checks on
 (so what is checked is what is read) that it is a regular file, and reads at most
 ``max_bytes``; every refusal is a ``FileRefused`` that says ``PATH: cannot read: why`` and
 never holds a byte of the file.
+
+Writing into a directory someone else may write to too (``--report DIR``) or keeping state
+(the state store, a database): ``write_new`` never follows a symbolic link placed where the
+file goes, and ``restrict_new`` gives a file its mode whatever the umask.
 """
 
 from __future__ import annotations
@@ -73,3 +79,34 @@ def read_bounded_text(path: str | Path, max_bytes: int, what: str = "file") -> s
         line = data.count(b"\n", 0, exc.start) + 1
         why = f"not UTF-8 text (line {line}, offset {exc.start}; a {what})"
         raise FileRefused(str(path), why) from None
+
+
+def write_new(path: str | Path, data: bytes, mode: int = 0o644) -> None:
+    """Write ``data`` to ``path`` (replacing a regular file there) with ``mode``, never through
+    a symbolic link: a link placed at ``path`` is refused (OSError naming the path)."""
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOFOLLOW | os.O_CLOEXEC,
+                     mode)
+    except OSError:
+        if os.path.islink(path):
+            msg = f"{path}: is a symbolic link: not written through it"
+            raise OSError(msg) from None
+        raise
+    try:
+        os.fchmod(fd, mode)
+        view = memoryview(data)
+        while view:
+            view = view[os.write(fd, view):]
+    finally:
+        os.close(fd)
+
+
+def restrict_new(path: str | Path, mode: int = 0o600) -> None:
+    """Create ``path`` empty with ``mode`` if it is missing, and give it ``mode`` either way
+    (a state file or database: not world-readable, whatever the umask); a symbolic link there
+    is refused."""
+    fd = os.open(path, os.O_RDONLY | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, mode)
+    try:
+        os.fchmod(fd, mode)
+    finally:
+        os.close(fd)

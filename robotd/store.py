@@ -16,6 +16,8 @@ from typing import Any
 
 import structlog
 
+from hal.files import restrict_new
+
 log = structlog.get_logger(__name__)
 
 _SCHEMA = """
@@ -40,6 +42,7 @@ class StateStore:
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
+        restrict_new(self.path, 0o600)  # mission state: the robot's alone, whatever the umask
         # The connection moves to the executor thread for writes; one writer at a time.
         self._db = sqlite3.connect(self.path, isolation_level=None, check_same_thread=False)
         self._db.execute("PRAGMA journal_mode=WAL")

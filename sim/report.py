@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import itertools
 import json
 import math
@@ -11,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from hal.files import write_new
 from sim.nav.report import draw_navigation
 from sim.registry import distinct, slice_of
 from sim.tracks import TrackPoint
@@ -36,9 +38,9 @@ def event_line(event: dict[str, Any]) -> str:
 
 
 def write_events(path: Path, events: Iterable[dict[str, Any]]) -> None:
-    with path.open("w", encoding="utf-8") as fh:
-        for event in events:
-            fh.write(event_line(event) + "\n")
+    """One JSON line an event, never written through a link placed at ``path``."""
+    text = "".join(event_line(event) + "\n" for event in events)
+    write_new(path, text.encode("utf-8"))
 
 
 def _round(value: Any) -> Any:
@@ -209,5 +211,7 @@ def draw_trajectory(
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, framealpha=0.85,
               ncol=2 if len(handles) > 28 else 1)
     fig.tight_layout()
-    fig.savefig(path, dpi=110, bbox_inches="tight")  # a long legend is kept whole
+    png = io.BytesIO()
+    fig.savefig(png, format="png", dpi=110, bbox_inches="tight")  # a long legend kept whole
     plt.close(fig)
+    write_new(path, png.getvalue())

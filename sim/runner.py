@@ -54,6 +54,7 @@ SIM_EPOCH = datetime(2026, 1, 1, tzinfo=UTC)
 """Wall-clock time at virtual t=0, so reports do not depend on when they were made."""
 
 _WATCH_PERIOD_S = 0.1
+REPORT_FILES = ("events.jsonl", "trajectory.png", "run.mcap")
 _STOP_TIMEOUT_S = 10.0
 
 
@@ -88,6 +89,11 @@ def run_sim(args: argparse.Namespace) -> int:
         except OSError as exc:
             print(f"robotd sim: --report {report_dir}: cannot create the directory: "
                   f"{exc.strerror or exc}")
+            return 2
+        links = [n for n in REPORT_FILES if (Path(report_dir) / n).is_symlink()]
+        if links:  # another user's link would have us write where they chose
+            print(f"robotd sim: --report {report_dir}: {', '.join(links)} is a symbolic "
+                  f"link: not written through it (remove it)")
             return 2
     # The robots' state stores, control sockets and the fleet database live here for the run.
     with tempfile.TemporaryDirectory(prefix="robotd-sim-") as workdir:

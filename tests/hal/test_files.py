@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from hal.files import FileRefused, read_bounded, read_bounded_text
+from hal.files import FileRefused, read_bounded, read_bounded_text, restrict_new, write_new
 
 SECRET = "root:$6$SECRETHASHxyz:19000:0:99999:7:::"
 """A line like /etc/shadow's: it must never appear in an error."""
@@ -109,3 +109,52 @@ class TestEveryReferencedFile:
         assert run.returncode == 2, run.stdout + run.stderr
         assert "world.map" in run.stdout and "Traceback" not in run.stdout + run.stderr
         assert "SECRETHASH" not in run.stdout + run.stderr
+
+
+class TestWritingSafely:
+    def test_write_new_refuses_a_link_placed_where_the_file_goes(self, tmp_path: Path) -> None:
+        """--report DIR in a shared place: a link there would have us write where its owner
+        chose; refused, and its target untouched."""
+        target = tmp_path / "victim"
+        target.write_text("keep")
+        link = tmp_path / "events.jsonl"
+        link.symlink_to(target)
+        with pytest.raises(OSError, match="is a symbolic link: not written through it"):
+            write_new(link, b"x")
+        assert target.read_text() == "keep"
+
+    def test_write_new_gives_the_mode_whatever_the_umask(self, tmp_path: Path) -> None:
+        old = os.umask(0o077)
+        try:
+            write_new(tmp_path / "a", b"x", 0o644)
+        finally:
+            os.umask(old)
+        assert (tmp_path / "a").stat().st_mode & 0o777 == 0o644
+
+    def test_state_files_are_private_whatever_the_umask(self, tmp_path: Path) -> None:
+        """The state store (and anything made with restrict_new) is 0600 under umask 022."""
+        from robotd.store import StateStore
+
+        old = os.umask(0o022)
+        try:
+            store = StateStore(tmp_path / "state.db")
+            store.close()
+        finally:
+            os.umask(old)
+        assert (tmp_path / "state.db").stat().st_mode & 0o777 == 0o600
+        existing = tmp_path / "loose"
+        existing.write_text("")
+        existing.chmod(0o666)
+        restrict_new(existing, 0o640)
+        assert existing.stat().st_mode & 0o777 == 0o640
+
+    def test_a_report_directory_with_a_planted_link_is_refused(self, tmp_path: Path) -> None:
+        report = tmp_path / "out"
+        report.mkdir()
+        (report / "trajectory.png").symlink_to(tmp_path / "elsewhere.png")
+        run = subprocess.run([sys.executable, "-m", "robotd.cli", "sim", "square", "--quiet",
+                              "--report", str(report)], capture_output=True, text=True,
+                             timeout=120, check=False)
+        assert run.returncode == 2, run.stdout + run.stderr
+        assert "trajectory.png is a symbolic link" in run.stdout
+        assert not (tmp_path / "elsewhere.png").exists()

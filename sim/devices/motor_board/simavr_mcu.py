@@ -16,8 +16,10 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import ctypes.util
 import shutil
 import signal
+import subprocess
 import tempfile
 from collections import deque
 from collections.abc import Callable
@@ -50,9 +52,25 @@ WALL_ADC_OFFSET = 11
 BIN_EMPTY_MV, BIN_FULL_MV = 500, 4500
 SERVO_MIN_US = 544
 SERVO_MAX_US = 2400
-_TOOLS = ("make", "avr-gcc", "avr-size", "cc", "pkg-config", "flock")
-_SIMAVR_HEADER = Path("/usr/include/simavr/sim_avr.h")
-_ARDUINO_MK = Path("/usr/share/arduino/Arduino.mk")
+# Each program the build runs, with the Debian package that brings it.
+_TOOLS = {"make": "make", "avr-gcc": "gcc-avr", "avr-size": "binutils-avr", "cc": "gcc",
+          "pkg-config": "pkg-config", "flock": "util-linux"}
+# Each file the build reads (headers, make rules, the Arduino core, libraries to link), with
+# its package: the harness links -lsimavr -lelf (firmware/Makefile), simavr's pkg-config
+# file requires libelf's, and the sketch builds against avr-libc and the Arduino core.
+_FILES = (
+    ("simavr's headers (sim_avr.h)", "libsimavr-dev", ("/usr/include/simavr/sim_avr.h",)),
+    ("libelf's headers (libelf.h, gelf.h)", "libelf-dev",
+     ("/usr/include/libelf.h", "/usr/include/gelf.h")),
+    ("avr-libc (avr/io.h)", "avr-libc", ("/usr/lib/avr/include/avr/io.h",)),
+    ("the Arduino AVR core (Arduino.h)", "arduino-core-avr",
+     ("/usr/share/arduino/hardware/arduino/avr/cores/arduino/Arduino.h",)),
+    ("Arduino.mk", "arduino-mk", ("/usr/share/arduino/Arduino.mk",)),
+)
+# Libraries found through pkg-config (name, package) and the loader (name, package).
+_PKG_CONFIG = (("libelf", "libelf-dev"), ("simavr", "libsimavr-dev"))
+_SHARED_LIBS = (("simavr", "libsimavr2"), ("simavrparts", "libsimavrparts1"),
+                ("elf", "libelf1"))
 
 
 _FAULT_REPLIES = [["OK", name] for name in ("CORRUPT", "DELAY", "UNPLUG", "REPLUG", "RESET")]
@@ -63,16 +81,22 @@ class SimavrUnavailable(RuntimeError):
 
 
 def missing_toolchain() -> str | None:
-    """Why the firmware cannot be built and emulated here, or None when it can."""
-    missing = [tool for tool in _TOOLS if shutil.which(tool) is None]
-    if not _SIMAVR_HEADER.exists():
-        missing.append("libsimavr-dev")
-    if not _ARDUINO_MK.exists():
-        missing.append("arduino-mk")
+    """Why the firmware cannot be built and emulated here, or None when it can: each missing
+    program, file or library by name, with the Debian package that brings it."""
+    missing = [f"{tool} ({package})" for tool, package in _TOOLS.items()
+               if shutil.which(tool) is None]
+    missing += [f"{what} ({package})" for what, package, paths in _FILES
+                if not all(Path(path).exists() for path in paths)]
+    if shutil.which("pkg-config") is not None:
+        missing += [f"{name}.pc for pkg-config ({package})" for name, package in _PKG_CONFIG
+                    if subprocess.run(["pkg-config", "--exists", name], check=False,
+                                      capture_output=True).returncode != 0]
+    missing += [f"lib{name}.so ({package})" for name, package in _SHARED_LIBS
+                if ctypes.util.find_library(name) is None]
     if not (FIRMWARE_DIR / "Makefile").exists():
-        missing.append(f"{FIRMWARE_DIR}/Makefile")
+        missing.append(f"{FIRMWARE_DIR}/Makefile (this checkout)")
     if missing:
-        return ("cannot build/emulate the firmware, missing: " + ", ".join(missing)
+        return ("cannot build/emulate the firmware, missing: " + ", ".join(dict.fromkeys(missing))
                 + " (scripts/bootstrap --test installs them)")
     return None
 

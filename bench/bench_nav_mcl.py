@@ -88,7 +88,7 @@ def run_mcl(particles: int, updates: int, grid: DistanceGrid, walls: list[Segmen
             ) -> dict[str, Any]:
     rng = np.random.default_rng(particles)
     config = LocalisationConfig(min_particles=particles, max_particles=particles,
-                                update_min_d_m=0.0, update_min_a_rad=0.0)
+                                update_min_d_m=0.0, update_min_a_deg=0.0)
     loc = Localiser(grid, config)
     truth = loop_path(updates + 20)
     loc.start_at(truth[0][0] + 0.1, truth[0][1] - 0.1, truth[0][2] + 0.05)

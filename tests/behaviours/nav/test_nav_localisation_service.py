@@ -39,8 +39,9 @@ def _run(publish_hz: float) -> tuple[list[LocalisedPose], dict[str, object]]:
         ports.attach("/dev/ttyUSB0", device)
         lidar = Ld19Lidar(ports, LidarConfig())
         config = LocalisationConfig(initial_x_m=POSE[0] + 0.1, initial_y_m=POSE[1] - 0.1,
-                                    initial_heading_rad=POSE[2] + 0.05, initial_sigma_m=0.1,
-                                    publish_hz=publish_hz, lidar_lost_max_s=1.0)
+                                    initial_heading_deg=math.degrees(POSE[2] + 0.05),
+                                    initial_sigma_m=0.1, publish_hz=publish_hz,
+                                    lidar_lost_max_s=1.0)
         localiser = Localiser(grid(), config)
         assert start_filter(localiser) == "config"
         service = LocalisationService(localiser, lidar, lambda: (0.0, 0.0, 0.0))

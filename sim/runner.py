@@ -181,12 +181,21 @@ async def _simulate(args: argparse.Namespace, scenario: Scenario, console: SimCo
         if robot in robots:
             robots[robot].body.payload_kg = kg
 
+    def robot_room(robot: str) -> str | None:
+        if robot not in robots:
+            return None
+        pose = robots[robot].body.pose
+        return scenario.world.room_at(pose.x_m, pose.y_m)
+
+    def payload_kg(robot: str) -> float:
+        return robots[robot].body.payload_kg if robot in robots else 0.0
+
     try:
         viz = open_sim_viz(args, scenario.name, len(scenario.robots), console.line)
         settings_of = [robot_settings(scenario, spec, getattr(args, "config", None))
                        for spec in scenario.robots]
         context = ActorContext(scenario, workdir, origin, lambda ev: on_event("", ev),
-                               set_payload)
+                               set_payload, robot_room, payload_kg)
         actors_of: dict[str, SimActors | None] = {}
         for settings in settings_of:
             name = settings.get("robot.profile")

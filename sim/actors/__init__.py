@@ -36,6 +36,11 @@ class ActorContext:
     """Records an event in events.jsonl (``{"kind": ..., ...}``)."""
     set_payload: Callable[[str, float], None]
     """Puts ``kg`` in the named robot's bin (a person loading or unloading it)."""
+    robot_room: Callable[[str], str | None] = lambda _robot: None
+    """The room of the world the named robot stands in now (None: none, or no such robot):
+    what a person on the site sees."""
+    payload_kg: Callable[[str], float] = lambda _robot: 0.0
+    """What lies in the named robot's bin now."""
 
 
 class SimActors(Protocol):

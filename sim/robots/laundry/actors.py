@@ -223,16 +223,36 @@ class Customer:
 
 
 class Staff:
-    """The laundry room: empties robots that bring laundry, marks washing done after a while."""
+    """The laundry room: takes the laundry off a robot that stands at base with a load, washes
+    it, marks washing done after a while and puts the clean laundry on the robot that delivers.
+
+    They see what a person in the laundry room sees: a robot in the base room with something in
+    its bin (``ActorContext.robot_room``, ``payload_kg``), not only what the server says. Once
+    in a while they are slow (``slow_unloads``: the n-th unload, counted from 1, waits
+    ``slow_unload_s`` instead of ``unload_after_s``)."""
 
     def __init__(self, client: httpx.AsyncClient, record: Record, set_payload: SetPayload,
-                 washing_s: float, transport: httpx.AsyncBaseTransport) -> None:
+                 washing_s: float, transport: httpx.AsyncBaseTransport, *,
+                 robot_room: Callable[[str], str | None] = lambda _r: None,
+                 payload_kg: Callable[[str], float] = lambda _r: 0.0,
+                 robots: tuple[str, ...] = (), base_room: str = "base",
+                 unload_after_s: float = 5.0, slow_unloads: tuple[int, ...] = (),
+                 slow_unload_s: float = 0.0) -> None:
         self.client = client
         self.transport = transport
         self.record = record
         self.set_payload = set_payload
         self.washing_s = washing_s
+        self.robot_room = robot_room
+        self.payload_kg = payload_kg
+        self.robots = robots
+        self.base_room = base_room
+        self.unload_after_s = unload_after_s
+        self.slow_unloads = slow_unloads
+        self.slow_unload_s = slow_unload_s
+        self.unloads = 0
         self._washing_since: dict[int, float] = {}
+        self._seen_at_base: dict[str, float] = {}
         self.double_assignments: list[str] = []
         # The list is asked for every second: the request is built once, like a page would.
         self._poll = client.build_request("GET", "/api/requests")
@@ -242,13 +262,17 @@ class Staff:
         while True:
             requests = (await send_poll(self.transport, self._poll)).json()
             self._audit(requests, loop.time())
+            await self._unload_robots_at_base(requests, loop.time())
             for r in requests:
                 rid = int(r["Id"])
                 if r["Status"] == "Washing" and rid not in self._washing_since:
+                    robot = str(r["AssignedRobotName"])
+                    if self.robots and robot in self.robots and self.payload_kg(robot) > 0:
+                        continue  # not in the laundry room yet: nothing to wash
                     self._washing_since[rid] = loop.time()
-                    self.set_payload(str(r["AssignedRobotName"]), 0.0)
-                    self.record({"kind": "staff.unloaded", "request": rid,
-                                 "robot": r["AssignedRobotName"]})
+                    if not self.robots:  # a site whose robots the staff cannot see
+                        self.set_payload(robot, 0.0)
+                        self.record({"kind": "staff.unloaded", "request": rid, "robot": robot})
                 elif r["Status"] == "Washing" and \
                         loop.time() - self._washing_since[rid] >= self.washing_s:
                     response = await self.client.post(f"/api/requests/{rid}/washing-done")
@@ -258,6 +282,27 @@ class Staff:
                         self.record({"kind": "staff.washing_done", "request": rid,
                                      "robot": robot})
             await asyncio.sleep(1.0)
+
+    async def _unload_robots_at_base(self, requests: list[dict[str, Any]], now: float) -> None:
+        """A robot at base with a load is emptied ``unload_after_s`` after it came (unless it
+        is the one taking clean laundry out), and the server is told."""
+        delivering = {str(r["AssignedRobotName"]) for r in requests
+                      if r["Status"] == "FinishedWashingGoingToRoom"}
+        for robot in self.robots:
+            loaded = self.payload_kg(robot) > 0 and robot not in delivering
+            if self.robot_room(robot) != self.base_room or not loaded:
+                self._seen_at_base.pop(robot, None)
+                continue
+            since = self._seen_at_base.setdefault(robot, now)
+            slow = (self.unloads + 1) in self.slow_unloads
+            if now - since < (self.slow_unload_s if slow else self.unload_after_s):
+                continue
+            self.unloads += 1
+            self._seen_at_base.pop(robot, None)
+            self.set_payload(robot, 0.0)
+            response = await self.client.post(f"/api/robots/{robot}/unloaded")
+            self.record({"kind": "staff.unloaded", "robot": robot, "slow": slow,
+                         "waited_s": round(now - since, 1), "code": response.status_code})
 
     def _audit(self, requests: list[dict[str, Any]], t_s: float) -> None:
         """No robot may serve two active requests at once."""
@@ -290,7 +335,13 @@ class LaundryActors:
         self.customers = [Customer(p, self.fleet.customer_client(p.customer), ctx.record,
                                    ctx.set_payload, self.fleet.transport) for p in plans]
         self.staff = Staff(self.fleet.client, ctx.record, ctx.set_payload,
-                           float(table.get("washing_s", 30.0)), self.fleet.transport)
+                           float(table.get("washing_s", 30.0)), self.fleet.transport,
+                           robot_room=ctx.robot_room, payload_kg=ctx.payload_kg,
+                           robots=tuple(r.name for r in ctx.scenario.robots),
+                           base_room=str(table.get("base_room", "base")),
+                           unload_after_s=float(table.get("unload_after_s", 5.0)),
+                           slow_unloads=tuple(int(n) for n in table.get("slow_unloads", ())),
+                           slow_unload_s=float(table.get("slow_unload_s", 0.0)))
 
     @classmethod
     def for_scenario(cls, ctx: ActorContext) -> LaundryActors | None:

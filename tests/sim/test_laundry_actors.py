@@ -66,6 +66,14 @@ class TestSendPoll:
         staff, ana, ben = fleet.client, fleet.customer_client(1), fleet.customer_client(2)
         polls = [(staff, "/api/requests"), (ana, "/api/requests/1"), (ben, "/api/requests/1"),
                  (staff, "/api/requests/99"), (ana, "/api/requests")]
+        robot = httpx.AsyncClient(transport=fleet.transport, base_url="http://fleet.sim",
+                                  headers={"Authorization": "Bearer "
+                                           + fleet.robot_token_file("laundry-1").read_text()
+                                           .strip()})
+        # A robot is assignable once it has reported (issue 27: online means reported).
+        assert (await robot.post("/api/Robot/laundry-1/data-exchange",
+                                 json={"RobotName": "laundry-1"})).status_code == 200
+        await robot.aclose()
         for created in (False, True):
             if created:
                 assert (await ana.post("/api/requests", json={"CustomerId": 1})).status_code \

@@ -13,8 +13,9 @@ import contextlib
 import math
 from collections.abc import Callable
 
+from behaviours.motion.config import DriveTuning
 from behaviours.motion.odometry import Odometry
-from behaviours.motion.waypoint_drive import DriveTuning, wheel_command
+from behaviours.motion.waypoint_drive import wheel_command
 from hal.devices import LinkDown, Motors
 from hal.looptime.timer_sleep import timer_sleep
 from hal.readings import MotorCommand

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from behaviours.motion.config import WheelConfig
 from hal.readings import EncoderReading
 from hal.settings import SettingsView
 
@@ -48,8 +49,8 @@ class Odometry:
     @classmethod
     def from_settings(cls, settings: SettingsView) -> Odometry:
         """The robot's wheels as the ``drive`` section describes them."""
-        drive = settings.section("drive")
-        return cls(drive["wheel_base_m"], drive["wheel_radius_m"], drive["ticks_per_rev"])
+        wheels = WheelConfig.from_settings(settings)
+        return cls(wheels.wheel_base_m, wheels.wheel_radius_m, wheels.ticks_per_rev)
 
     def reset(self, x_m: float = 0.0, y_m: float = 0.0, theta_rad: float = 0.0) -> None:
         self._x, self._y, self._theta = x_m, y_m, theta_rad

@@ -11,10 +11,10 @@ import asyncio
 import contextlib
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import structlog
 
+from behaviours.motion.config import DriveTuning
 from behaviours.motion.odometry import Odometry, OdometryPose
 from hal.devices import Encoders, LinkDown, ListenableEncoders, Motors
 from hal.looptime.timer_sleep import timer_sleep
@@ -27,23 +27,6 @@ log = structlog.get_logger(__name__)
 _PERIOD_S = 0.05
 _HEADING_TOLERANCE_RAD = math.radians(2.0)
 _RETURN_TO_TURN_RAD = math.radians(45)
-
-
-@dataclass(frozen=True, slots=True)
-class DriveTuning:
-    max_speed_mps: float
-    deadband_pwm: int
-    cruise_mps: float
-    min_mps: float
-    turn_mps: float
-    heading_gain: float
-    tolerance_m: float
-
-    @classmethod
-    def from_settings(cls, settings: SettingsView) -> DriveTuning:
-        s = settings.section("drive")
-        return cls(s["max_speed_mps"], s["deadband_pwm"], s["cruise_mps"], s["min_mps"],
-                   s["turn_mps"], s["heading_gain"], s["tolerance_m"])
 
 
 # Commands are immutable and a drive repeats a few hundred of them: each is built once.

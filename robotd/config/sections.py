@@ -13,6 +13,7 @@ from typing import overload
 
 from behaviours.docking.config import DOCKING_OPTIONS, DOCKING_ORDERS
 from behaviours.line.config import LINE_FOLLOW, LINE_FOLLOW_ORDERS
+from behaviours.motion.config import DRIVE, DRIVE_ORDERS
 from behaviours.nav.config import NAV_SECTIONS
 from behaviours.nav.localisation.config import NAV_LOCALISATION_ORDERS, NAV_LOCALISATION_SECTIONS
 from drivers.arduino.config import SERIAL
@@ -66,24 +67,7 @@ _CORE: tuple[Section, ...] = (
           min=1, max=60000, tunable=True),
     )),
     SERIAL,
-    Section("drive", "Wheels, odometry and waypoint driving.", (
-        opt("wheel_base_m", "float", 0.30, "Distance between the wheels.", min=0.05, max=2),
-        opt("wheel_radius_m", "float", 0.035, "Wheel radius.", min=0.005, max=0.5),
-        opt("ticks_per_rev", "int", 360, "Encoder ticks per wheel turn.", min=1, max=100000),
-        opt("max_speed_mps", "float", 0.6, "Wheel speed at PWM 255.", min=0.01, max=5),
-        opt("deadband_pwm", "int", 20, "PWM below which the wheels do not turn.",
-            min=0, max=254),
-        opt("cruise_mps", "float", 0.2, "Speed between waypoints.", min=0.01, max=5,
-            tunable=True),
-        opt("min_mps", "float", 0.03, "Slowest commanded speed.", min=0.001, max=1,
-            tunable=True),
-        opt("turn_mps", "float", 0.08, "Wheel speed when turning in place.", min=0.01,
-            max=2, tunable=True),
-        opt("heading_gain", "float", 2.0, "Heading correction (rad/s per rad).", min=0,
-            max=50, tunable=True),
-        opt("tolerance_m", "float", 0.01, "A waypoint is reached this close.", min=0.001,
-            max=1, tunable=True),
-    )),
+    DRIVE,
     LINE_FOLLOW,
     Section("camera", "The line camera (USB/UVC, Pi camera module, or a recorded video).", (
         opt("source", "str", "uvc", "uvc: V4L2 device; picamera: Pi camera; file: a video.",
@@ -176,7 +160,7 @@ _CORE: tuple[Section, ...] = (
 # that breaks one (to widen a range, move the limit on the outside first).
 _CORE_ORDERS: tuple[Order, ...] = (
     Order(("supervisor.restart_base_s", "supervisor.restart_max_s"), strict=False),
-    Order(("drive.min_mps", "drive.cruise_mps"), strict=False),
+    *DRIVE_ORDERS,
     *LINE_FOLLOW_ORDERS,
     Order(("safety.stop_distance_cm", "safety.resume_distance_cm"), strict=False),
     *LIDAR_ORDERS,

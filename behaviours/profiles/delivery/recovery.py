@@ -79,7 +79,8 @@ async def wait_for_lidar(ctx: RobotContext, nav: NavStack, limit_s: float = LIDA
 
 async def face(nav: NavStack, x_m: float, y_m: float, limit_s: float = 10.0) -> None:
     """Turn on the spot towards a map point."""
-    from behaviours.motion.waypoint_drive import DriveTuning, wheel_command
+    from behaviours.motion.config import DriveTuning
+    from behaviours.motion.waypoint_drive import wheel_command
     from hal.readings import MotorCommand
 
     tuning = DriveTuning.from_settings(nav.settings)

@@ -15,6 +15,12 @@ INTERNAL_ERROR = -32603
 APP_ERROR = -32000
 """The daemon refused (e.g. a new config that does not validate)."""
 
+TOO_MANY_CLIENTS = "too_many_clients"
+"""``error.data.reason`` when the daemon has no room for a connection: nothing was done, so
+the client may connect again (robotctl does, briefly)."""
+CLOSED_REASONS = ("idle", "stalled")
+"""``error.data.reason`` (with id null) when the daemon closes a connection that held room."""
+
 _NO_ID = object()
 MAX_DEPTH = 32
 """Arrays and objects nested deeper than this are refused (no method needs more than 3)."""

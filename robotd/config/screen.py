@@ -56,11 +56,11 @@ def check_option(option: Option, value: Any) -> tuple[Any, str | None]:
     return checked, None if error is None else clip(error)
 
 
-def parse_option_text(option: Option, text: str) -> tuple[Any, str | None]:
+def read_option_text(text: str) -> tuple[Any, str | None]:
     """A value typed on robotctl's command line, read as ``Option.parse_text`` reads it (a
-    TOML value, else a float such as ``NaN``, else a bare word), then screened and checked;
-    never raises. The reading is repeated here because ``parse_text`` checks at once, before
-    the value could be screened."""
+    TOML value, else a float such as ``NaN``, else a bare word) but not checked: (value, None)
+    or (None, why it cannot be read); never raises. The reading is repeated here because
+    ``parse_text`` checks at once, before the value could be screened."""
     if len(text) > MAX_TEXT_CHARS:
         return None, f"value too long ({len(text)} characters, at most {MAX_TEXT_CHARS})"
     value: Any
@@ -73,7 +73,7 @@ def parse_option_text(option: Option, text: str) -> tuple[Any, str | None]:
             value = text
     except (ValueError, RecursionError) as exc:  # digit limit, deep nesting
         return None, clip(f"cannot be read: {exc}")
-    return check_option(option, value)
+    return value, None
 
 
 def clip(message: str) -> str:

@@ -4,13 +4,23 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 from hal.options import Option
+from robotd.config.screen import check_option
 from robotd.config.sections import ORDERS, SECTIONS
 
 Values = dict[str, dict[str, Any]]
 Listener = Callable[[str, Any], None]
+
+
+@dataclass(frozen=True, slots=True)
+class Checked:
+    """A value ``Settings.check`` accepted for ``key`` (normalised), for ``Settings.apply``."""
+
+    key: str
+    value: Any
 
 
 class Settings:
@@ -46,11 +56,11 @@ class Settings:
             msg = f"{dotted}: unknown key"
             raise KeyError(msg) from None
 
-    def check(self, dotted: str, value: Any) -> Any:
-        """Validate a value for a key (its type and range, and its order against the limits it
-        pairs with); return it normalised or raise ValueError with why."""
-        option = self.option(dotted)
-        checked, error = option.check(value)
+    def check(self, dotted: str, value: Any) -> Checked:
+        """Validate a value for a key: its type and range (``check_option``: never an exception
+        but ValueError for a bad value) and its order against the limits it pairs with.
+        Returns it normalised, for ``apply``; ValueError says why not."""
+        checked, error = check_option(self.option(dotted), value)
         if error is not None:
             msg = f"{dotted}: {error}"
             raise ValueError(msg)
@@ -64,17 +74,21 @@ class Settings:
                 if problem is not None:
                     msg = f"{problem[0]}: {problem[1]}"
                     raise ValueError(msg)
-        return checked
+        return Checked(dotted, checked)
+
+    def apply(self, checked: Checked) -> Any:
+        """Apply a value ``check`` returned (not checked again: apply it before anything
+        else changes); listeners hear of it. Returns the value."""
+        section, key = _split(checked.key)
+        self._values[section][key] = checked.value
+        for prefix, listener in list(self._listeners):
+            if checked.key == prefix or checked.key.startswith(prefix + ".") or prefix == "":
+                listener(checked.key, checked.value)
+        return checked.value
 
     def set(self, dotted: str, value: Any) -> Any:
         """Validate and apply one value at once; listeners hear of it. Returns the value."""
-        checked = self.check(dotted, value)
-        section, key = _split(dotted)
-        self._values[section][key] = checked
-        for prefix, listener in list(self._listeners):
-            if dotted == prefix or dotted.startswith(prefix + ".") or prefix == "":
-                listener(dotted, checked)
-        return checked
+        return self.apply(self.check(dotted, value))
 
     def replace(self, values: Values, *, source: str) -> list[str]:
         """Take a whole new config (a reload); tell listeners of each changed key."""

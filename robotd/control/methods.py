@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 from robotd import __version__
 from robotd.config.overrides import overrides_path, persist_override, render_toml
-from robotd.config.screen import check_option, clip, parse_option_text
+from robotd.config.screen import clip, read_option_text
 from robotd.control.profile_methods import profile_handlers
 from robotd.control.rpc import APP_ERROR, INVALID_PARAMS, RpcError
 from robotd.control.server import Client, Handler
@@ -123,18 +123,16 @@ class _Methods:
                            "change it in the config file and restart")
         value = params["value"]
         if isinstance(value, str) and option.kind != "str":
-            value, error = parse_option_text(option, value)
-        else:
-            value, error = check_option(option, value)
-        if error is not None:
-            raise RpcError(INVALID_PARAMS, f"{key}: {error}")
+            value, error = read_option_text(value)
+            if error is not None:
+                raise RpcError(INVALID_PARAMS, f"{key}: {error}")
         try:
-            value = settings.check(key, value)
+            checked = settings.check(key, value)
             if persist:
-                render_toml({"check": {"value": value}})  # refuse before applying
-            value = settings.set(key, value)
+                render_toml({"check": {"value": checked.value}})  # refuse before applying
         except ValueError as exc:
             raise RpcError(INVALID_PARAMS, str(exc)) from None
+        value = settings.apply(checked)
         if persist:
             path = overrides_path(self.d.state_dir)
             try:

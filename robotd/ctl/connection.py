@@ -12,12 +12,19 @@ import stat
 import time
 from typing import Any
 
+from robotd.control.rpc import CLOSED_REASONS, TOO_MANY_CLIENTS
+from robotd.ctl.retry import Backoff
+
 DEFAULT_SOCKET = "/run/robotd/control.sock"
 EXIT_OK, EXIT_ERROR, EXIT_USAGE, EXIT_CONNECT = 0, 1, 2, 3
 
 
 class CannotConnect(Exception):
     pass
+
+
+class Refused(CannotConnect):
+    """The daemon took no request on this connection (it had no room): nothing was done."""
 
 
 class DaemonError(Exception):
@@ -27,45 +34,80 @@ class DaemonError(Exception):
 
 
 class Connection:
-    """A blocking JSON-RPC client over the Unix socket (robotctl is a short-lived process)."""
+    """A blocking JSON-RPC client over the Unix socket (robotctl is a short-lived process).
 
-    def __init__(self, path: str, timeout_s: float) -> None:
+    A connect that fails for a moment (``EAGAIN``: the daemon's listen queue is full;
+    ``ECONNREFUSED``: it is between two sockets) and a first request refused for want of room
+    ("too many clients": it was not carried out) are tried again, backing off, for up to
+    ``retry.budget_s`` (1 s); then the reason is raised as ``CannotConnect``.
+    """
+
+    def __init__(self, path: str, timeout_s: float, *, retry: Backoff | None = None) -> None:
         self.path = path
         self._ids = itertools.count(1)
-        self._sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-        self._sock.settimeout(timeout_s)
-        try:
-            self._sock.connect(path)
-        except FileNotFoundError:
-            raise CannotConnect(f"no control socket at {path}: is robotd running? "
-                                "(systemctl status robotd; or give --socket PATH)") from None
-        except PermissionError:
-            raise CannotConnect(f"permission denied on {path}: the socket is mode 0660, group "
-                                "robotd; join that group (sudo usermod -aG robotd $USER, log in "
-                                "again) or use sudo") from None
-        except ConnectionRefusedError:
-            if not stat.S_ISSOCK(os.stat(path).st_mode):
-                raise CannotConnect(f"{path} is not a socket (a regular file or another kind "
-                                    "of file): check --socket / control.socket") from None
-            raise CannotConnect(f"nothing listens on {path}: robotd is not running (a stale "
-                                "socket left by a crash?)") from None
-        except OSError as exc:
-            raise CannotConnect(f"cannot connect to {path}: {exc}") from None
         self._timeout_s = timeout_s
+        self._retry = retry or Backoff()
+        self._answered = False
         self._buffer = bytearray()
         self._notifications: collections.deque[dict[str, Any]] = collections.deque()
+        self._sock = self._connect()
+
+    def _connect(self) -> socket.socket:
+        while True:
+            sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+            sock.settimeout(self._timeout_s)
+            try:
+                sock.connect(self.path)
+            except (BlockingIOError, ConnectionRefusedError) as exc:
+                sock.close()
+                if _is_socket(self.path) and self._retry.again():
+                    continue
+                raise _cannot_connect(self.path, exc) from None
+            except OSError as exc:
+                sock.close()
+                raise _cannot_connect(self.path, exc) from None
+            return sock
 
     def call(self, method: str, params: dict[str, Any] | None = None) -> Any:
+        while True:
+            try:
+                reply = self._exchange(method, params)
+            except Refused as exc:
+                if self._answered or not self._retry.again():
+                    tries = f" ({self._retry.attempts} attempts)" if not self._answered else ""
+                    raise Refused(f"robotd refused the connection: {exc}{tries}") from None
+                self._reconnect()
+                continue
+            self._answered = True
+            if "error" in reply:
+                raise DaemonError(reply["error"])
+            return reply.get("result")
+
+    def _reconnect(self) -> None:
+        self._sock.close()
+        self._buffer.clear()
+        self._sock = self._connect()
+
+    def _exchange(self, method: str, params: dict[str, Any] | None) -> dict[str, Any]:
+        """Send one request and return its reply; Refused when the daemon had no room."""
         request_id = next(self._ids)
         message = {"jsonrpc": "2.0", "id": request_id, "method": method, "params": params or {}}
         try:
-            self._sock.sendall(json.dumps(message).encode() + b"\n")
+            try:
+                self._sock.sendall(json.dumps(message).encode() + b"\n")
+            except (BrokenPipeError, ConnectionResetError) as exc:
+                if self._answered:
+                    raise
+                # Closed before it read a line from us: it said why first, or it is going away.
+                raise Refused(self._why_closed() or str(exc)) from None
             while True:
                 line = self._readline(self._timeout_s)
                 if line is None:
                     raise TimeoutError
-                reply = json.loads(line)
+                reply: dict[str, Any] = json.loads(line)
                 if reply.get("id") == request_id:
+                    break
+                if "error" in reply and reply.get("id") is None:  # about this connection
                     break
                 if "method" in reply and "id" not in reply:  # a notification: kept for later
                     self._notifications.append(reply)
@@ -73,9 +115,23 @@ class Connection:
             raise CannotConnect(f"robotd did not answer {method!r} in time") from None
         except OSError as exc:
             raise CannotConnect(f"connection to {self.path} failed: {exc}") from None
-        if "error" in reply:
-            raise DaemonError(reply["error"])
-        return reply.get("result")
+        _raise_if_closed(reply)
+        return reply
+
+    def _why_closed(self) -> str | None:
+        """The refusal the daemon sent before it closed, if it is there to read."""
+        try:
+            line = self._readline(0.0)
+        except (CannotConnect, OSError):
+            return None
+        if line is None:
+            return None
+        try:
+            error = json.loads(line).get("error") or {}
+        except (ValueError, AttributeError):
+            return None
+        message = error.get("message") if isinstance(error, dict) else None
+        return message if isinstance(message, str) else None
 
     def next_notification(self, timeout_s: float) -> dict[str, Any] | None:
         """The next notification of a subscription, or None when none came in ``timeout_s``."""
@@ -87,6 +143,7 @@ class Connection:
             if line is None:
                 return None
             message = json.loads(line)
+            _raise_if_closed(message)
             if "method" in message and "id" not in message:
                 self._notifications.append(message)
         return self._notifications.popleft()
@@ -96,8 +153,8 @@ class Connection:
         so far is kept: a timeout never loses part of a line)."""
         deadline = time.monotonic() + timeout_s
         while (end := self._buffer.find(b"\n")) < 0:
-            left = deadline - time.monotonic()
-            if left <= 0 or not select.select([self._sock], [], [], left)[0]:
+            left = max(0.0, deadline - time.monotonic())
+            if not select.select([self._sock], [], [], left)[0]:
                 return None
             chunk = self._sock.recv(65536)
             if not chunk:
@@ -109,3 +166,49 @@ class Connection:
 
     def close(self) -> None:
         self._sock.close()
+
+
+def _raise_if_closed(message: dict[str, Any]) -> None:
+    """Refused for want of room (nothing was done) or CannotConnect when the daemon closed
+    the connection (idle, stalled); nothing for any other message."""
+    error = message.get("error")
+    if not isinstance(error, dict):
+        return
+    reason = _reason(error)
+    if reason == TOO_MANY_CLIENTS:
+        raise Refused(str(error.get("message")))
+    if reason in CLOSED_REASONS and message.get("id") is None:
+        raise CannotConnect(f"robotd closed the connection: {error.get('message')}")
+
+
+def _reason(error: dict[str, Any]) -> object:
+    data = error.get("data")
+    return data.get("reason") if isinstance(data, dict) else None
+
+
+def _is_socket(path: str) -> bool:
+    try:
+        return stat.S_ISSOCK(os.stat(path).st_mode)
+    except OSError:
+        return False
+
+
+def _cannot_connect(path: str, exc: OSError) -> CannotConnect:
+    """What to tell a technician about a connect that failed, and what to check."""
+    if isinstance(exc, FileNotFoundError):
+        return CannotConnect(f"no control socket at {path}: is robotd running? "
+                             "(systemctl status robotd; or give --socket PATH)")
+    if isinstance(exc, PermissionError):
+        return CannotConnect(f"permission denied on {path}: the socket is mode 0660, group "
+                             "robotd; join that group (sudo usermod -aG robotd $USER, log in "
+                             "again) or use sudo")
+    if isinstance(exc, ConnectionRefusedError):
+        if os.path.exists(path) and not _is_socket(path):
+            return CannotConnect(f"{path} is not a socket (a regular file or another kind "
+                                 "of file): check --socket / control.socket")
+        return CannotConnect(f"nothing listens on {path}: robotd is not running (a stale "
+                             "socket left by a crash?)")
+    if isinstance(exc, BlockingIOError):
+        return CannotConnect(f"cannot connect to {path}: robotd's queue of new connections "
+                             "stayed full (a connect storm?); try again")
+    return CannotConnect(f"cannot connect to {path}: {exc}")

@@ -9,6 +9,7 @@ import os
 import select
 import socket
 import stat
+import struct
 import time
 from typing import Any
 
@@ -55,9 +56,14 @@ class Connection:
     def _connect(self) -> socket.socket:
         while True:
             sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-            sock.settimeout(self._timeout_s)
+            # A blocking connect bounded by SO_SNDTIMEO: while the daemon's listen queue is
+            # full the kernel waits for room, in turn with the others, rather than failing
+            # at once with EAGAIN (a non-blocking connect) as robotctl used to.
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDTIMEO,
+                            _timeval(min(self._timeout_s, max(self._retry.left_s, 0.05))))
             try:
                 sock.connect(self.path)
+                sock.settimeout(self._timeout_s)
             except (BlockingIOError, ConnectionRefusedError) as exc:
                 sock.close()
                 if _is_socket(self.path) and self._retry.again():
@@ -179,6 +185,12 @@ def _raise_if_closed(message: dict[str, Any]) -> None:
         raise Refused(str(error.get("message")))
     if reason in CLOSED_REASONS and message.get("id") is None:
         raise CannotConnect(f"robotd closed the connection: {error.get('message')}")
+
+
+def _timeval(seconds: float) -> bytes:
+    """A ``struct timeval`` for SO_SNDTIMEO."""
+    whole = int(seconds)
+    return struct.pack("@ll", whole, int((seconds - whole) * 1_000_000))
 
 
 def _reason(error: dict[str, Any]) -> object:

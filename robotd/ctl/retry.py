@@ -39,9 +39,14 @@ class Backoff:
         self._next_s = FIRST_PAUSE_S
         self.attempts = 1
 
+    @property
+    def left_s(self) -> float:
+        """Time left in the budget (0 when spent)."""
+        return max(0.0, self._deadline_s - self._clock())
+
     def again(self) -> bool:
         """Pause before the next attempt; False (no pause) when the budget is spent."""
-        left_s = self._deadline_s - self._clock()
+        left_s = self.left_s
         if left_s <= 0:
             return False
         self._pause(min(self._next_s, left_s))

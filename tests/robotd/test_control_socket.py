@@ -6,8 +6,32 @@ import asyncio
 import json
 import os
 import stat
+from typing import Any, ClassVar
 
 from daemon_harness import RpcClient, running_daemon
+
+from behaviours.profile import BaseProfile, ProfileSpec
+from hal.options import Option, Section
+from robotd.profiles import PROFILES
+
+
+class _CountedOption(Option):
+    """An option that records each value it checks."""
+
+    seen: ClassVar[list[Any]] = []
+
+    def check(self, value: Any) -> tuple[Any, str | None]:
+        _CountedOption.seen.append(value)
+        return super().check(value)
+
+
+class _Counted(BaseProfile):
+    name = "counted"
+
+
+_COUNTED = ProfileSpec(_Counted, "a robot whose one key counts its checks", sections=(
+    Section("counted", "A key that counts its checks.", (
+        _CountedOption("gain", "float", 0.5, "A gain.", min=0, max=2, tunable=True),)),))
 
 
 def socket_of(daemon: object) -> str:
@@ -62,6 +86,20 @@ class TestTune:
         assert "expected a number" in kind["error"]["message"]
         assert unknown["error"]["message"] == "line_follow.kq: unknown key"
         assert "cannot be tuned live" in fixed["error"]["message"]
+
+    async def test_a_value_is_checked_once_on_its_way(self) -> None:
+        """tune.set reads the typed text, then Settings.check checks it once: the option's
+        check runs once per call (it ran three times)."""
+        with PROFILES.registered(_COUNTED):
+            async with running_daemon() as daemon:
+                client = await RpcClient.connect(socket_of(daemon))
+                _CountedOption.seen.clear()
+                typed = await client.call("tune.set", {"key": "counted.gain", "value": "0.3"})
+                sent = await client.call("tune.set", {"key": "counted.gain", "value": 1,
+                                                      "persist": True})
+                await client.close()
+        assert (typed["result"]["value"], sent["result"]["value"]) == (0.3, 1.0)
+        assert _CountedOption.seen == [0.3, 1]
 
     async def test_persist_writes_the_overrides_file_in_the_state_dir(self) -> None:
         async with running_daemon() as daemon:

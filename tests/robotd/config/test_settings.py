@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from robotd.config.loader import defaults
-from robotd.config.settings import Settings
+from robotd.config.settings import Checked, Settings
 
 
 class TestSettings:
@@ -54,3 +54,29 @@ class TestSettings:
         assert Settings.option("line_follow.kp").parse_text("0.6") == (0.6, None)
         assert Settings.option("logging.level").parse_text("debug") == ("debug", None)
         assert Settings.option("serial.baud").parse_text("fast")[1] is not None
+
+    def test_check_normalises_a_value_and_changes_nothing(self) -> None:
+        """check() says what would be stored (an integer gain as a float); apply() stores
+        that and tells the listeners."""
+        s = Settings(defaults())
+        heard: list[str] = []
+        s.watch("", lambda k, _v: heard.append(k))
+        checked = s.check("line_follow.kp", 1)
+        assert checked == Checked("line_follow.kp", 1.0)
+        assert isinstance(checked.value, float)
+        assert (s.get("line_follow.kp"), heard) == (0.5, [])
+        assert s.apply(checked) == 1.0
+        assert (s.get("line_follow.kp"), heard) == (1.0, ["line_follow.kp"])
+
+    def test_check_refuses_a_limit_out_of_order_with_its_pair(self) -> None:
+        """The orders are part of the one check: roi_bottom above roi_top."""
+        with pytest.raises(ValueError, match=r"line_follow.roi_bottom: must be above"):
+            Settings(defaults()).check("line_follow.roi_bottom", 0.1)
+
+    def test_a_value_no_option_can_hold_is_refused_not_raised_on(self) -> None:
+        """An integer past 64 bits is screened in check() (it used to be screened only on the
+        tune.set path): a ValueError naming the key, nothing else."""
+        s = Settings(defaults())
+        with pytest.raises(ValueError, match=r"line_follow.lost_frames: integer out of range"):
+            s.set("line_follow.lost_frames", 2**70)
+        assert s.get("line_follow.lost_frames") == 20

@@ -60,6 +60,14 @@ class Robot(Base):
     weight_kg: Mapped[float | None] = mapped_column(Float, default=None)
     ultrasonic_distance: Mapped[float | None] = mapped_column(Float, default=None)
     is_in_target: Mapped[bool] = mapped_column(Boolean, default=False)
+    # What the robot reports of itself (issue 27; null: not reported, e.g. older firmware).
+    state: Mapped[str | None] = mapped_column(String(100), default=None)
+    """The daemon's dotted state path, e.g. ``mission.to_room``."""
+    estop_active: Mapped[bool | None] = mapped_column(Boolean, default=None)
+    """The robot's own e-stop latch (``emergency_stop`` is the server's order)."""
+    fault_code: Mapped[str | None] = mapped_column(String(60), default=None)
+    fault_message: Mapped[str | None] = mapped_column(String(500), default=None)
+    battery_pct: Mapped[float | None] = mapped_column(Float, default=None)
 
 
 class Request(Base):

@@ -8,7 +8,7 @@ from typing import Protocol
 from fastapi import Request as HttpRequest
 from sqlalchemy.ext.asyncio import AsyncSession
 
-from fleet.api.schemas import ErrorOut, RequestOut, RobotOut
+from fleet.api.schemas import ErrorOut, FaultOut, RequestOut, RobotOut
 from fleet.models import Request, Robot
 from fleet.server import FleetServer
 from fleet.services.weight import Weighed, can_confirm_loaded, can_confirm_unloaded
@@ -105,7 +105,7 @@ def robot_status(robot: Robot) -> str:
         return "Inactive"
     if robot.is_offline:
         return "Offline"
-    if robot.emergency_stop:
+    if robot.emergency_stop or robot.estop_active:
         return "EmergencyStop"
     if robot.maintenance_mode:
         return "Maintenance"
@@ -118,5 +118,8 @@ def robot_out(robot: Robot) -> RobotOut:
         IsOffline=robot.is_offline, EmergencyStop=robot.emergency_stop,
         MaintenanceMode=robot.maintenance_mode, CurrentRequestId=robot.current_request_id,
         LastPingAt=robot.last_ping_at, LastAssignedAt=robot.last_assigned_at,
-        WeightKg=robot.weight_kg,
+        WeightKg=robot.weight_kg, State=robot.state, EmergencyStopActive=robot.estop_active,
+        Fault=(FaultOut(Code=robot.fault_code, Message=robot.fault_message or "")
+               if robot.fault_code is not None else None),
+        BatteryPct=robot.battery_pct,
     )

@@ -53,7 +53,11 @@ async def answer(server: FleetServer, robot_name: str, body: DataExchangeIn) -> 
         robot_name=robot_name,
         sightings=[Sighting(b.MacAddress, b.Rssi) for b in body.DetectedBeacons],
         is_in_target=body.IsInTarget, weight_kg=body.WeightKg,
-        ultrasonic_distance=body.UltrasonicDistance,
+        ultrasonic_distance=body.UltrasonicDistance, state=body.State,
+        estop_active=body.EmergencyStopActive,
+        fault_code=body.Fault.Code if body.Fault is not None else None,
+        fault_message=body.Fault.Message if body.Fault is not None else None,
+        battery_pct=body.BatteryPct,
     )
     return reply_json(await exchange(server.db, server.clock, server.cache, server.views, report))
 

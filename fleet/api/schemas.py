@@ -71,6 +71,16 @@ class DetectedBeacon(BaseModel):
     Distance: Real | None = None
 
 
+class FaultIn(BaseModel):
+    """The fault that keeps the robot from its job (``line_lost``, ``blocked``...)."""
+
+    model_config = ConfigDict(extra="ignore")
+
+    Code: Annotated[str, StringConstraints(min_length=1, max_length=60,
+                                           pattern=r"^[^\x00-\x1f\x7f]+$")]
+    Message: Annotated[str, StringConstraints(max_length=500)] = ""
+
+
 class DataExchangeIn(BaseModel):
     model_config = ConfigDict(extra="ignore")
 
@@ -80,6 +90,13 @@ class DataExchangeIn(BaseModel):
     IsInTarget: Flag = False
     WeightKg: Real | None = None
     UltrasonicDistance: Real | None = None
+    # Added to the contract (issue 27): what the robot knows of itself. All optional.
+    State: Text | None = None
+    """The daemon's dotted state path, e.g. ``mission.to_room``."""
+    EmergencyStopActive: Flag | None = None
+    Fault: FaultIn | None = None
+    BatteryPct: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0, le=100)] | None \
+        = None
 
 
 class ActiveBeacon(BaseModel):
@@ -110,6 +127,11 @@ class RobotPatch(Strict):
     MaintenanceMode: Flag | None = None
 
 
+class FaultOut(BaseModel):
+    Code: str
+    Message: str
+
+
 class RobotOut(BaseModel):
     Name: str
     Status: str
@@ -121,6 +143,10 @@ class RobotOut(BaseModel):
     LastPingAt: datetime | None
     LastAssignedAt: datetime | None
     WeightKg: float | None
+    State: str | None = None
+    EmergencyStopActive: bool | None = None
+    Fault: FaultOut | None = None
+    BatteryPct: float | None = None
 
 
 class RoomIn(Strict):

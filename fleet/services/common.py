@@ -34,9 +34,10 @@ def is_online(robot: Robot, now: datetime, cfg: FleetSettings) -> bool:
 
 
 def can_serve(robot: Robot, now: datetime, cfg: FleetSettings) -> bool:
-    """Active, online, not stopped: the seed's "active online robot"."""
+    """Active, online, not stopped (by the server's order or its own e-stop latch): the
+    seed's "active online robot"."""
     return (robot.is_active and not robot.maintenance_mode and not robot.emergency_stop
-            and is_online(robot, now, cfg))
+            and not robot.estop_active and is_online(robot, now, cfg))
 
 
 def is_available(robot: Robot, now: datetime, cfg: FleetSettings) -> bool:

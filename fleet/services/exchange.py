@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from datetime import datetime, timedelta
 from typing import Any, cast
 
-from sqlalchemy import Connection, Table, bindparam, select, update
+from sqlalchemy import Connection, Table, bindparam, case, select, update
 
 from fleet.cache import Cached, SiteCache
 from fleet.clock import Clock
@@ -25,6 +25,7 @@ from fleet.services import weight
 from fleet.services.arrival import Sighting, handle_arrival
 from fleet.services.assignment import process_queue
 from fleet.services.common import current_request, robot_by_name
+from fleet.services.condition import apply_condition
 from fleet.services.navigation import Navigation, navigation
 from fleet.services.reconnect import Reconnects
 from fleet.settings import FleetSettings
@@ -40,6 +41,12 @@ class Report:
     is_in_target: bool
     weight_kg: float | None
     ultrasonic_distance: float | None
+    # What the robot knows of itself (issue 27); None: not reported.
+    state: str | None = None
+    estop_active: bool | None = None
+    fault_code: str | None = None
+    fault_message: str | None = None
+    battery_pct: float | None = None
 
 
 @dataclass(frozen=True)
@@ -66,12 +73,14 @@ class _Light:
     customer_id: int
     robot_returned: bool
     last_ping_at: datetime | None
+    estop_active: bool | None
+    fault_code: str | None
 
 
 _LIGHT_QUERY = (
     select(Robot.name, Robot.id, Robot.is_offline, Robot.emergency_stop, Robot.maintenance_mode,
            Request.id, Request.status, Request.customer_id, Request.robot_returned,
-           Robot.last_ping_at)
+           Robot.last_ping_at, Robot.estop_active, Robot.fault_code)
     .select_from(Robot)
     .outerjoin(Request, Request.id == Robot.current_request_id)
 )
@@ -82,9 +91,11 @@ def _read_lights(conn: Connection) -> dict[str, _Light]:
 
 
 def _light(row: Any) -> _Light:
-    rid, offline, estop, maintenance, req_id, status, customer, returned, ping = row
+    (rid, offline, estop, maintenance, req_id, status, customer, returned, ping, estop_active,
+     fault_code) = row
     return _Light(rid, offline, estop or maintenance, estop, maintenance,
-                  req_id, status or "", customer or 0, bool(returned), ping)
+                  req_id, status or "", customer or 0, bool(returned), ping, estop_active,
+                  fault_code)
 
 
 class RobotViews:
@@ -119,7 +130,13 @@ class RobotViews:
     def note_ping(self, robot_id: int, now: datetime, report: Report) -> None:
         self._pings[robot_id] = {
             "rid": robot_id, "ping": now, "weight": report.weight_kg,
-            "distance": report.ultrasonic_distance, "in_target": report.is_in_target}
+            "distance": report.ultrasonic_distance, "in_target": report.is_in_target,
+            "state": report.state, "battery": report.battery_pct,
+            "fault_message": report.fault_message}
+
+    def drop_ping(self, robot_id: int) -> None:
+        """Forget the robot's pending ping: a newer report of it is being written."""
+        self._pings.pop(robot_id, None)
 
     async def flush_pings(self) -> int:
         """Write the pings noted since the last flush; returns how many robots."""
@@ -136,11 +153,16 @@ class RobotViews:
 
 
 _robots = cast(Table, Robot.__table__)
-# A plain executemany: an ORM bulk update of hundreds of rows would hold the event loop.
+# A plain executemany: an ORM bulk update of hundreds of rows would hold the event loop. A
+# quiet report's state path, battery and fault text ride along (they change nothing else; the
+# fault's code and the e-stop latch do, and are written by the report's own transaction).
 _PING_UPDATE = (
     update(_robots).where(_robots.c.id == bindparam("rid")).values(
         last_ping_at=bindparam("ping"), weight_kg=bindparam("weight"),
-        ultrasonic_distance=bindparam("distance"), is_in_target=bindparam("in_target"))
+        ultrasonic_distance=bindparam("distance"), is_in_target=bindparam("in_target"),
+        state=bindparam("state"), battery_pct=bindparam("battery"),
+        fault_message=case((_robots.c.fault_code.is_(None), None),
+                           else_=bindparam("fault_message")))
 )
 _PING_CHUNK = 200
 
@@ -154,6 +176,8 @@ def _stale(light: _Light, now: datetime, cfg: FleetSettings) -> bool:
 
 def _may_change(light: _Light, report: Report, stale: bool = False) -> bool:
     if light.is_offline or stale:
+        return True
+    if light.fault_code != report.fault_code or light.estop_active != report.estop_active:
         return True
     if light.request_id is None:
         return False
@@ -191,7 +215,10 @@ async def exchange(
         if robot is None:
             msg = f"robot {report.robot_name!r} is not registered"
             raise NotFound(msg)
+        views.drop_ping(robot.id)
         _apply_report(robot, now, report)
+        await apply_condition(session, now, robot, report.estop_active, report.fault_code,
+                              report.fault_message)
         if stale:
             await process_queue(session, now, cfg)
         if report.is_in_target:
@@ -214,3 +241,10 @@ def _apply_report(robot: Robot, now: datetime, report: Report) -> None:
         robot.ultrasonic_distance = report.ultrasonic_distance
     if robot.is_in_target != report.is_in_target:
         robot.is_in_target = report.is_in_target
+    if robot.state != report.state:
+        robot.state = report.state
+    if robot.battery_pct != report.battery_pct:
+        robot.battery_pct = report.battery_pct
+    if robot.fault_code is not None and robot.fault_code == report.fault_code \
+            and robot.fault_message != report.fault_message:
+        robot.fault_message = report.fault_message

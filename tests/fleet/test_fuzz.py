@@ -34,8 +34,12 @@ EXAMPLE_SITE = Path(fleet.__file__).parent / "sites" / "example.toml"
 # The example site with test tokens (a real site issues them with `robotd-fleet token create`).
 FUZZ_TOKENS = {("admin", "fuzz"): "fuzz-admin-token-0123456789abcdef",
                ("robot", "robot-1"): "fuzz-robot-1-token-0123456789abcdef",
+               ("robot", "robot-2"): "fuzz-robot-2-token-0123456789abcdef",
                ("customer", "1"): "fuzz-customer-1-token-0123456789abcdef"}
-FUZZ_SITE_TOML = EXAMPLE_SITE.read_text() + "".join(
+# Online means reported: the robots report once before the fuzzing (``_robots_report``) and
+# stay online for the whole run (no monitor may find them silent while the fuzzer works).
+FUZZ_SITE_TOML = EXAMPLE_SITE.read_text().replace(
+    "[settings]\n", "[settings]\nOfflineAfterS = 86400\n", 1) + "".join(
     f'\n[[tokens]]\nrole = "{role}"\nsubject = "{subject}"\ntoken = "{token}"\n'
     for (role, subject), token in FUZZ_TOKENS.items())
 
@@ -49,6 +53,29 @@ def token_of(method: str, path: str, role: str) -> str:
     if role == "customer" and path.startswith("/api/requests"):
         return FUZZ_TOKENS[("customer", "1")]
     return FUZZ_TOKENS[("admin", "fuzz")]
+
+
+# Each robot's first data exchange: its path and its own token.
+ROBOT_REPORTS = [(f"/api/Robot/{robot}/data-exchange",
+                  {"Authorization": f"Bearer {FUZZ_TOKENS[('robot', robot)]}"})
+                 for robot in ("robot-1", "robot-2")]
+
+
+def _report_in_process(db_url: str) -> None:
+    """The robots report once on this database, through an app of their own."""
+
+    async def run() -> None:
+        app = create_app(db_url, site=parse_site(FUZZ_SITE_TOML, "fuzz-site"), monitors=False,
+                         auth_failures_per_min=0)
+        await app.state.fleet.start(monitors=False)
+        async with httpx.AsyncClient(transport=httpx.ASGITransport(app=app),
+                                     base_url="http://fuzz") as http:
+            statuses = [(await http.post(path, json={}, headers=headers)).status_code
+                        for path, headers in ROBOT_REPORTS]
+        await app.state.fleet.stop()
+        assert statuses == [200, 200]
+
+    asyncio.run(run())
 
 
 def _free_port() -> int:
@@ -90,6 +117,9 @@ def served(
                     break
             except httpx.TransportError:
                 time.sleep(0.1)
+        for path, headers in ROBOT_REPORTS:
+            assert httpx.post(f"{url}{path}", json={}, headers=headers,
+                              timeout=5).status_code == 200
         yield url
     finally:
         proc.terminate()
@@ -164,6 +194,7 @@ database = "none"
 def _run_every_check(tmp_path: Path, role: str, seed: int) -> tuple[Counter[str], list[str]]:
     """All phases and all checks against a fresh app; returns the checks run and the
     failures (check, operation, message)."""
+    _report_in_process(f"sqlite:///{tmp_path / 'fleet.db'}")
     app = create_app(f"sqlite:///{tmp_path / 'fleet.db'}",
                      site=parse_site(FUZZ_SITE_TOML, "fuzz-site"), monitors=False,
                      auth_failures_per_min=0)

@@ -23,6 +23,7 @@ from typing import Any
 
 import structlog
 
+from drivers.hx711_config import Hx711Config
 from drivers.hx711_filter import OutlierFilter
 from drivers.hx711_ready import wait_dout_low
 from hal.devices import DeviceUnavailable
@@ -357,18 +358,14 @@ class Hx711:
 def from_settings(settings: SettingsView,
                   open_lines: Callable[[], Hx711Lines] | None = None) -> Hx711:
     """The load cell from the ``hx711`` section, on lgpio unless ``open_lines`` is given."""
+    config = Hx711Config.from_settings(settings)
     if open_lines is None:
         from drivers.gpio_lgpio import lgpio_lines_opener
 
-        open_lines = lgpio_lines_opener(settings.get("hx711.gpiochip"),
-                                        settings.get("hx711.data_gpio"),
-                                        settings.get("hx711.clock_gpio"))
-    hx = Hx711(open_lines, gain=Gain[settings.get("hx711.gain")], sps=settings.get("hx711.sps"),
-               tare_offset=settings.get("hx711.tare_offset"),
-               calibration_factor=settings.get("hx711.calibration_factor"),
-               average_window=settings.get("hx711.average_window"),
-               median_window=settings.get("hx711.median_window"),
-               outlier_kg=settings.get("hx711.outlier_kg"),
-               timeout_s=settings.get("hx711.timeout_s"))
+        open_lines = lgpio_lines_opener(config.gpiochip, config.data_gpio, config.clock_gpio)
+    hx = Hx711(open_lines, gain=Gain[config.gain], sps=config.sps,
+               tare_offset=config.tare_offset, calibration_factor=config.calibration_factor,
+               average_window=config.average_window, median_window=config.median_window,
+               outlier_kg=config.outlier_kg, timeout_s=config.timeout_s)
     settings.watch("hx711", hx.apply_setting)
     return hx

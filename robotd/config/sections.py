@@ -20,6 +20,7 @@ from drivers.arduino.config import SERIAL
 from drivers.audio.config import AUDIO
 from drivers.camera.qr_config import QR_CAMERA
 from drivers.dock_ir.config import IR_OPTIONS, IR_ORDERS
+from drivers.hx711_config import HX711
 from drivers.lidar.config import LIDAR, LIDAR_ORDERS
 from hal.options import Option, Order, Section
 from robotd.profiles import DEFAULT_PROFILE, PROFILES, ProfileRegistry
@@ -124,25 +125,7 @@ _CORE: tuple[Section, ...] = (
           min=1, max=600),
         opt("restart_max_s", "float", 30.0, "Scanner restart backoff cap.", min=0.1, max=600),
     )),
-    Section("hx711", "The HX711 load cell amplifier on two GPIO lines.", (
-        opt("gpiochip", "int", 0, "GPIO chip number (/dev/gpiochipN).", min=0, max=64),
-        opt("data_gpio", "int", 5, "GPIO line wired to DOUT.", min=0, max=511),
-        opt("clock_gpio", "int", 6, "GPIO line wired to PD_SCK.", min=0, max=511),
-        opt("gain", "str", "A128", "Channel and gain.", choices=("A128", "A64", "B32")),
-        opt("sps", "int", 10, "Output rate the RATE pin selects.", choices=(10, 80)),
-        opt("tare_offset", "int", 0, "Raw reading of the empty bin (robotd probe hx711).",
-          min=-8388608, max=8388607, tunable=True),
-        opt("calibration_factor", "float", 107374.0,
-          "Raw counts per kg (robotd probe hx711 --known-kg); default: 20 kg 1 mV/V cell.",
-          min=1e-6, max=1e9, tunable=True),
-        opt("average_window", "int", 8, "Readings in the moving average.", min=1, max=256,
-          tunable=True),
-        opt("median_window", "int", 5, "Readings the outlier check compares against.",
-          min=1, max=64),
-        opt("outlier_kg", "float", 1.0, "Drop a reading this far from the recent median.",
-          min=0.001, max=1000, tunable=True),
-        opt("timeout_s", "float", 1.0, "Longest wait for data-ready.", min=0.05, max=10),
-    )),
+    HX711,
     LIDAR,
     AUDIO,
     QR_CAMERA,

@@ -1,9 +1,11 @@
 """Every configuration section and key robotd knows (unknown keys are errors).
 
-The daemon's own sections are here; a driver declares its section beside its code (``serial``:
-``drivers/arduino/config.py``), and a robot profile its own (``behaviours/profiles/<name>/``),
-which the profile registry (``robotd/profiles.py``) brings in. The contract keys of DESIGN.md
-keep their names. ``SECTIONS`` and ``ORDERS`` always reflect the registry as it is.
+The daemon's own sections are here; a driver or a capability declares its section beside its
+code, as the fields of the dataclass it reads (``hal.options.section_of``; ``serial``:
+``drivers/arduino/config.py``, ``line_follow``: ``behaviours/line/config.py``), and a robot
+profile its own (``behaviours/profiles/<name>/``), which the profile registry
+(``robotd/profiles.py``) brings in. The contract keys of DESIGN.md keep their names.
+``SECTIONS`` and ``ORDERS`` always reflect the registry as it is.
 """
 
 from __future__ import annotations

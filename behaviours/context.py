@@ -6,6 +6,7 @@ import asyncio
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
+from behaviours.machine_tables import CoreTrigger, RootState
 from behaviours.persistence import EStopLatch, KeyValueStore, MissionRecord, Persisted
 from hal.backend import Devices
 from hal.ports import WallClock
@@ -16,7 +17,7 @@ if TYPE_CHECKING:
 
 __all__ = ["EventSink", "Fault", "KeyValueStore", "MachineHandle", "RobotContext"]
 
-FAULT_STATES = ("recovery",)
+FAULT_STATES = (RootState.RECOVERY,)
 """Where a robot stands because of a fault (a fault reported elsewhere is over)."""
 
 
@@ -83,7 +84,7 @@ class RobotContext:
         in recovery."""
         if self._machine is None:
             return False
-        if name == "fault":
+        if name == CoreTrigger.FAULT:
             self.note_fault(str(kwargs.get("code") or "fault"), str(kwargs.get("reason") or ""))
         return await self._machine.trigger(name, **kwargs)
 

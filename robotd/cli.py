@@ -10,7 +10,7 @@ import sqlite3
 import sys
 from pathlib import Path
 
-from robotd import __version__
+from robotd import __version__, bundle, update
 from robotd.config import ConfigError, Settings, load_config
 from robotd.config.overrides import overrides_path
 from robotd.extensions import simulator_part
@@ -39,6 +39,9 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     check = sub.add_parser("check-config", help="check a config file; one line per problem")
     check.add_argument("path", metavar="PATH")
     sub.add_parser("example-config", help="print a commented config with every key")
+
+    update.add_arguments(sub.add_parser("update", help=update.HELP))
+    bundle.add_arguments(sub.add_parser("bundle", help=bundle.HELP))
 
     probe = sub.add_parser("probe", help="check one real device through its driver",
                            description="Devices: " + "; ".join(
@@ -69,6 +72,8 @@ def _main(argv: list[str] | None) -> int:
         return cmd_sim(args)
     if args.command == "check-config":
         return cmd_check_config(args)
+    if args.command in ("update", "bundle"):
+        return int(update.run(args) if args.command == "update" else bundle.run(args))
     if args.command == "example-config":
         from robotd.config.example import render_example
 

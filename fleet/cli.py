@@ -26,7 +26,8 @@ def _parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     serve = sub.add_parser("serve", help="run the HTTP server")
     serve.add_argument("--db", default=os.environ.get("ROBOTD_FLEET_DB", DEFAULT_DB),
-                       help="database URL: sqlite:///PATH (default) or postgresql://...")
+                       help="database URL, sqlite:///PATH or postgresql://... (default: "
+                       "%(default)s; $ROBOTD_FLEET_DB sets it)")
     serve.add_argument("--site", default=os.environ.get("ROBOTD_FLEET_SITE"),
                        help="site TOML file: rooms, beacons, customers, robots, settings")
     serve.add_argument("--host", default="127.0.0.1",

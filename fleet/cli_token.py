@@ -32,7 +32,8 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser], db_defa
     gone.add_argument("id", type=int)
     for parser in (made, listed, gone):
         parser.add_argument("--db", default=db_default,
-                            help="database URL: sqlite:///PATH (default) or postgresql://...")
+                            help="database URL, sqlite:///PATH or postgresql://... (default: "
+                            "%(default)s; $ROBOTD_FLEET_DB sets it)")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -71,7 +71,7 @@ class SimRobot:
 
 def run_sim(args: argparse.Namespace) -> int:
     """``robotd sim`` (sim.command): returns the exit code (0 success, 1 failure, 2 bad input)."""
-    console = SimConsole(quiet=bool(getattr(args, "quiet", False)))
+    console = SimConsole(quiet=bool(getattr(args, "quiet", False)), from_process_start=True)
     try:
         scenario = load_scenario(args.scenario)
     except ScenarioError as exc:

@@ -60,7 +60,21 @@ def build_parser() -> argparse.ArgumentParser:
         own = sub.add_parser(command.name, help=command.help)
         for option in command.options:
             own.add_argument(option.flag, default=option.default, help=option.help)
+    _json_after_commands(parser)
     return parser
+
+
+def _json_after_commands(parser: argparse.ArgumentParser) -> None:
+    """``--json`` after the command too (``robotctl status --json``), as before it. Its
+    default is left unset there, so a ``--json`` given before the command still counts."""
+    for action in parser._actions:
+        if not isinstance(action, argparse._SubParsersAction):
+            continue
+        for command in action.choices.values():
+            if "--json" not in command._option_string_actions:
+                command.add_argument("--json", action="store_true", default=argparse.SUPPRESS,
+                                     help="print JSON instead of tables")
+            _json_after_commands(command)
 
 
 def profile_commands() -> dict[str, CtlCommand]:

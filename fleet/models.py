@@ -110,6 +110,26 @@ class Notification(Base):
     robot_name: Mapped[str | None] = mapped_column(String(100), default=None)
 
 
+class Alert(Base):
+    """Something the laundry staff must see to (issue 27): a robot offline holding laundry, a
+    robot's fault, a request stuck on its way to base. Open until resolved."""
+
+    __tablename__ = "alerts"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    created_at: Mapped[datetime] = mapped_column(UtcDateTime())
+    kind: Mapped[str] = mapped_column(String(60))
+    level: Mapped[str] = mapped_column(String(20))  # warning | critical
+    robot_name: Mapped[str | None] = mapped_column(String(100), default=None, index=True)
+    request_id: Mapped[int | None] = mapped_column(Integer, default=None, index=True)
+    message: Mapped[str] = mapped_column(Text)
+    acknowledged_at: Mapped[datetime | None] = mapped_column(UtcDateTime(), default=None)
+    acknowledged_by: Mapped[str | None] = mapped_column(String(100), default=None)
+    resolved_at: Mapped[datetime | None] = mapped_column(UtcDateTime(), default=None)
+    resolved_by: Mapped[str | None] = mapped_column(String(100), default=None)
+    resolution: Mapped[str | None] = mapped_column(String(60), default=None)
+
+
 class Setting(Base):
     __tablename__ = "settings"
 

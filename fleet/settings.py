@@ -27,6 +27,10 @@ class FleetSettings(BaseModel):
     arrived_timeout_s: float = Field(300.0, alias="ArrivedTimeoutS", gt=0, le=86400)
     delivery_arrived_timeout_s: float = Field(
         300.0, alias="DeliveryArrivedTimeoutS", gt=0, le=86400)
+    # A robot holding laundry that does not reach base raises an alert (not a cancellation).
+    laundry_loaded_timeout_s: float = Field(600.0, alias="LaundryLoadedTimeoutS", gt=0,
+                                            le=86400)
+    going_to_base_timeout_s: float = Field(600.0, alias="GoingToBaseTimeoutS", gt=0, le=86400)
     timeout_check_period_s: float = Field(10.0, alias="TimeoutCheckPeriodS", gt=0, le=3600)
     offline_after_s: float = Field(30.0, alias="OfflineAfterS", gt=0, le=86400)
     offline_check_period_s: float = Field(30.0, alias="OfflineCheckPeriodS", gt=0, le=3600)
@@ -56,6 +60,8 @@ class SettingsUpdate(BaseModel):
     AcceptedTimeoutS: float | None = Field(None, gt=0, le=86400)
     ArrivedTimeoutS: float | None = Field(None, gt=0, le=86400)
     DeliveryArrivedTimeoutS: float | None = Field(None, gt=0, le=86400)
+    LaundryLoadedTimeoutS: float | None = Field(None, gt=0, le=86400)
+    GoingToBaseTimeoutS: float | None = Field(None, gt=0, le=86400)
     TimeoutCheckPeriodS: float | None = Field(None, gt=0, le=3600)
     OfflineAfterS: float | None = Field(None, gt=0, le=86400)
     OfflineCheckPeriodS: float | None = Field(None, gt=0, le=3600)

@@ -76,3 +76,14 @@ class Disposition(StrEnum):
     FINISH_WASHING = "FinishWashingThenDeliverOrReturn"
     HELD_AT_BASE = "CleanLaundryHeldAtBase"
     DIRTY_AT_BASE = "DirtyLaundryAtBase"
+    # Cancelled while its robot was offline holding the laundry: still on the robot, until
+    # the staff resolve the alert (issue 27).
+    ON_ROBOT = "LaundryOnRobot"
+    RETURNED_TO_CUSTOMER = "LaundryReturnedToCustomer"
+
+
+# The robot carries the customer's laundry in these statuses (dirty, then clean).
+HOLDS_LAUNDRY = frozenset({Status.LAUNDRY_LOADED, Status.GOING_TO_ROOM,
+                           Status.ARRIVED_FOR_DELIVERY})
+DIRTY_ABOARD = frozenset({Status.LAUNDRY_LOADED})
+CLEAN_ABOARD = frozenset({Status.GOING_TO_ROOM, Status.ARRIVED_FOR_DELIVERY})

@@ -4,7 +4,7 @@ so bad input is a 4xx with a message, never a database error."""
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Annotated
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, StringConstraints
 
@@ -202,6 +202,28 @@ class NotificationOut(BaseModel):
     CustomerId: int | None
     RequestId: int | None
     RobotName: str | None
+
+
+class AlertOut(BaseModel):
+    Id: int
+    CreatedAt: datetime
+    Kind: str
+    Level: str
+    RobotName: str | None
+    RequestId: int | None
+    Message: str
+    IsLaundry: bool
+    """Resolving it needs ``LaundryAt``: where the laundry is."""
+    AcknowledgedAt: datetime | None
+    AcknowledgedBy: str | None
+    ResolvedAt: datetime | None
+    ResolvedBy: str | None
+    Resolution: str | None
+
+
+class AlertResolve(Strict):
+    LaundryAt: Literal["robot", "base", "customer"] | None = None
+    """For a laundry alert (required there): where the staff found the laundry."""
 
 
 class FieldError(BaseModel):

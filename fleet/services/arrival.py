@@ -11,11 +11,12 @@ from sqlalchemy.ext.asyncio import AsyncSession
 
 from fleet.cache import BeaconRow, SiteView
 from fleet.models import Robot
+from fleet.services.alerts import LAUNDRY_KINDS, STUCK, close_alerts, open_alerts
 from fleet.services.assignment import process_queue
 from fleet.services.common import current_request, release, set_status
 from fleet.services.navigation import target_beacons
 from fleet.services.notify import notify
-from fleet.status import Disposition, Status
+from fleet.status import DIRTY_ABOARD, Disposition, Status
 
 log = structlog.get_logger(__name__)
 
@@ -65,6 +66,20 @@ async def handle_arrival(
         return "ignored"
     if not reached(target_beacons(site, request), sightings):
         return "not-at-base"
+    if status in (Status.LAUNDRY_LOADED, Status.GOING_TO_BASE):
+        await close_alerts(session, now, kinds=[STUCK], request_id=request.id,
+                           resolution="ReachedBase", by=robot.name)
+        request.admin_alert = None
+    if status == Status.CANCELLED and request.disposition == Disposition.ON_ROBOT:
+        request.robot_returned = True
+        if await open_alerts(session, kinds=LAUNDRY_KINDS, request_id=request.id):
+            # The staff cancelled while it was away with the laundry; it keeps the request
+            # (and the laundry) until they resolve the alert and say where the laundry is.
+            log.info("fleet.robot.at_base_holding", robot=robot.name, request_id=request.id)
+            return "at-base-holding"
+        request.disposition = (Disposition.DIRTY_AT_BASE
+                               if request.cancelled_from in DIRTY_ABOARD
+                               else Disposition.HELD_AT_BASE)
     if status == Status.LAUNDRY_LOADED:
         set_status(request, Status.WASHING, now)
         notify(session, now, recipient="admin", kind="laundry.at_base", request=request,

@@ -11,7 +11,7 @@ from fleet.errors import Conflict
 from fleet.models import Request
 from fleet.services.common import robot_serving, set_status
 from fleet.services.notify import notify
-from fleet.status import ALLOWED, Action, Disposition, Status
+from fleet.status import ALLOWED, HOLDS_LAUNDRY, Action, Disposition, Status
 
 log = structlog.get_logger(__name__)
 
@@ -39,6 +39,10 @@ async def cancel(
     request.cancelled_from = prior
     if prior == Status.PENDING:
         request.assigned_robot_id = None
+    elif prior in HOLDS_LAUNDRY and robot is not None and robot.is_offline:
+        # The laundry is on a robot nobody hears from: it stays there (and the robot keeps
+        # the request) until the staff resolve the alert and say where it is.
+        request.disposition = Disposition.ON_ROBOT
     elif prior == Status.LAUNDRY_LOADED:
         request.disposition = Disposition.DIRTY_AT_BASE
     elif prior == Status.WASHING:

@@ -9,6 +9,7 @@ import structlog
 from sqlalchemy.ext.asyncio import AsyncSession
 
 from fleet.models import Robot
+from fleet.services.alerts import FAULT, close_alerts, raise_alert
 from fleet.services.assignment import process_queue
 from fleet.services.common import current_request
 from fleet.services.notify import notify
@@ -44,12 +45,15 @@ async def _fault_changed(
     robot.fault_code = code
     robot.fault_message = message if code is not None else None
     if old is not None:
+        # The fault it had is over (cleared, or another one took its place).
+        await close_alerts(session, now, kinds=[FAULT], robot_name=robot.name,
+                           resolution="FaultCleared", by=robot.name)
         log.info("fleet.robot.fault_cleared", robot=robot.name, code=old)
     if code is None:
         return
     request = await current_request(session, robot)
-    notify(session, now, recipient="admin", kind="robot.fault", level="warning",
-           robot_name=robot.name, request=request,
-           message=f"Robot {robot.name} reports fault {code}: {message or 'no message'}")
+    raise_alert(session, now, kind=FAULT, level="warning", robot_name=robot.name,
+                request=request,
+                message=f"Robot {robot.name} reports fault {code}: {message or 'no message'}")
     log.warning("fleet.robot.fault", robot=robot.name, code=code,
                 request_id=request.id if request is not None else None)

@@ -10,12 +10,13 @@ from sqlalchemy import select
 from sqlalchemy.ext.asyncio import AsyncSession
 
 from fleet.models import Request, Robot
+from fleet.services.alerts import OFFLINE_LAUNDRY, close_alerts, open_alerts, raise_alert
 from fleet.services.assignment import process_queue
 from fleet.services.cancellation import cancel
 from fleet.services.common import current_request
 from fleet.services.notify import notify
 from fleet.settings import FleetSettings
-from fleet.status import Status
+from fleet.status import Disposition, Status
 
 log = structlog.get_logger(__name__)
 
@@ -56,12 +57,14 @@ async def _handle_request(session: AsyncSession, now: datetime, robot: Robot) ->
                      message=(f"Service disruption: robot {robot.name} went offline, so request "
                               f"{request.id} was cancelled. You may ask for a refund or "
                               f"create a new request for another robot."))
-    elif status in _CRITICAL:
+    elif status in _CRITICAL or (status == Status.CANCELLED and not request.robot_returned
+                                 and request.cancelled_from in _CRITICAL):
         request.admin_alert = f"Robot {robot.name} offline holding laundry"
-        notify(session, now, recipient="admin", kind="robot.offline.laundry", level="critical",
-               request=request, robot_name=robot.name,
-               message=(f"Robot {robot.name} went offline holding the laundry of request "
-                        f"{request.id} ({status}): manual recovery needed."))
+        if not await open_alerts(session, kinds=[OFFLINE_LAUNDRY], request_id=request.id):
+            raise_alert(session, now, kind=OFFLINE_LAUNDRY, level="critical",
+                        request=request, robot_name=robot.name,
+                        message=(f"Robot {robot.name} went offline holding the laundry of "
+                                 f"request {request.id} ({status}): manual recovery needed."))
     elif status == Status.GOING_TO_BASE:
         notify(session, now, recipient="admin", kind="robot.offline", level="warning",
                request=request, robot_name=robot.name,
@@ -91,6 +94,11 @@ async def restore_many(session: AsyncSession, now: datetime, robots: list[Robot]
                    if robot.current_request_id is not None else None)
         if request is not None and request.admin_alert is not None:
             request.admin_alert = None
+        if request is not None and request.disposition != Disposition.ON_ROBOT:
+            # Back with the laundry and on its way again. (Cancelled while it was away, the
+            # laundry's fate is the staff's to record: that alert stays open.)
+            await close_alerts(session, now, kinds=[OFFLINE_LAUNDRY], request_id=request.id,
+                               resolution="RobotReconnected", by=robot.name)
         if robot.name in first_reports:
             notify(session, now, recipient="admin", kind="robot.online", robot_name=robot.name,
                    message=f"Robot {robot.name} reported for the first time.")

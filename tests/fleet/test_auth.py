@@ -26,7 +26,7 @@ CUSTOMER_OPS = {("post", "/api/requests"), ("get", "/api/requests"),
                 ("post", "/api/requests/{request_id}/{action}")}
 PUBLIC_OPS = {("get", "/health")}
 PATH_VALUES = {"RobotName": "robot-1", "request_id": "1", "action": "cancel",
-               "name": "robot-1", "token_id": "1"}
+               "name": "robot-1", "token_id": "1", "alert_id": "1"}
 
 
 async def dump(fleet: Fleet) -> dict[str, list[tuple[Any, ...]]]:

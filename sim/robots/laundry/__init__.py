@@ -7,4 +7,4 @@ from sim.slice import SimSlice
 SIM = SimSlice(actors="sim.robots.laundry.actors:LaundryActors.for_scenario",
                scenario_tables={"fleet": ("site", "settings", "customers", "washing_s",
                                           "base_room", "unload_after_s", "slow_unloads",
-                                          "slow_unload_s")})
+                                          "slow_unload_s", "fetch_laundry_s")})

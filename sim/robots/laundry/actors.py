@@ -237,7 +237,7 @@ class Staff:
                  payload_kg: Callable[[str], float] = lambda _r: 0.0,
                  robots: tuple[str, ...] = (), base_room: str = "base",
                  unload_after_s: float = 5.0, slow_unloads: tuple[int, ...] = (),
-                 slow_unload_s: float = 0.0) -> None:
+                 slow_unload_s: float = 0.0, fetch_laundry_s: float = 20.0) -> None:
         self.client = client
         self.transport = transport
         self.record = record
@@ -253,6 +253,8 @@ class Staff:
         self.unloads = 0
         self._washing_since: dict[int, float] = {}
         self._seen_at_base: dict[str, float] = {}
+        self._alerts_seen: dict[int, float] = {}
+        self.fetch_laundry_s = fetch_laundry_s
         self.double_assignments: list[str] = []
         # The list is asked for every second: the request is built once, like a page would.
         self._poll = client.build_request("GET", "/api/requests")
@@ -263,6 +265,7 @@ class Staff:
             requests = (await send_poll(self.transport, self._poll)).json()
             self._audit(requests, loop.time())
             await self._unload_robots_at_base(requests, loop.time())
+            await self._answer_alerts(loop.time())
             for r in requests:
                 rid = int(r["Id"])
                 if r["Status"] == "Washing" and rid not in self._washing_since:
@@ -282,6 +285,30 @@ class Staff:
                         self.record({"kind": "staff.washing_done", "request": rid,
                                      "robot": robot})
             await asyncio.sleep(1.0)
+
+    async def _answer_alerts(self, now: float) -> None:
+        """Open alerts are acknowledged when seen; for a robot gone offline with laundry the
+        staff walk to it, take the laundry back to the laundry room (``fetch_laundry_s``
+        later) and resolve the alert with where the laundry is now: at base."""
+        response = await self.client.get("/api/alerts", params={"open": "true"})
+        if response.status_code != 200:
+            return
+        for alert in response.json():
+            aid = int(alert["Id"])
+            if aid not in self._alerts_seen:
+                self._alerts_seen[aid] = now
+                ack = await self.client.post(f"/api/alerts/{aid}/acknowledge")
+                self.record({"kind": "staff.alert_acknowledged", "alert": aid,
+                             "alert_kind": alert["Kind"], "robot": alert.get("RobotName"),
+                             "code": ack.status_code})
+            if alert.get("IsLaundry") and alert["Kind"] == "robot.offline.laundry" \
+                    and now - self._alerts_seen[aid] >= self.fetch_laundry_s:
+                robot = str(alert.get("RobotName"))
+                self.set_payload(robot, 0.0)
+                done = await self.client.post(f"/api/alerts/{aid}/resolve",
+                                              json={"LaundryAt": "base"})
+                self.record({"kind": "staff.alert_resolved", "alert": aid, "robot": robot,
+                             "laundry_at": "base", "code": done.status_code})
 
     async def _unload_robots_at_base(self, requests: list[dict[str, Any]], now: float) -> None:
         """A robot at base with a load is emptied ``unload_after_s`` after it came (unless it
@@ -341,7 +368,8 @@ class LaundryActors:
                            base_room=str(table.get("base_room", "base")),
                            unload_after_s=float(table.get("unload_after_s", 5.0)),
                            slow_unloads=tuple(int(n) for n in table.get("slow_unloads", ())),
-                           slow_unload_s=float(table.get("slow_unload_s", 0.0)))
+                           slow_unload_s=float(table.get("slow_unload_s", 0.0)),
+                           fetch_laundry_s=float(table.get("fetch_laundry_s", 20.0)))
 
     @classmethod
     def for_scenario(cls, ctx: ActorContext) -> LaundryActors | None:

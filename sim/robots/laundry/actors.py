@@ -254,6 +254,8 @@ class Staff:
         self._washing_since: dict[int, float] = {}
         self._seen_at_base: dict[str, float] = {}
         self._alerts_seen: dict[int, float] = {}
+        self._at_base: dict[str, bool] = {}
+        self._shared: frozenset[str] = frozenset()
         self.fetch_laundry_s = fetch_laundry_s
         self.double_assignments: list[str] = []
         # The list is asked for every second: the request is built once, like a page would.
@@ -264,6 +266,7 @@ class Staff:
         while True:
             requests = (await send_poll(self.transport, self._poll)).json()
             self._audit(requests, loop.time())
+            self._watch_the_line(requests)
             await self._unload_robots_at_base(requests, loop.time())
             await self._answer_alerts(loop.time())
             for r in requests:
@@ -285,6 +288,28 @@ class Staff:
                         self.record({"kind": "staff.washing_done", "request": rid,
                                      "robot": robot})
             await asyncio.sleep(1.0)
+
+    def _watch_the_line(self, requests: list[dict[str, Any]]) -> None:
+        """What the site's rules are judged by (sim/robots/laundry/checks.py): each robot that
+        leaves the base room, with what its bin holds and whether it takes clean laundry out
+        (``site.left_base``), and each time more than one robot is out on the line at once
+        (``site.line_shared``)."""
+        delivering = {str(r["AssignedRobotName"]) for r in requests
+                      if r["Status"] == "FinishedWashingGoingToRoom"}
+        out = []
+        for robot in self.robots:
+            at_base = self.robot_room(robot) == self.base_room
+            if self._at_base.get(robot, True) and not at_base:
+                self.record({"kind": "site.left_base", "robot": robot,
+                             "payload_kg": round(self.payload_kg(robot), 3),
+                             "delivering": robot in delivering})
+            self._at_base[robot] = at_base
+            if not at_base:
+                out.append(robot)
+        shared = frozenset(out) if len(out) > 1 else frozenset()
+        if shared and shared != self._shared:
+            self.record({"kind": "site.line_shared", "robots": sorted(shared)})
+        self._shared = shared
 
     async def _answer_alerts(self, now: float) -> None:
         """Open alerts are acknowledged when seen; for a robot gone offline with laundry the

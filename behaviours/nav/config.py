@@ -31,6 +31,38 @@ class MapConfig:
 
 
 @dataclass(frozen=True, slots=True)
+class ZoneConfig:
+    """Zones drawn over the map (the ``map`` section's mask keys): Nav2's keep-out and speed
+    filter masks, read by ``behaviours.nav.zones``."""
+
+    keepout_file: str = setting(
+        "", "Keep-out mask (Nav2's keepout filter): a map_server YAML whose occupied cells the "
+        "robot never plans through, relative to the map file's directory; '': none.")
+    keepout_margin_m: float = setting(
+        0.10, "Paths keep the robot's centre at least this far from a keep-out cell.",
+        min=0.0, max=5.0)
+    speed_file: str = setting(
+        "", "Speed mask (Nav2's speed filter): a map_server YAML (mode scale) whose cell "
+        "values are speed limits, relative to the map file's directory; '': none.")
+    speed_type: str = setting(
+        "percent", "What a speed mask's limit is: percent of drive.cruise_mps (Nav2's type "
+        "1) or absolute m/s (type 2).", choices=("percent", "absolute"))
+    speed_base: float = setting(
+        100.0, "Nav2's base: a cell's limit is speed_base + speed_multiplier * value (0: no "
+        "limit).", min=-1000.0, max=1000.0)
+    speed_multiplier: float = setting(
+        -1.0, "Nav2's multiplier (100 and -1: a value v limits to 100 - v percent).",
+        min=-1000.0, max=1000.0)
+    speed_lookahead_m: float = setting(
+        0.4, "The limit is the lowest on the path this far ahead (Nav2's min_lookahead), so "
+        "the robot is slow before it enters a zone.", min=0.0, max=10.0)
+
+    @classmethod
+    def from_settings(cls, settings: SettingsView) -> ZoneConfig:
+        return load(cls, settings.section(MAP.name))
+
+
+@dataclass(frozen=True, slots=True)
 class PlannerConfig:
     """The ``planner`` section."""
 
@@ -66,7 +98,7 @@ class PlannerConfig:
         return load(cls, settings.section(PLANNER.name))
 
 
-MAP = section_of(MapConfig, "map",
+MAP = section_of((MapConfig, ZoneConfig), "map",
                  "The map the robot navigates (a ROS map_server map, or the walls).")
 PLANNER = section_of(PlannerConfig, "planner",
                      "A* planning on the map with clearance and inflation.")

@@ -7,6 +7,11 @@ every obstacle cell's centre (seed property 10). Beyond that, cells cost more th
 are, ``1 + inflation_weight`` at the edge down to 1 ``inflation_m`` farther: paths keep off
 walls where there is room. A path starts exactly at the start and ends exactly at the goal.
 No path is a ``NoPath`` that says why.
+
+Keep-out zones (``KeepoutCells``, from a keep-out mask: ``behaviours.nav.zones``) are never
+entered, nor the band of ``keepout_margin_m`` round them; a robot that the tracking error put
+in the band plans its way out of it (band cells then cost ``KEEPOUT_BAND_COST`` times more)
+instead of failing.
 """
 
 from __future__ import annotations
@@ -25,7 +30,9 @@ from behaviours.nav.grid import Grid
 from behaviours.nav.smoothing import Point, path_length_m, shorten
 
 REASONS = ("start_outside", "goal_outside", "start_in_collision", "goal_in_collision",
-           "disconnected")
+           "start_in_keepout", "goal_in_keepout", "disconnected")
+KEEPOUT_BAND_COST = 10.0
+"""A cell of the margin round a keep-out zone costs this many times its own cost."""
 
 
 class NoPath(Exception):
@@ -34,6 +41,15 @@ class NoPath(Exception):
     def __init__(self, reason: str, message: str) -> None:
         super().__init__(message)
         self.reason = reason
+
+
+@dataclass(frozen=True, slots=True)
+class KeepoutCells:
+    """A keep-out mask on the planner's grid: the cells ``inside`` a zone, and those ``near``
+    one (inside, or within the margin)."""
+
+    inside: npt.NDArray[np.bool_]
+    near: npt.NDArray[np.bool_]
 
 
 @dataclass(frozen=True, slots=True)
@@ -51,23 +67,43 @@ class Planner:
     """Plans on one grid (the map, plus any obstacles seen since: ``with_obstacles``)."""
 
     def __init__(self, grid: Grid, config: PlannerConfig | None = None, *,
-                 kernel: str | None = None) -> None:
+                 kernel: str | None = None, keepout: KeepoutCells | None = None) -> None:
         self.grid = grid
         self.config = config or PlannerConfig()
         self.kernel = kernel
+        self.keepout = keepout
         self.field = DistanceField(grid)
         self.free, self.cost = cell_costs(self.field.distance_m, grid.resolution_m, self.config)
+        self._escape: npt.NDArray[np.float64] | None = None
+        if keepout is not None:
+            # Leaving the margin (a start in it) may cross it, at a price; nothing else may.
+            escape = self.cost.copy()
+            escape[keepout.near] *= KEEPOUT_BAND_COST
+            escape[keepout.inside] = math.inf
+            self._escape = escape
+            self.cost[keepout.near] = math.inf
+            self.free &= ~keepout.near
 
     def with_obstacles(self, points: Iterable[Point]) -> Planner:
         """A planner for the same map with these map-frame points as obstacles too."""
-        return Planner(self.grid.with_points(points), self.config, kernel=self.kernel)
+        return Planner(self.grid.with_points(points), self.config, kernel=self.kernel,
+                       keepout=self.keepout)
+
+    def in_keepout(self, point: Point) -> bool:
+        """Whether a map point lies in a keep-out zone's cell (on this grid)."""
+        row, col = self.grid.cell_of(*point)
+        return (self.keepout is not None and self.grid.inside(row, col)
+                and bool(self.keepout.inside[row, col]))
 
     def plan(self, start: Point, goal: Point) -> Plan:
         """The cheapest path from ``start`` to ``goal``; NoPath says why there is none."""
         start_cell = self._standing_cell(start, "start")
         goal_cell = self._standing_cell(goal, "goal")
         cols = self.grid.cols
-        found = search(self.cost, start_cell[0] * cols + start_cell[1],
+        cost = self.cost
+        if self._escape is not None and not self.free[start_cell]:
+            cost = self._escape  # the start is in a keep-out zone's margin: out of it first
+        found = search(cost, start_cell[0] * cols + start_cell[1],
                        goal_cell[0] * cols + goal_cell[1], self.grid.resolution_m, self.kernel)
         if not found.cells:
             msg = (f"no path from ({start[0]:.2f}, {start[1]:.2f}) to ({goal[0]:.2f}, "
@@ -91,6 +127,13 @@ class Planner:
             x0, y0, x1, y1 = self.grid.bounds_m()
             msg = f"{where} is outside the map ({x0:.2f}..{x1:.2f}, {y0:.2f}..{y1:.2f})"
             raise NoPath(f"{what}_outside", msg)
+        if self.keepout is not None and not self.free[row, col]:
+            if self.keepout.inside[row, col]:
+                msg = f"{where} is in a keep-out zone"
+                raise NoPath(f"{what}_in_keepout", msg)
+            if what == "start" and self._escape is not None \
+                    and math.isfinite(self._escape[row, col]):
+                return row, col  # in the margin round a zone: the path leads out of it
         if not self.free[row, col]:
             distance = float(self.field.distance_m[row, col])
             msg = (f"{where} is in collision: {distance:.2f} m from an obstacle, "

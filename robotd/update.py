@@ -61,8 +61,8 @@ class Refused(Exception):
 
 
 @dataclass
-class Daemon:
-    """What the running daemon said: None fields when no daemon runs."""
+class DaemonStatus:
+    """What the running daemon said (``running`` False: no daemon answered)."""
 
     running: bool
     state: str = ""
@@ -71,13 +71,13 @@ class Daemon:
     pid: int | None = None
 
 
-def ask_daemon(path: str, timeout_s: float = 5.0) -> Daemon:
+def ask_daemon(path: str, timeout_s: float = 5.0) -> DaemonStatus:
     """The daemon's ``status``; not running when there is no socket or nobody listens."""
     probe = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     try:
         probe.connect(path)
     except (FileNotFoundError, ConnectionRefusedError):
-        return Daemon(running=False)
+        return DaemonStatus(running=False)
     except OSError as exc:  # permission denied: robotd may well be running
         msg = (f"cannot ask robotd whether the robot is idle: {path}: {exc.strerror} "
                "(run as root or as a member of group robotd)")
@@ -93,7 +93,7 @@ def ask_daemon(path: str, timeout_s: float = 5.0) -> Daemon:
     except (CannotConnect, DaemonError) as exc:
         msg = f"cannot ask robotd whether the robot is idle: {exc}"
         raise Refused(msg) from None
-    return Daemon(True, str(status.get("state", "")), str(status.get("robot", "")),
+    return DaemonStatus(True, str(status.get("state", "")), str(status.get("robot", "")),
                   bool(status.get("ready")), status.get("pid"))
 
 
@@ -110,7 +110,7 @@ class Updater:
     ready_timeout_s: float
     say: Any = print
 
-    def require_idle(self) -> Daemon:
+    def require_idle(self) -> DaemonStatus:
         daemon = ask_daemon(self.socket_path)
         if daemon.running and not is_safe(daemon.state):
             msg = (f"{daemon.robot or 'the robot'} is in {daemon.state}, not idle or docked: "
@@ -170,7 +170,7 @@ class Updater:
             raise Refused(msg)
         return current
 
-    def _switch(self, new: str, old: str, before: Daemon, *, roll_back: bool) -> None:
+    def _switch(self, new: str, old: str, before: DaemonStatus, *, roll_back: bool) -> None:
         versions.switch_current(self.layout, new)
         self.say(f"current -> versions/{new} (previous: {old})")
         if not before.running and self.layout.is_real:
@@ -192,14 +192,14 @@ class Updater:
                f"back to {old} (journalctl -u robotd shows why)")
         raise Refused(msg)
 
-    def _wait_ready(self, before: Daemon) -> bool:
+    def _wait_ready(self, before: DaemonStatus) -> bool:
         """True once a daemon answers ready — a new process, on a real system."""
         deadline = time.monotonic() + self.ready_timeout_s
         while time.monotonic() < deadline:
             try:
                 now = ask_daemon(self.socket_path, timeout_s=min(5.0, self.ready_timeout_s))
             except Refused:
-                now = Daemon(running=False)
+                now = DaemonStatus(running=False)
             restarted = not self.layout.is_real or now.pid != before.pid
             if now.running and now.ready and restarted:
                 return True

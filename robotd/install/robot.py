@@ -74,15 +74,23 @@ class Installer:
                 extras: tuple[str, ...]) -> str:
         """Install everything; returns the current version's id."""
         self.manifest = Manifest.load(self.layout.manifest)
+        self._mkdirs(self.layout.opt)
+        # The manifest is saved after each step, so a run cut short (a package index out
+        # of reach, a full disk) can still be uninstalled, or simply run again.
         self._accounts()
+        self._save()
         version = self._version(source, deps_from, extras)
+        self._save()
         self._config(version, profile)
         self._udev()
         self._unit()
         for name in COMMANDS:
             self._symlink(self.layout.command_link(name), f"/opt/robotd/current/bin/{name}")
-        self._write(self.layout.manifest, self.manifest.text(), 0o644)
+        self._save()
         return version
+
+    def _save(self) -> None:
+        self._write(self.layout.manifest, self.manifest.text(), 0o644)
 
     def _accounts(self) -> None:
         s, m = self.system, self.manifest

@@ -1,0 +1,285 @@
+"""CPU per second of real time and event-loop lag of each robot profile, beside a plain
+reference loop measured in the same run, and the factor to a Raspberry Pi 4 (issue 31).
+
+Each profile runs as a real process, ``robotd sim SCENARIO --realtime --socket S`` (the real
+drivers on the simulator's lowest-layer fakes, against the wall clock). Every 0.25 s the
+bench reads the process's CPU time (/proc/PID/stat) and asks ``status`` for the state and the
+loop monitor's latest lag (``loop_lag_ms.last_ms``, the monitor wakes every 0.25 s), and
+files the interval under the state it ended in: ``idle`` (idle or boot, RelayBot waiting at
+home, a vacuum charging or in standby on its dock) or ``mission`` (anything else: moving,
+docking, recovery). Start-up (imports,
+loading the scenario) is not counted: the window opens once the socket answers.
+
+The figures are an upper bound of the daemon's own: the process also runs the simulated
+world (physics, the fake MCU, LD19 packets, camera frames for OpenCV, BLE adverts and the
+laundry scenario's fleet server) on the same event loop and CPU.
+
+The reference is a plain asyncio process running only robotd's loop monitor (same timer
+chain, same 0.25 s period): the floor of CPU and lag on this machine at this moment (the
+machine is shared, so both move together).
+
+The Pi 4 factor is measured too: the Computer Language Benchmarks Game's n-body in pure
+Python, 500 000 steps here (CPU time), against 5 000 000 steps in 158.3 s on a Raspberry
+Pi 4 Model B (Cortex-A72 at 1.5 GHz, performance governor; C. Mehta, "Performance Analysis
+of Languages on Raspberry Pi", chaitanyamehta.github.io). Python there was Raspberry Pi OS's
+of 2020 (3.7), slower than 3.11 by about a quarter on such code, so the factor overstates
+the Pi's cost by about that much: a margin, not an error.
+
+    .venv/bin/python bench/bench_cpu_budget.py [--profiles laundry,delivery] [--seconds 30]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from robotd.ctl.connection import CannotConnect, Connection  # noqa: E402
+
+SCENARIOS = {"laundry": "laundry-loop", "vacuum": "docking", "delivery": "delivery",
+             "cabinet": "cabinet"}
+PERIOD_S = 0.25
+PI4_NBODY_S = 158.263  # 5e6 steps, Pi 4 Model B at 1.5 GHz, performance governor
+PI4_NBODY_STEPS = 5_000_000
+NBODY_STEPS = 500_000
+TARGET_DELIVERY_CPU_PCT = 10.0
+TARGET_LAG_P99_MS = 5.0
+
+REFERENCE = """
+import asyncio, json, sys
+from robotd.health import LoopMonitor
+
+async def main(seconds):
+    monitor = LoopMonitor(lambda: 1e9)
+    task = asyncio.create_task(monitor.run(lambda: None))
+    print("ready", flush=True)
+    await asyncio.sleep(seconds)
+    task.cancel()
+    print(json.dumps(list(monitor._lags_ms)), flush=True)
+
+asyncio.run(main(float(sys.argv[1])))
+"""
+
+
+def cpu_s(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def percentile(samples: list[float], pct: float) -> float:
+    ordered = sorted(samples)
+    if not ordered:
+        return float("nan")
+    index = max(0, min(len(ordered) - 1, round(pct / 100 * len(ordered) + 0.5) - 1))
+    return ordered[index]
+
+
+@dataclass
+class Phase:
+    """CPU seconds, wall seconds and lag samples of the intervals in one state class."""
+
+    cpu_s: float = 0.0
+    wall_s: float = 0.0
+    lags_ms: list[float] = field(default_factory=list)
+    states: set[str] = field(default_factory=set)
+
+    @property
+    def cpu_pct(self) -> float:
+        return 100 * self.cpu_s / self.wall_s if self.wall_s else float("nan")
+
+
+# Not moving, waiting for work: RelayBot waits at home inside its mission; a vacuum docked.
+RESTING = ("mission.waiting", "docking.charging", "docking.standby")
+
+
+def state_class(state: str) -> str:
+    resting = state.split(".", maxsplit=1)[0] in ("idle", "boot") or state in RESTING
+    return "idle" if resting else "mission"
+
+
+def measure_profile(profile: str, seconds: float) -> tuple[dict[str, Phase], dict[str, Any]]:
+    scenario = SCENARIOS[profile]
+    with tempfile.TemporaryDirectory(prefix="bcpu-") as tmp:
+        sock = str(Path(tmp) / "c.sock")
+        errors = Path(tmp) / "stderr"
+        with errors.open("w") as err:
+            proc = subprocess.Popen(
+                [str(Path(sys.executable).with_name("robotd")), "sim", scenario, "--realtime",
+                 "--socket", sock, "--quiet"],
+                stdout=subprocess.DEVNULL, stderr=err, cwd=tmp)
+        try:
+            conn = _connect(sock, proc, errors)
+            phases: dict[str, Phase] = {}
+            last_status: dict[str, Any] = {}
+            t_prev, cpu_prev = time.monotonic(), cpu_s(proc.pid)
+            end = t_prev + seconds
+            while time.monotonic() < end and proc.poll() is None:
+                time.sleep(max(0.0, PERIOD_S - (time.monotonic() - t_prev)))
+                try:
+                    last_status = conn.call("status")
+                    now, cpu = time.monotonic(), cpu_s(proc.pid)
+                except (CannotConnect, FileNotFoundError, ProcessLookupError):
+                    break  # the scenario ended
+                phase = phases.setdefault(state_class(last_status["state"]), Phase())
+                phase.cpu_s += cpu - cpu_prev
+                phase.wall_s += now - t_prev
+                phase.lags_ms.append(float(last_status["loop_lag_ms"]["last_ms"]))
+                phase.states.add(last_status["state"].split(".")[0] if state_class(
+                    last_status["state"]) == "mission" else last_status["state"])
+                t_prev, cpu_prev = now, cpu
+            conn.close()
+        finally:
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
+                try:
+                    proc.wait(15)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    proc.wait()
+    return phases, last_status
+
+
+class NoDaemon(Exception):
+    """The profile's process did not come up; the message says why."""
+
+
+def _connect(sock: str, proc: subprocess.Popen[bytes], errors: Path) -> Connection:
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            why = [line for line in errors.read_text().splitlines()
+                   if line and not line.startswith("{")]
+            msg = (f"robotd sim exited ({proc.returncode}) before its socket answered: "
+                   f"{why[-1] if why else '-'}")
+            raise NoDaemon(msg)
+        try:
+            conn = Connection(sock, 5.0)
+            conn.call("status")
+            return conn
+        except (CannotConnect, FileNotFoundError):
+            time.sleep(0.1)
+    msg = f"no answer on {sock} within 60 s"
+    raise NoDaemon(msg)
+
+
+def measure_reference(seconds: float) -> Phase:
+    proc = subprocess.Popen([sys.executable, "-c", REFERENCE, str(seconds)],
+                            stdout=subprocess.PIPE, text=True, cwd=ROOT)
+    assert proc.stdout is not None
+    assert proc.stdout.readline().strip() == "ready"
+    t0, cpu0 = time.monotonic(), cpu_s(proc.pid)
+    lags_line = proc.stdout.readline()
+    t1, cpu1 = time.monotonic(), cpu_s(proc.pid)
+    proc.wait(10)
+    return Phase(cpu1 - cpu0, t1 - t0, json.loads(lags_line))
+
+
+def nbody_s(steps: int) -> float:
+    """The Benchmarks Game's n-body (pure Python), ``steps`` steps: CPU seconds taken (CPU,
+    not wall: this machine is shared, the Pi's figure was taken on an idle board)."""
+    pi, days = 3.14159265358979323, 365.24
+    solar_mass = 4 * pi * pi
+    bodies = [
+        [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], solar_mass],
+        [[4.84143144246472090e00, -1.16032004402742839e00, -1.03622044471123109e-01],
+         [1.66007664274403694e-03 * days, 7.69901118419740425e-03 * days,
+          -6.90460016972063023e-05 * days], 9.54791938424326609e-04 * solar_mass],
+        [[8.34336671824457987e00, 4.12479856412430479e00, -4.03523417114321381e-01],
+         [-2.76742510726862411e-03 * days, 4.99852801234917238e-03 * days,
+          2.30417297573763929e-05 * days], 2.85885980666130812e-04 * solar_mass],
+        [[1.28943695621391310e01, -1.51111514016986312e01, -2.23307578892655734e-01],
+         [2.96460137564761618e-03 * days, 2.37847173959480950e-03 * days,
+          -2.96589568540237556e-05 * days], 4.36624404335156298e-05 * solar_mass],
+        [[1.53796971148509165e01, -2.59193146099879641e01, 1.79258772950371181e-01],
+         [2.68067772490389322e-03 * days, 1.62824170038242295e-03 * days,
+          -9.51592254519715870e-05 * days], 5.15138902046611451e-05 * solar_mass]]
+    pairs = [(bodies[i], bodies[j]) for i in range(5) for j in range(i + 1, 5)]
+    start = time.process_time()
+    dt = 0.01
+    for _ in range(steps):
+        for ([x1, y1, z1], v1, m1), ([x2, y2, z2], v2, m2) in pairs:
+            dx, dy, dz = x1 - x2, y1 - y2, z1 - z2
+            mag = dt * ((dx * dx + dy * dy + dz * dz) ** -1.5)
+            b1m, b2m = m1 * mag, m2 * mag
+            v1[0] -= dx * b2m
+            v1[1] -= dy * b2m
+            v1[2] -= dz * b2m
+            v2[0] += dx * b1m
+            v2[1] += dy * b1m
+            v2[2] += dz * b1m
+        for r, [vx, vy, vz], _m in bodies:
+            r[0] += dt * vx
+            r[1] += dt * vy
+            r[2] += dt * vz
+    return time.process_time() - start
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--profiles", default="laundry,vacuum,delivery,cabinet",
+                        help="comma-separated, of: " + ", ".join(SCENARIOS))
+    parser.add_argument("--seconds", type=float, default=30.0,
+                        help="real seconds measured per profile (and for the reference)")
+    args = parser.parse_args()
+    profiles = [p for p in args.profiles.split(",") if p]
+    unknown = [p for p in profiles if p not in SCENARIOS]
+    if unknown:
+        parser.error(f"--profiles: unknown {', '.join(unknown)} (known: {', '.join(SCENARIOS)})")
+
+    here_s = nbody_s(NBODY_STEPS)
+    factor = (PI4_NBODY_S / PI4_NBODY_STEPS) / (here_s / NBODY_STEPS)
+    print(f"Pi 4 factor: n-body {NBODY_STEPS} steps {here_s:.2f} s here; Pi 4 "
+          f"{PI4_NBODY_S / PI4_NBODY_STEPS * NBODY_STEPS:.2f} s -> x{factor:.1f}")
+    print(f"{'what':34} {'state':8} {'cpu %':>7} {'Pi4 %':>7} {'lag p50':>8} "
+          f"{'lag p99':>8} {'lag max':>8} {'n':>4}  states")
+
+    def row(what: str, state: str, phase: Phase) -> None:
+        lags = phase.lags_ms
+        print(f"{what:34} {state:8} {phase.cpu_pct:7.1f} {phase.cpu_pct * factor:7.1f} "
+              f"{percentile(lags, 50):8.2f} {percentile(lags, 99):8.2f} "
+              f"{max(lags, default=float('nan')):8.2f} {len(lags):4d}  "
+              f"{','.join(sorted(phase.states))[:40]}")
+
+    row("reference: asyncio + loop monitor", "-", measure_reference(args.seconds))
+    verdicts = []
+    for profile in profiles:
+        try:
+            phases, status = measure_profile(profile, args.seconds)
+        except NoDaemon as exc:
+            print(f"{profile} ({SCENARIOS[profile]}): not measured: {exc}")
+            verdicts.append(f"{profile}: not measured")
+            continue
+        for state, phase in sorted(phases.items()):
+            row(f"{profile} ({SCENARIOS[profile]})", state, phase)
+            p99 = percentile(phase.lags_ms, 99)
+            if p99 > TARGET_LAG_P99_MS:
+                verdicts.append(f"{profile} {state}: lag p99 {p99:.1f} ms > "
+                                f"{TARGET_LAG_P99_MS} ms")
+        window = status.get("loop_lag_ms", {})
+        print(f"{'':34} {'status':8} loop_lag_ms over its last {window.get('samples', 0)} "
+              f"samples: p99 {window.get('p99_ms', float('nan')):.2f}, max "
+              f"{window.get('max_ms', float('nan')):.2f}")
+        if profile == "delivery":
+            whole = Phase(sum(p.cpu_s for p in phases.values()),
+                          sum(p.wall_s for p in phases.values()))
+            if whole.cpu_pct > TARGET_DELIVERY_CPU_PCT:
+                verdicts.append(f"delivery: {whole.cpu_pct:.1f} % of a core here > "
+                                f"{TARGET_DELIVERY_CPU_PCT} % (simulated world included)")
+    print("targets: delivery <= 10 % of a core here, every lag p99 <= 5 ms: "
+          + ("met" if not verdicts else "not met: " + "; ".join(verdicts)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -3,7 +3,7 @@
 Nothing may lock a technician out of the e-stop (issue 28): idle connections are closed after
 ``idle_timeout_s``, a client whose replies stopped draining after ``stall_timeout_s``, and when
 the socket is full the client idle longest gives its place to a newcomer. When no one can give
-way, ``estop_reserve`` more connections are let in to send one ``estop`` (the e-stop lane).
+way, newcomers wait for a place (``overflow``); an ``estop`` is served past the limit.
 """
 
 from __future__ import annotations
@@ -15,38 +15,42 @@ from typing import Protocol
 
 @dataclass(frozen=True, slots=True)
 class ClientPolicy:
-    """How long a connection may sit idle or stalled, and what is kept for the e-stop.
+    """How long a connection may sit idle or stalled, and what happens past the limit.
 
     Args:
-        estop_reserve: connections let in past ``max_clients`` to send ``estop`` (and only
-            that); each gets ``lane_timeout_s`` to send it.
+        wait_max: connections past ``max_clients`` that wait up to ``wait_s`` for a place
+            (the waiting room); an ``estop`` among them is served at once.
+        wait_s: time a connection in the waiting room has to send its first request and get
+            a place; a connection to the e-stop socket, to send its ``estop``.
         idle_timeout_s: a connection that sends no request for this long is closed; one that
             subscribed is never idle while it reads.
         stall_timeout_s: a connection whose replies have not drained for this long (it stopped
             reading) is closed.
         evict_idle_s: when the socket is full, a connection idle (or stalled) for this long
             gives its place to a newcomer.
-        lane_timeout_s: time a connection in the e-stop lane has to send its request.
         lines_per_s: work units (a request or a refused line is one; 256 blank lines are one)
             a client may spend per second once its ``lines_burst`` is spent; it is read no
             faster than that.
         lines_burst: work units a client may spend at once.
-        refusal_linger_s: a refused connection is read and discarded for up to this long
-            after its error line, so the client's own request does not meet a closed socket
-            (``Broken pipe``) before it can read why.
-        lingering_max: refused connections kept lingering at once; past that they are closed
-            at once (a connect storm must not run the daemon out of file descriptors).
+        refusal_linger_s: a refused connection's first line is waited for this long (an
+            ``estop`` is served even then; anything else is refused with its id), and what it
+            sends after the refusal is read and dropped for as long, so that its request does
+            not meet a closed socket (``Broken pipe``) before it can read why.
+        lingering_max: refused connections treated so at once; past that they are told and
+            closed at once (a connect storm must not run the daemon out of file descriptors).
+        estop_socket_max: connections to the e-stop socket served at once.
     """
 
-    estop_reserve: int = 8
+    wait_max: int = 128
+    wait_s: float = 1.0
     idle_timeout_s: float = 60.0
     stall_timeout_s: float = 10.0
     evict_idle_s: float = 1.0
-    lane_timeout_s: float = 1.0
     lines_per_s: float = 4096.0
     lines_burst: float = 4096.0
     refusal_linger_s: float = 0.5
     lingering_max: int = 64
+    estop_socket_max: int = 16
 
     @property
     def reap_every_s(self) -> float:

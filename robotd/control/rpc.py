@@ -18,6 +18,8 @@ APP_ERROR = -32000
 TOO_MANY_CLIENTS = "too_many_clients"
 """``error.data.reason`` when the daemon has no room for a connection: nothing was done, so
 the client may connect again (robotctl does, briefly)."""
+ESTOP_SOCKET_SUFFIX = ".estop"
+"""The e-stop socket is the control socket's path with this added: it serves only estop."""
 CLOSED_REASONS = ("idle", "stalled")
 """``error.data.reason`` (with id null) when the daemon closes a connection that held room."""
 

@@ -1,4 +1,5 @@
-"""Who holds a control connection: refusals, idle and stalled clients, the e-stop lane (issue 28).
+"""Who holds a control connection: refusals, idle and stalled clients, the waiting room, the
+e-stop past the limit and the e-stop socket (issue 28).
 
 A ControlServer on the test's real event loop, with short timeouts, and the daemon's real
 handlers left out: ``status``, ``estop`` and ``subscribe`` stand-ins that record their calls.
@@ -9,13 +10,16 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import os
 import shutil
 import socket
+import stat
 import tempfile
 from collections.abc import AsyncIterator
 from pathlib import Path
 from typing import Any
 
+import pytest
 from daemon_harness import RpcClient
 
 from robotd.control.admission import ClientPolicy
@@ -26,6 +30,8 @@ ESTOP = b'{"jsonrpc":"2.0","id":9,"method":"estop"}'
 REPORT = b'{"jsonrpc":"2.0","id":2,"method":"report"}\n'
 SLOW = ClientPolicy(idle_timeout_s=3600, stall_timeout_s=3600, evict_idle_s=3600)
 """Nobody times out and nobody gives way: only the limits act."""
+NO_ROOM = ClientPolicy(wait_max=0, idle_timeout_s=3600, evict_idle_s=3600)
+"""No waiting room: past the limit a connection is refused (or served an estop)."""
 
 
 class Robot:
@@ -89,29 +95,72 @@ async def until_closed(client: RpcClient) -> list[dict[str, Any]]:
 
 
 class TestRefusal:
-    async def test_past_the_limit_a_client_is_told_too_many_clients_and_closed_cleanly(
+    async def test_past_the_limit_a_request_is_refused_with_its_id_and_closed_cleanly(
             self) -> None:
-        """With no e-stop lane: one error line (id null, "too many clients", the reason for
-        robotctl) then EOF; the request it sent meets no closed socket."""
-        policy = ClientPolicy(estop_reserve=0, idle_timeout_s=3600, evict_idle_s=3600)
-        async with serving(max_clients=2, policy=policy) as (server, _):
+        """No room past the limit: its request gets one error line ("too many clients", its
+        id, the reason robotctl retries on), then EOF; it meets no closed socket."""
+        async with serving(max_clients=2, policy=NO_ROOM) as (server, robot):
             held = await busy_clients(server, 2)
             late = await RpcClient.connect(server.path)
-            await late.send_line(STATUS)  # no BrokenPipeError: the server reads and drops it
+            await late.send_line(STATUS)  # no BrokenPipeError: the server reads it
             said = await until_closed(late)
             counts = dict(server.counts)
             for client in [*held, late]:
                 await client.close()
         assert len(said) == 1, said
+        assert said[0]["id"] == 1
         error = said[0]["error"]
-        assert said[0]["id"] is None
         assert "too many clients" in error["message"]
         assert error["data"] == {"reason": "too_many_clients", "max_clients": 2}
         assert counts["refused"] == 1
+        assert robot.estops == 0
 
-    async def test_in_the_estop_lane_a_request_other_than_estop_is_refused_with_its_id(
-            self) -> None:
-        async with serving(max_clients=1, policy=SLOW) as (server, robot):
+    async def test_one_that_says_nothing_is_refused_after_the_linger(self) -> None:
+        policy = ClientPolicy(wait_max=0, refusal_linger_s=0.2, idle_timeout_s=3600,
+                              evict_idle_s=3600)
+        async with serving(max_clients=1, policy=policy) as (server, _):
+            held = await busy_clients(server, 1)
+            silent = await RpcClient.connect(server.path)
+            said = await until_closed(silent)
+            for client in [*held, silent]:
+                await client.close()
+        assert said[0]["id"] is None
+        assert said[0]["error"]["data"]["reason"] == "too_many_clients"
+
+    async def test_past_lingering_max_a_newcomer_is_told_at_once(self) -> None:
+        policy = ClientPolicy(wait_max=0, lingering_max=0, idle_timeout_s=3600,
+                              evict_idle_s=3600)
+        async with serving(max_clients=1, policy=policy) as (server, _):
+            held = await busy_clients(server, 1)
+            late = await RpcClient.connect(server.path)
+            said = await until_closed(late)
+            for client in [*held, late]:
+                await client.close()
+        assert said[0]["id"] is None
+        assert "too many clients" in said[0]["error"]["message"]
+
+
+class TestWaitingRoom:
+    async def test_a_newcomer_gets_the_next_place_that_frees_up(self) -> None:
+        """Every place held: its request waits, and is answered once a holder leaves."""
+        async with serving(max_clients=1, policy=SLOW) as (server, _):
+            (holder,) = await busy_clients(server, 1)
+            late = await RpcClient.connect(server.path)
+            answer = asyncio.create_task(late.call("status"))
+            await asyncio.sleep(0.2)
+            answered_early = answer.done()
+            await holder.close()
+            reply = await answer
+            again = await late.call("status")  # a client like any other now
+            counts = dict(server.counts)
+            await late.close()
+        assert not answered_early
+        assert reply["result"] == again["result"] == {"state": "idle"}
+        assert (counts["waited"], counts["refused"]) == (1, 0)
+
+    async def test_one_that_waits_longer_than_wait_s_is_refused_with_its_id(self) -> None:
+        policy = ClientPolicy(wait_s=0.2, idle_timeout_s=3600, evict_idle_s=3600)
+        async with serving(max_clients=1, policy=policy) as (server, _):
             held = await busy_clients(server, 1)
             late = await RpcClient.connect(server.path)
             await late.send_line(STATUS)
@@ -119,16 +168,25 @@ class TestRefusal:
             for client in [*held, late]:
                 await client.close()
         assert [m["id"] for m in said] == [1]
-        assert "too many clients" in said[0]["error"]["message"]
-        assert "only estop" in said[0]["error"]["message"]
-        assert robot.estops == 0
+        assert said[0]["error"]["data"]["reason"] == "too_many_clients"
+
+    async def test_an_estop_in_the_waiting_room_is_served_at_once(self) -> None:
+        async with serving(max_clients=1, policy=SLOW) as (server, robot):
+            held = await busy_clients(server, 1)
+            tech = await RpcClient.connect(server.path)
+            await tech.send_line(ESTOP)
+            said = await until_closed(tech)
+            for client in [*held, tech]:
+                await client.close()
+        assert said == [{"jsonrpc": "2.0", "id": 9, "result": {"state": "estop"}}]
+        assert robot.estops == 1
 
 
-class TestEstopLane:
-    async def test_estop_gets_through_when_every_place_is_held_by_a_busy_client(self) -> None:
-        """Nobody can give way (all busy); the e-stop is served past the limit all the same,
-        and its connection is closed after the reply."""
-        async with serving(max_clients=3, policy=SLOW) as (server, robot):
+class TestEstopPastTheLimit:
+    async def test_estop_is_served_when_every_place_is_held_by_a_busy_client(self) -> None:
+        """Nobody can give way (all busy), no waiting room: the e-stop is served all the
+        same, and its connection is closed after the reply."""
+        async with serving(max_clients=3, policy=NO_ROOM) as (server, robot):
             held = await busy_clients(server, 3)
             tech = await RpcClient.connect(server.path)
             await tech.send_line(ESTOP)
@@ -138,26 +196,51 @@ class TestEstopLane:
                 await client.close()
         assert said == [{"jsonrpc": "2.0", "id": 9, "result": {"state": "estop"}}]
         assert robot.estops == 1
-        assert counts["estop_lane"] == 1
+        assert (counts["estop_past_limit"], counts["refused"]) == (1, 0)
 
-    async def test_silent_connections_filling_the_lane_give_way_to_the_estop(self) -> None:
-        """A lane full of connections that send nothing: the oldest silent one is refused to
-        seat the newcomer, which sends estop and is served."""
-        policy = ClientPolicy(estop_reserve=2, idle_timeout_s=3600, evict_idle_s=3600,
-                              lane_timeout_s=30)
+
+class TestEstopSocket:
+    async def test_it_serves_estop_when_the_control_socket_cannot_even_listen(self) -> None:
+        """Places, waiting room and refusals all taken by silent connections: the control
+        socket tells a newcomer "too many clients" at once; PATH.estop serves the estop."""
+        policy = ClientPolicy(wait_max=1, lingering_max=1, refusal_linger_s=30, wait_s=30,
+                              idle_timeout_s=3600, evict_idle_s=3600)
         async with serving(max_clients=1, policy=policy) as (server, robot):
-            held = await busy_clients(server, 1)
-            squatters = [await RpcClient.connect(server.path) for _ in range(2)]
-            await asyncio.sleep(0.1)  # older than the lane's grace
-            tech = await RpcClient.connect(server.path)
+            squatters = [await RpcClient.connect(server.path) for _ in range(3)]
+            await asyncio.sleep(0.05)
+            main = await RpcClient.connect(server.path)
+            refused = await until_closed(main)
+            assert server.estop_socket is not None
+            tech = await RpcClient.connect(server.estop_socket.path)
             await tech.send_line(ESTOP)
             said = await until_closed(tech)
-            first_squatter = await until_closed(squatters[0])
-            for client in [*held, *squatters, tech]:
+            mode = os.stat(server.estop_socket.path).st_mode & 0o777
+            for client in [*squatters, main, tech]:
                 await client.close()
-        assert said[0]["result"] == {"state": "estop"}
+        assert "too many clients" in refused[0]["error"]["message"]
+        assert said == [{"jsonrpc": "2.0", "id": 9, "result": {"state": "estop"}}]
         assert robot.estops == 1
-        assert "too many clients" in first_squatter[0]["error"]["message"]
+        assert mode == 0o660
+
+    async def test_it_serves_nothing_but_estop(self) -> None:
+        async with serving(max_clients=8, policy=SLOW) as (server, robot):
+            assert server.estop_socket is not None
+            client = await RpcClient.connect(server.estop_socket.path)
+            await client.send_line(STATUS)
+            said = await until_closed(client)
+            await client.close()
+        assert said[0]["id"] == 1
+        assert said[0]["error"]["code"] == -32601
+        assert "serves only estop" in said[0]["error"]["message"]
+        assert robot.estops == 0
+
+    async def test_it_is_removed_when_the_daemon_stops(self) -> None:
+        async with serving(max_clients=8, policy=SLOW) as (server, _):
+            assert server.estop_socket is not None
+            path = server.estop_socket.path
+            assert stat.S_ISSOCK(os.stat(path).st_mode)
+        with pytest.raises(FileNotFoundError):
+            os.stat(path)
 
 
 class TestIdleAndStalled:

@@ -20,6 +20,7 @@ from robotd.ctl.connection import (
     CannotConnect,
     Connection,
     DaemonError,
+    call_estop,
 )
 
 __all__ = ["DEFAULT_SOCKET", "CannotConnect", "Connection", "DaemonError", "main", "render"]
@@ -86,6 +87,8 @@ def profile_commands() -> dict[str, CtlCommand]:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if args.command == "estop":
+        return _estop(args)
     try:
         conn = Connection(args.socket, args.timeout)
     except CannotConnect as exc:
@@ -116,6 +119,23 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_OK
     finally:
         conn.close()
+
+
+def _estop(args: argparse.Namespace) -> int:
+    """``robotctl estop``: through the control socket, or the e-stop socket beside it."""
+    try:
+        result = call_estop(args.socket, args.timeout, {"reason": args.reason})
+    except DaemonError as exc:
+        _print_error(exc, args.json)
+        return EXIT_ERROR
+    except CannotConnect as exc:
+        print(f"robotctl: {exc}", file=sys.stderr)
+        return EXIT_CONNECT
+    if args.json:
+        print(json.dumps(result, indent=2, default=str))
+    else:
+        print(render("estop", result), end="")
+    return EXIT_OK
 
 
 def _request(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:

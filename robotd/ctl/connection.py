@@ -13,11 +13,13 @@ import struct
 import time
 from typing import Any
 
-from robotd.control.rpc import CLOSED_REASONS, TOO_MANY_CLIENTS
+from robotd.control.rpc import CLOSED_REASONS, ESTOP_SOCKET_SUFFIX, TOO_MANY_CLIENTS
 from robotd.ctl.retry import Backoff
 
 DEFAULT_SOCKET = "/run/robotd/control.sock"
 EXIT_OK, EXIT_ERROR, EXIT_USAGE, EXIT_CONNECT = 0, 1, 2, 3
+CONTROL_FIRST_S = 0.3
+"""How long ``estop`` tries the control socket before the e-stop socket beside it."""
 
 
 class CannotConnect(Exception):
@@ -172,6 +174,38 @@ class Connection:
 
     def close(self) -> None:
         self._sock.close()
+
+
+def call_estop(path: str, timeout_s: float, params: dict[str, Any]) -> Any:
+    """``estop`` through the control socket at ``path``, or through the e-stop socket beside
+    it (``PATH.estop``) when the control socket cannot take it: full, its listen queue full
+    (a connect storm), or no answer in time. Sending it twice is harmless: it is a latch."""
+    try:
+        conn = Connection(path, timeout_s, retry=Backoff(CONTROL_FIRST_S))
+    except CannotConnect as exc:
+        return _estop_beside(path, timeout_s, params, exc)
+    try:
+        return conn.call("estop", params)
+    except CannotConnect as exc:
+        return _estop_beside(path, timeout_s, params, exc)
+    finally:
+        conn.close()
+
+
+def _estop_beside(path: str, timeout_s: float, params: dict[str, Any],
+                  why: CannotConnect) -> Any:
+    estop_path = path + ESTOP_SOCKET_SUFFIX
+    if not _is_socket(estop_path):  # a daemon without one, or none at all: the first reason
+        raise why
+    conn = None
+    try:
+        conn = Connection(estop_path, timeout_s)
+        return conn.call("estop", params)
+    except CannotConnect as exc:
+        raise CannotConnect(f"{why}; and through {estop_path}: {exc}") from None
+    finally:
+        if conn is not None:
+            conn.close()
 
 
 def _raise_if_closed(message: dict[str, Any]) -> None:

@@ -16,8 +16,10 @@ from pathlib import Path
 
 import pytest
 from daemon_harness import RpcClient, running_daemon
+from test_control_admission import busy_clients, serving
 from test_robotctl import robotctl
 
+from robotd.control.admission import ClientPolicy
 from robotd.ctl.retry import FIRST_PAUSE_S, MAX_PAUSE_S, Backoff
 
 
@@ -124,8 +126,8 @@ class TestConnectRetried:
 class TestTooManyClients:
     async def test_status_gets_through_once_a_place_frees_up(
             self, capsys: pytest.CaptureFixture[str]) -> None:
-        """The only place is held by a subscriber (it never gives way); robotctl status is
-        told "too many clients", tries again, and is answered once the subscriber leaves."""
+        """The only place is held by a subscriber (it never gives way); robotctl status
+        waits, and is answered once the subscriber leaves."""
         async with running_daemon(config={"control": {"max_clients": 1}}) as daemon:
             sock = str(daemon.socket_path)
             holder = await RpcClient.connect(sock)
@@ -136,10 +138,8 @@ class TestTooManyClients:
             assert not status.done()
             await holder.close()
             code, out, _ = await status
-            refused = daemon.control.counts["refused"] if daemon.control else 0
         assert code == 0
         assert json.loads(out)["state"] == "idle"
-        assert refused >= 1
 
     async def test_a_daemon_full_for_longer_is_exit_3_saying_too_many_clients(
             self, capsys: pytest.CaptureFixture[str]) -> None:
@@ -164,3 +164,36 @@ class TestTooManyClients:
             await holder.close()
         assert code == 0
         assert json.loads(out)["state"] == "estop" == state
+
+
+class TestEstopSocketFallback:
+    async def test_estop_goes_through_the_estop_socket_when_the_control_socket_refuses(
+            self, capsys: pytest.CaptureFixture[str]) -> None:
+        """The control socket tells every newcomer "too many clients" at once (no waiting
+        room, no lingering): robotctl estop is served through PATH.estop, exit 0."""
+        policy = ClientPolicy(wait_max=0, lingering_max=0, idle_timeout_s=3600,
+                              evict_idle_s=3600)
+        async with serving(max_clients=1, policy=policy) as (server, robot):
+            held = await busy_clients(server, 1)
+            code, out, err = await robotctl(capsys, "--socket", server.path, "--json", "estop")
+            served = server.estop_socket.served if server.estop_socket else 0
+            for client in held:
+                await client.close()
+        assert (code, err) == (0, "")
+        assert json.loads(out) == {"state": "estop"}
+        assert (robot.estops, served) == (1, 1)
+
+    async def test_without_an_estop_socket_the_control_sockets_refusal_is_shown(
+            self, capsys: pytest.CaptureFixture[str]) -> None:
+        policy = ClientPolicy(wait_max=0, lingering_max=0, idle_timeout_s=3600,
+                              evict_idle_s=3600)
+        async with serving(max_clients=1, policy=policy) as (server, robot):
+            held = await busy_clients(server, 1)
+            assert server.estop_socket is not None
+            server.estop_socket.close()  # as an older daemon: no e-stop socket
+            code, _, err = await robotctl(capsys, "--socket", server.path, "estop")
+            for client in held:
+                await client.close()
+        assert code == 3
+        assert "too many clients" in err
+        assert robot.estops == 0

@@ -8,6 +8,12 @@ returns a ``NavOutcome``: reached, or why not: ``no_path``, ``no_progress``, ``d
 (localisation lost), ``lidar_lost``. It never raises those; the motors are stopped before it
 returns a failure. Scan points the map does not explain (seen while localised) are handed to
 the follower as obstacles, so an unmapped box or a walker on the path makes it replan.
+
+Zones (``zones.py``: Nav2's keep-out and speed masks, ``map.keepout_file``/``speed_file``) are
+kept out of by the planner and slow the drive while it goes. A filter that diverges while the
+robot drives is relocalised over the whole map (``relocalise.py``, ``localisation.relocalise``)
+and the goal planned again from where the robot turns out to be; an operator's pose
+(``set_pose``, ``robotctl pose set``) re-seeds the filter and replans the same way.
 """
 
 from __future__ import annotations
@@ -21,10 +27,11 @@ from typing import Any
 import numpy as np
 import structlog
 
+from behaviours.motion.config import DriveTuning
 from behaviours.motion.obstacle_guard import ObstacleGuard
 from behaviours.motion.odometry import Odometry, OdometryPose
 from behaviours.motion.waypoint_drive import WaypointDrive
-from behaviours.nav.config import MapConfig, PlannerConfig
+from behaviours.nav.config import MapConfig, PlannerConfig, ZoneConfig
 from behaviours.nav.grid import Grid
 from behaviours.nav.localisation.config import LocalisationConfig, PeopleConfig
 from behaviours.nav.localisation.filter import (
@@ -39,9 +46,11 @@ from behaviours.nav.localisation.likelihood_field import DistanceGrid
 from behaviours.nav.localisation.motion_model import compose, inverse
 from behaviours.nav.localisation.people import PeopleTracker, unexplained_points
 from behaviours.nav.localisation.service import LocalisationService, odometry_source, start_filter
-from behaviours.nav.map_file import load_grid
+from behaviours.nav.map_file import WALLS, load_grid
 from behaviours.nav.path_follower import NoProgress, PathFollower
 from behaviours.nav.planner import NoPath, Planner
+from behaviours.nav.relocalise import Relocaliser
+from behaviours.nav.zones import NO_LIMIT, SPEED_MARGIN, SpeedLimit, Zones
 from hal.devices import Lidar, Motors, RangeSensor
 from hal.readings import LidarScan
 from hal.settings import SettingsView
@@ -55,6 +64,11 @@ _WATCH_S = 0.1
 _LOCALISE_WAIT_S = 10.0
 """How long a goal waits, standing, for the first localised pose."""
 _OBSTACLE_RANGE_M = 3.0
+_REPLAN = "replan"
+
+
+def _no_event(_kind: str, **_fields: Any) -> None:
+    """Where events go when the stack is given no ``emit``."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -86,10 +100,13 @@ class NavStack:
         self.settings = settings
         self.lidar = lidar
         self.odometry = odometry
+        map_config = MapConfig.from_settings(settings)
         if grid is None:  # a profile with its own map format (cabinet) gives its grid
-            grid = load_grid(MapConfig.from_settings(settings))
+            grid = load_grid(map_config)
+        self.zones = Zones.from_config(ZoneConfig.from_settings(settings),
+                                       None if map_config.file == WALLS else map_config.file)
         self.planner_config = PlannerConfig.from_settings(settings)
-        self.planner = Planner(grid, self.planner_config)
+        self.planner = Planner(grid, self.planner_config, keepout=self.zones.keepout_for(grid))
         self.distance = DistanceGrid.from_field(self.planner.field)
         self.localiser = Localiser(self.distance, LocalisationConfig.from_settings(settings))
         self.started_from = start_filter(self.localiser, stored_pose)
@@ -106,6 +123,16 @@ class NavStack:
             self.motors = ObstacleGuard(motors, front_range, settings, emit)
         self.drive = WaypointDrive(self.motors, odometry, settings, pose_source=self.pose)
         self.follower = PathFollower(self.planner, self.drive, self.planner_config)
+        self.emit: Callable[..., None] = emit if emit is not None else _no_event
+        self.relocaliser = Relocaliser(self.localiser, lidar, self.motors, self._odom, settings)
+        self.relocalisations = 0
+        self.pose_epoch = 0
+        """Counts operator poses (``set_pose``): a drive under way replans from the new one."""
+        self.speed_limit: SpeedLimit = NO_LIMIT
+        self._encoder_scale = 1.0
+        if self.zones.active:
+            self.emit("nav.zones", **self.zones.describe(),
+                      speed_top_mps=DriveTuning.from_settings(settings).cruise_mps)
         self.poses_published = 0
         self.service.poses.listen(self._count)
         self._stop_scans: Callable[[], None] | None = None
@@ -142,7 +169,76 @@ class NavStack:
         """The seed's encoder failure: LiDAR-only localisation and half the speed while the
         encoders are frozen (``True``); back to normal when they return (``False``)."""
         self.localiser.set_lidar_only(failed, self._odom())
-        self.drive.speed_scale = 0.5 if failed else 1.0
+        self._encoder_scale = 0.5 if failed else 1.0
+        self._apply_speed_scale()
+
+    def _apply_speed_scale(self) -> None:
+        """The drive's speed: half while the encoders have failed, and no more than the speed
+        zone allows (the lower of the two)."""
+        scale = self._encoder_scale
+        limit = self.speed_limit.limit_mps
+        if limit is not None:
+            cruise = DriveTuning.from_settings(self.settings).cruise_mps
+            scale = min(scale, limit * SPEED_MARGIN / cruise)
+        self.drive.speed_scale = scale
+
+    def limit_speed(self) -> SpeedLimit:
+        """The speed mask's limit at the robot and on its path ahead, applied to the drive
+        (``nav.speed_limit`` when it changes)."""
+        if self.zones.speed is None:
+            return NO_LIMIT
+        ahead = self.follower.remaining_path()
+        if not ahead:
+            pose = self.pose()
+            ahead = [(pose.x_m, pose.y_m)]
+        cruise = DriveTuning.from_settings(self.settings).cruise_mps
+        limit = self.zones.limit_along(ahead, cruise)
+        if limit != self.speed_limit:
+            self.speed_limit = limit
+            self._apply_speed_scale()
+            self.emit("nav.speed_limit", limit_mps=None if limit.limit_mps is None
+                      else round(limit.limit_mps, 4), value=limit.value,
+                      limit=None if limit.limit_mps is None else round(limit.limit, 3),
+                      est_x_m=round(ahead[0][0], 3), est_y_m=round(ahead[0][1], 3))
+        return limit
+
+    def set_pose(self, x_m: float, y_m: float, theta_rad: float,
+                 sigma_m: float | None = None, sigma_rad: float | None = None) -> None:
+        """An operator's pose (``robotctl pose set``): the filter re-seeded round it, the
+        published pose there at once; a drive under way plans again from it."""
+        self.localiser.start_at(x_m, y_m, theta_rad, sigma_m, sigma_rad)
+        pose = np.array([x_m, y_m, theta_rad], dtype=np.float64)
+        self.localiser.correction = compose(pose, inverse(np.asarray(self._odom())))
+        self.localiser.mark_uncertain()
+        self.pose_epoch += 1
+        log.info("nav.pose_set", x_m=x_m, y_m=y_m, heading_deg=math.degrees(theta_rad),
+                 sigma_m=sigma_m)
+
+    async def relocalise(self) -> bool:
+        """Find the robot anywhere on the map (``relocalise.py``); True once localised."""
+        est = self.localiser.estimate
+        self.emit("nav.relocalise", status=self.localiser.status,
+                  spread_m=None if est is None else round(min(est.spread_m, 99.0), 4),
+                  match_fraction=round(self.localiser.match_fraction, 3))
+        config = self.localiser.config
+        result = await self.relocaliser.run(config.relocalise_limit_s)
+        pose = self.pose()
+        fields: dict[str, Any] = {
+            "ok": result.ok, "searches": result.searches,
+            "duration_s": round(result.duration_s, 2),
+            "turned_deg": round(math.degrees(result.turned_rad), 1),
+            "fit_per_beam": round(result.fit_per_beam, 3) if math.isfinite(
+                result.fit_per_beam) else None,
+            "est_x_m": round(pose.x_m, 4), "est_y_m": round(pose.y_m, 4),
+            "est_heading_deg": round(math.degrees(pose.theta_rad), 2)}
+        if result.ok:
+            self.relocalisations += 1
+            log.info("nav.relocalised", **fields)
+            self.emit("nav.relocalised", **fields)
+        else:
+            log.error("nav.relocalise_failed", detail=result.detail, **fields)
+            self.emit("nav.relocalise_failed", detail=result.detail, **fields)
+        return result.ok
 
     def pose(self) -> OdometryPose:
         """The fused map pose now (correction x live odometry)."""
@@ -193,13 +289,43 @@ class NavStack:
             return NavOutcome("not_localised", (x_m, y_m), pose.x_m, pose.y_m,
                               math.hypot(x_m - pose.x_m, y_m - pose.y_m), 0,
                               loop.time() - started, detail)
+        while True:
+            reason, detail = await self._drive_to(x_m, y_m)
+            if reason == _REPLAN:
+                continue
+            if reason == "diverged":
+                est = self.localiser.estimate
+                self.emit("localisation.diverged", spread_m=round(
+                    min(est.spread_m if est else 99.0, 99.0), 4),
+                    match_fraction=round(self.localiser.match_fraction, 3))
+                if self.localiser.config.relocalise == "global":
+                    if await self.relocalise():
+                        continue
+                    detail = "localisation diverged; global relocalisation failed"
+            break
+        pose = self.pose()
+        outcome = NavOutcome(reason, (x_m, y_m), pose.x_m, pose.y_m,
+                             math.hypot(x_m - pose.x_m, y_m - pose.y_m),
+                             self.follower.replans - replans, loop.time() - started, detail)
+        log.info("nav.outcome", reason=reason, goal_x_m=x_m, goal_y_m=y_m,
+                 remaining_m=round(outcome.remaining_m, 3), detail=detail)
+        return outcome
+
+    async def _drive_to(self, x_m: float, y_m: float) -> tuple[str, str]:
+        """One drive at the goal: (reason, detail), ``_REPLAN`` after an operator's pose."""
         task = asyncio.create_task(self.follower.go_to(x_m, y_m))
+        epoch = self.pose_epoch
         reason, detail = "reached", ""
         try:
             while True:
                 done, _ = await asyncio.wait({task}, timeout=_WATCH_S)
                 if done:
                     break
+                if self.pose_epoch != epoch:
+                    reason = _REPLAN
+                    break
+                if self.zones.speed is not None:
+                    self.limit_speed()
                 status = self.localiser.status
                 if status in (DIVERGED, LIDAR_LOST):
                     reason = "diverged" if status == DIVERGED else "lidar_lost"
@@ -217,13 +343,7 @@ class NavStack:
                 await cancel_and_wait(task)
             if reason != "reached":
                 await self.drive.stop()
-        pose = self.pose()
-        outcome = NavOutcome(reason, (x_m, y_m), pose.x_m, pose.y_m,
-                             math.hypot(x_m - pose.x_m, y_m - pose.y_m),
-                             self.follower.replans - replans, loop.time() - started, detail)
-        log.info("nav.outcome", reason=reason, goal_x_m=x_m, goal_y_m=y_m,
-                 remaining_m=round(outcome.remaining_m, 3), detail=detail)
-        return outcome
+        return reason, detail
 
     def status(self) -> dict[str, Any]:
         """For ``robotctl status``/``sensors``: pose, spread, scan rate, the plan."""
@@ -239,6 +359,10 @@ class NavStack:
                            "length_m": round(plan.length_m, 3),
                            "replans": self.follower.replans}
         out["poses_published"] = self.poses_published
+        if self.relocalisations:
+            out["relocalisations"] = self.relocalisations
+        if self.zones.speed is not None:
+            out["speed_limit_mps"] = self.speed_limit.limit_mps
         return out
 
 

@@ -6,7 +6,8 @@ once there is one; wheel odometry until then). A watcher wakes every ``replan_pe
 obstacles seen in the scan that the map does not have (``see_obstacles``, points in the map
 frame) and that come within the clearance of the rest of the path make it stop and plan again
 with them; no progress along the path (``progress_m``) for ``no_progress_s`` raises
-``NoProgress``. ``NoPath`` from the planner reaches the caller as it is.
+``NoProgress`` (turning on the spot towards a leg counts as progress). ``NoPath`` from the
+planner reaches the caller as it is.
 """
 
 from __future__ import annotations
@@ -25,6 +26,9 @@ from behaviours.nav.smoothing import Point, path_length_m
 from hal.tasks import cancel_and_wait
 
 log = structlog.get_logger(__name__)
+
+_TURN_PROGRESS_RAD = math.radians(15)
+"""Turning this much on the spot counts as progress: the robot is not stuck, it faces a leg."""
 
 
 class NoProgress(Exception):
@@ -116,6 +120,7 @@ class PathFollower:
         legs = asyncio.create_task(self._drive_legs(plan))
         best = path_length_m(self.remaining_path())
         best_t = loop.time()
+        heading = self.drive.pose().theta_rad
         try:
             while True:
                 done, _ = await asyncio.wait({legs}, timeout=self.config.replan_period_s)
@@ -127,8 +132,12 @@ class PathFollower:
                     log.info("nav.replan", reason="obstacle_on_path")
                     return False
                 left = path_length_m(self.remaining_path())
+                turned = abs(math.remainder(self.drive.pose().theta_rad - heading, math.tau))
                 if left <= best - self.config.progress_m:
                     best, best_t = left, now
+                elif turned >= _TURN_PROGRESS_RAD:
+                    # Turning on the spot towards the next leg (slowly, in a speed zone).
+                    best_t, heading = now, self.drive.pose().theta_rad
                 elif now - best_t >= self.config.no_progress_s:
                     msg = (f"no progress for {now - best_t:.1f} s, {left:.2f} m of path "
                            "left")

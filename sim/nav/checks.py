@@ -10,7 +10,14 @@ the runner adds the simulator's true pose (``x_m``, ``y_m``, ``true_heading_deg`
 - ``min_pose_rate_hz``: poses published per second by the localisation service;
 - ``goals_reached_within_m``: every goal of ``patrol.goals`` reached (true pose within this);
 - ``divergence_within_s``: after the first ``body.teleport``, the robot reported a
-  divergence (``localisation.diverged``) within this many seconds.
+  divergence (``localisation.diverged``) within this many seconds;
+- ``relocalised_within_s``: after the first ``body.teleport``, the robot relocalised over the
+  whole map (``nav.relocalised``) within this many seconds;
+- ``no_pose_in_keepout`` (true): no true pose of the robot (every event carries it) lies in a
+  cell of the keep-out mask the robot was given (``nav.zones``);
+- ``speed_within_zone_limits`` (true): between consecutive ``nav.pose`` samples the robot's
+  true speed is at most the speed mask's limit at both ends (``nav.zones``: the mask, Nav2's
+  rule and the top speed percentages refer to).
 """
 
 from __future__ import annotations
@@ -21,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from behaviours.nav.zones import SpeedRule, mask_values
+from hal.occupancy_map import MapFileError, OccupancyMap, read_map_yaml
 from sim.slice import CheckRun, Events
 
 
@@ -70,6 +79,12 @@ def nav_figures(events: list[dict[str, Any]]) -> dict[str, Any]:
     divergences = [e for e in events if e.get("kind") == "localisation.diverged"]
     if divergences:
         out["divergences"] = len(divergences)
+    relocalised = [e for e in events if e.get("kind") == "nav.relocalised"]
+    if relocalised:
+        out["relocalisations"] = len(relocalised)
+        out["relocalise_max_s"] = max(float(e["duration_s"]) for e in relocalised)
+    if zones_of(events) is not None:
+        out.update(zone_figures(events))
     return out
 
 
@@ -108,7 +123,19 @@ def nav_failures(success: dict[str, Any], events: list[dict[str, Any]],
         reasons += _goal_failures(float(want), events, goals)
     want = success.get("divergence_within_s")
     if want is not None:
-        reasons += _divergence_failures(float(want), events)
+        reasons += _after_kidnap(float(want), events, "localisation.diverged",
+                                 "the kidnapping was never detected (no localisation.diverged "
+                                 "event)", "the kidnapping was detected {:.1f} s after it")
+    want = success.get("relocalised_within_s")
+    if want is not None:
+        reasons += _after_kidnap(float(want), events, "nav.relocalised",
+                                 "the robot never relocalised after the kidnapping (no "
+                                 "nav.relocalised event)",
+                                 "the robot relocalised {:.1f} s after the kidnapping")
+    if success.get("no_pose_in_keepout"):
+        reasons += keepout_failures(events)
+    if success.get("speed_within_zone_limits"):
+        reasons += speed_failures(events)
     return reasons
 
 
@@ -128,24 +155,118 @@ def _goal_failures(within_m: float, events: list[dict[str, Any]],
     return reasons
 
 
-def _divergence_failures(within_s: float, events: list[dict[str, Any]]) -> list[str]:
+def _after_kidnap(within_s: float, events: list[dict[str, Any]], kind: str, never: str,
+                  late: str) -> list[str]:
     kidnaps = [e for e in events if e.get("kind") == "script"
                and e.get("action") == "body.teleport"]
     if not kidnaps:
-        return ["divergence_within_s: the script never teleported the robot"]
+        return [f"{kind}: the script never teleported the robot"]
     t0 = float(kidnaps[0]["t"])
-    seen = [float(e["t"]) for e in events
-            if e.get("kind") == "localisation.diverged" and float(e["t"]) >= t0]
+    seen = [float(e["t"]) for e in events if e.get("kind") == kind and float(e["t"]) >= t0]
     if not seen:
-        return ["the kidnapping was never detected (no localisation.diverged event)"]
+        return [never]
     if seen[0] - t0 > within_s:
-        return [f"the kidnapping was detected {seen[0] - t0:.1f} s after it, "
-                f"more than {within_s:g} s"]
+        return [f"{late.format(seen[0] - t0)}, more than {within_s:g} s"]
     return []
 
 
+def zones_of(events: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """The ``nav.zones`` event (the masks a robot was given), if any."""
+    return next((e for e in events if e.get("kind") == "nav.zones"), None)
+
+
+def _mask(zones: dict[str, Any] | None, key: str) -> OccupancyMap | str | None:
+    """The mask the event names, None if none, or why it cannot be read."""
+    path = None if zones is None else zones.get(key)
+    if not path:
+        return None
+    try:
+        return read_map_yaml(str(path))
+    except MapFileError as exc:
+        return str(exc)
+
+
+def keepout_failures(events: list[dict[str, Any]]) -> list[str]:
+    """Every true pose in a keep-out cell (the first few, and how many)."""
+    mask = _mask(zones_of(events), "keepout_file")
+    if mask is None:
+        return ["no_pose_in_keepout: the robot was given no keep-out mask (no nav.zones "
+                "event with a keepout_file)"]
+    if isinstance(mask, str):
+        return [f"no_pose_in_keepout: {mask}"]
+    poses = [e for e in events if "x_m" in e and "y_m" in e]
+    if not poses:
+        return []
+    xy = np.array([[float(e["x_m"]), float(e["y_m"])] for e in poses])
+    inside = mask_values(mask, xy[:, 0], xy[:, 1]) >= 100
+    if not inside.any():
+        return []
+    first = [poses[i] for i in np.flatnonzero(inside)[:3]]
+    shown = ", ".join(f"({e['x_m']:.2f}, {e['y_m']:.2f}) at {float(e['t']):.1f} s"
+                      for e in first)
+    return [f"{int(inside.sum())} true pose(s) in a keep-out cell: {shown}"]
+
+
+def zone_speeds(events: list[dict[str, Any]]
+                ) -> list[tuple[float, float, float | None]] | str:
+    """(time, true speed, the mask's lower limit at the two ends in m/s or None) between
+    consecutive ``nav.pose`` samples of each robot; or why there are none."""
+    zones = zones_of(events)
+    mask = _mask(zones, "speed_file")
+    if mask is None or zones is None:
+        return "the robot was given no speed mask (no nav.zones event with a speed_file)"
+    if isinstance(mask, str):
+        return mask
+    rule = SpeedRule(zones.get("speed_type") == "percent", float(zones["speed_base"]),
+                     float(zones["speed_multiplier"]))
+    top = float(zones["speed_top_mps"])
+    out: list[tuple[float, float, float | None]] = []
+    by_robot: dict[str, list[dict[str, Any]]] = {}
+    for e in events:
+        if e.get("kind") == "nav.pose":
+            by_robot.setdefault(str(e.get("robot", "")), []).append(e)
+    for samples in by_robot.values():
+        if len(samples) < 2:
+            continue
+        xy = np.array([[float(e["x_m"]), float(e["y_m"])] for e in samples])
+        t = np.array([float(e["t"]) for e in samples])
+        limits = rule.limits(mask_values(mask, xy[:, 0], xy[:, 1]))
+        for i in range(1, len(samples)):
+            dt = t[i] - t[i - 1]
+            if dt <= 0:
+                continue
+            speed = float(math.hypot(*(xy[i] - xy[i - 1]))) / dt
+            ends = limits[i - 1:i + 1]
+            limit = None if np.all(np.isnan(ends)) else rule.mps(float(np.nanmin(ends)), top)
+            out.append((float(t[i]), speed, limit))
+    return out
+
+
+def speed_failures(events: list[dict[str, Any]]) -> list[str]:
+    """Each stretch between pose samples driven faster than the zone's limit (the worst)."""
+    speeds = zone_speeds(events)
+    if isinstance(speeds, str):
+        return [f"speed_within_zone_limits: {speeds}"]
+    over = [(t, v, lim) for t, v, lim in speeds if lim is not None and v > lim + 1e-9]
+    if not over:
+        return []
+    t, v, lim = max(over, key=lambda o: o[1] - (o[2] or 0.0))
+    return [f"{len(over)} stretch(es) faster than the speed zone allows: worst "
+            f"{v:.3f} m/s where the limit is {lim:.3f} m/s, at {t:.1f} s"]
+
+
+def zone_figures(events: list[dict[str, Any]]) -> dict[str, Any]:
+    """The fastest speed in a limited zone, as a share of its limit."""
+    speeds = zone_speeds(events)
+    if isinstance(speeds, str):
+        return {}
+    ratios = [v / lim for _t, v, lim in speeds if lim]
+    return {"zone_speed_max_pct_of_limit": round(100 * max(ratios), 1)} if ratios else {}
+
+
 NAV_SUCCESS_KEYS = ("max_localisation_error_p95_m", "max_heading_error_p95_deg",
-                    "min_pose_rate_hz", "goals_reached_within_m", "divergence_within_s")
+                    "min_pose_rate_hz", "goals_reached_within_m", "divergence_within_s",
+                    "relocalised_within_s", "no_pose_in_keepout", "speed_within_zone_limits")
 
 
 @dataclass(frozen=True, slots=True)

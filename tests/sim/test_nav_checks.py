@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from sim.nav.checks import nav_failures, nav_figures, pose_rate_hz
 
@@ -65,3 +68,61 @@ class TestNavChecks:
         assert nav_failures({"divergence_within_s": 10.0}, [kidnap, soon], []) == []
         assert nav_failures({"divergence_within_s": 10.0}, [kidnap], []) == [
             "the kidnapping was never detected (no localisation.diverged event)"]
+
+    def test_relocalised_within(self) -> None:
+        """After a teleport the robot must find itself again (nav.relocalised) in time."""
+        kidnap = {"t": 10.0, "kind": "script", "action": "body.teleport"}
+        late = {"t": 45.0, "kind": "nav.relocalised", "ok": True, "duration_s": 30.0}
+        assert nav_failures({"relocalised_within_s": 30.0}, [kidnap, late], []) == [
+            "the robot relocalised 35.0 s after the kidnapping, more than 30 s"]
+        soon = {"t": 20.0, "kind": "nav.relocalised", "ok": True, "duration_s": 5.0}
+        assert nav_failures({"relocalised_within_s": 30.0}, [kidnap, soon], []) == []
+        assert nav_figures([kidnap, soon])["relocalise_max_s"] == 5.0
+
+
+class TestZoneChecks:
+    @staticmethod
+    def _zones(tmp_path: Path) -> dict[str, Any]:
+        """A 4 x 2 m site: keep-out cells at x 1-2, a 50 % zone at x 3-4 (Nav2's rule)."""
+        cells_keepout = np.full((40, 80), 254, dtype=np.uint8)
+        cells_keepout[:, 20:40] = 0
+        cells_speed = np.full((40, 80), 255, dtype=np.uint8)
+        cells_speed[:, 60:80] = 127  # occ 0.5 -> value 50 in scale mode
+        for name, pixels, mode in (("keepout", cells_keepout, "trinary"),
+                                   ("speed", cells_speed, "scale")):
+            (tmp_path / f"{name}.pgm").write_bytes(b"P5\n80 40\n255\n" + pixels.tobytes())
+            thresholds = ("occupied_thresh: 0.65\nfree_thresh: 0.25\n" if mode == "trinary"
+                          else "occupied_thresh: 1.0\nfree_thresh: 0.0\n")
+            (tmp_path / f"{name}.yaml").write_text(
+                f"image: {name}.pgm\nmode: {mode}\nresolution: 0.05\norigin: [0, 0, 0]\n"
+                f"negate: 0\n{thresholds}")
+        return {"t": 0.0, "kind": "nav.zones", "keepout_file": str(tmp_path / "keepout.yaml"),
+                "speed_file": str(tmp_path / "speed.yaml"), "speed_type": "percent",
+                "speed_base": 100.0, "speed_multiplier": -1.0, "speed_top_mps": 0.2}
+
+    def test_a_true_pose_in_a_keepout_cell_fails(self, tmp_path: Path) -> None:
+        """Every event's true pose is judged against the keep-out mask."""
+        zones = self._zones(tmp_path)
+        ok = [zones, {"t": 1.0, "kind": "nav.pose", "x_m": 0.5, "y_m": 1.0}]
+        assert nav_failures({"no_pose_in_keepout": True}, ok, []) == []
+        bad = [*ok, {"t": 2.0, "kind": "transition", "x_m": 1.5, "y_m": 1.0}]
+        assert nav_failures({"no_pose_in_keepout": True}, bad, []) == [
+            "1 true pose(s) in a keep-out cell: (1.50, 1.00) at 2.0 s"]
+        assert "no keep-out mask" in nav_failures({"no_pose_in_keepout": True}, ok[1:], [])[0]
+
+    def test_faster_than_a_zone_allows_fails(self, tmp_path: Path) -> None:
+        """0.09 m/s in the 50 % zone (0.1 m/s) holds; 0.12 m/s does not; outside, any."""
+        zones = self._zones(tmp_path)
+
+        def pose(t: float, x: float) -> dict[str, Any]:
+            return {"t": t, "kind": "nav.pose", "x_m": x, "y_m": 1.0, "poses_published": 0}
+
+        slow = [zones, pose(0.0, 3.2), pose(1.0, 3.29)]
+        assert nav_failures({"speed_within_zone_limits": True}, slow, []) == []
+        assert nav_figures(slow)["zone_speed_max_pct_of_limit"] == 90.0
+        outside = [zones, pose(0.0, 0.2), pose(1.0, 0.8)]
+        assert nav_failures({"speed_within_zone_limits": True}, outside, []) == []
+        fast = [zones, pose(0.0, 3.2), pose(1.0, 3.32)]
+        assert nav_failures({"speed_within_zone_limits": True}, fast, []) == [
+            "1 stretch(es) faster than the speed zone allows: worst 0.120 m/s where the limit "
+            "is 0.100 m/s, at 1.0 s"]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -46,16 +47,22 @@ class TestNavScenarios:
         assert figures["goal_error_max_m"] <= 0.10
         assert figures["pose_rate_hz"] >= 10.0
 
-    def test_a_kidnap_is_detected_and_stops_the_robot(self, tmp_path: Path) -> None:
-        """Teleported 1 m: localisation.diverged within 10 s, then recovery (motors stop)."""
+    def test_a_kidnap_is_detected_relocalised_and_the_route_finished(self, tmp_path: Path
+                                                                     ) -> None:
+        """Teleported 1 m: localisation.diverged within 10 s, a global relocalisation within
+        30 s of the kidnap, then both goals reached within 10 cm; no recovery (issue 30)."""
         _code, events = _run("nav-kidnap", tmp_path)
         t0 = next(e["t"] for e in events if e.get("action") == "body.teleport")
         diverged = next(e for e in events if e["kind"] == "localisation.diverged")
         assert 0 < diverged["t"] - t0 <= 10.0
-        failed = next(e for e in events if e["kind"] == "nav.failed")
-        assert failed["reason"] == "diverged"
-        moves = [e for e in events if e["kind"] == "transition" and e["dst"] == "recovery"]
-        assert moves and moves[0]["t"] >= diverged["t"]
+        found = next(e for e in events if e["kind"] == "nav.relocalised")
+        assert found["ok"] is True and found["t"] - t0 <= 30.0
+        assert math.hypot(found["est_x_m"] - found["x_m"], found["est_y_m"] - found["y_m"]) \
+            < 0.10
+        assert not [e for e in events if e["kind"] == "nav.failed"]
+        assert not [e for e in events if e["kind"] == "transition" and e["dst"] == "recovery"]
+        figures = events[-1]["figures"]["sim-1"]
+        assert figures["goals_reached"] == 2 and figures["goal_error_max_m"] <= 0.10
 
     def test_the_robot_map_lacks_the_unmapped_box(self) -> None:
         """``mapped = false`` boxes are walls of the world but not of the robot's map."""
@@ -75,6 +82,11 @@ class TestLidarLoss:
         text = text.replace("update_min_a_deg = 5.0", "update_min_a_deg = 5.0\n"
                             "lidar_lost_max_s = 2.0")
         text = text.replace("divergence_within_s = 10.0", "")
+        text = text.replace("relocalised_within_s = 30.0", "")
+        text = text.replace("goals_reached_within_m = 0.10", "")
+        text = text.replace('states_reached = ["mission.drive", "mission.at_goal"]\n'
+                            'final_state = "idle"', 'states_reached = ["mission.drive", '
+                            '"recovery"]\nfinal_state = "recovery"')
         scenario = tmp_path / "stall.toml"
         scenario.write_text(text)
         code = main(["sim", str(scenario), "--quiet", "--seed", "1", "--report",

@@ -93,6 +93,13 @@ class LocalisationConfig:
     lidar_lost_max_s: float = setting(
         30.0, "Odometry alone for at most this long, then an error (seed: 30 s).", min=0,
         max=3600, tunable=True)
+    relocalise: str = setting(
+        "global", "A diverged filter while driving: global (stop, find the scan anywhere on "
+        "the map, turn on the spot until the filter agrees, then go on) or off (the goal "
+        "fails as diverged).", choices=("global", "off"), tunable=True)
+    relocalise_limit_s: float = setting(
+        30.0, "A global relocalisation gives up after this long.", min=1, max=3600,
+        tunable=True)
 
     @property
     def initial_heading_rad(self) -> float:

@@ -117,6 +117,18 @@ class Localiser:
         log.info("localisation.start_global", particles=len(self.particles),
                  free_cells=int(self._free_rows.shape[0]))
 
+    def start_from(self, poses: FloatArray) -> None:
+        """Particles given (a global search's candidates): the next scan weighs them all, then
+        the filter runs on ``max_particles``, as after a global start."""
+        self._restart(np.asarray(poses, dtype=np.float64).reshape(-1, 3), None)
+        log.info("localisation.start_from", particles=len(self.particles))
+
+    def mark_uncertain(self) -> None:
+        """Re-seeded (an operator's pose, a relocalisation): not judged yet, so neither
+        localised nor diverged until the next scan says."""
+        self._bad_since_s = None
+        self._set_status(UNCERTAIN)
+
     def _restart(self, poses: FloatArray, guess: OdomPose | None) -> None:
         self.particles = ParticleSet(poses)
         self._odom_at_update = None

@@ -215,10 +215,6 @@ class PatrolProfile(BaseProfile):
             return
         ctx.emit("nav.failed", index=self.goal_index, reason=outcome.reason,
                  detail=outcome.detail, goal_x_m=x, goal_y_m=y)
-        if outcome.reason == "diverged":
-            ctx.emit("localisation.diverged", spread_m=round(
-                min(nav.localiser.estimate.spread_m if nav.localiser.estimate else 99.0, 99.0),
-                4), match_fraction=round(nav.localiser.match_fraction, 3))
         await ctx.trigger(CoreTrigger.FAULT, reason=outcome.reason)
 
     async def _at_goal(self, ctx: RobotContext) -> None:

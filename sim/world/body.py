@@ -17,12 +17,14 @@ import numpy as np
 import numpy.typing as npt
 
 from sim.world.floor_plan import World
-from sim.world.geometry import Pose, raycast_one
+from sim.world.geometry import Pose, raycast_one, segment_distances
 from sim.world.vacuum import VacuumParts
 
 _TWO_PI = 2 * math.pi
 _MATH = (math.cos, math.sin, math.pi)
 _SLIP_BLOCK = 1024  # slip factors drawn at once: 512 moving steps, ~5 s of driving
+_FEW_WALLS = 64  # fewer walls than this: the front sensor's ray meets them all
+_NEAR_M = 4.0  # else the walls within this of where the robot was are kept for its ray
 
 
 @dataclass(frozen=True, slots=True)
@@ -99,7 +101,8 @@ class DiffDriveBody(VacuumParts):
         self._targets = (0.0, 0.0)
         self._dock_xyh: tuple[float, float, float] | None = None  # ``_on_dock`` is for this
         self._on_dock = False
-        self._walls_list: tuple[npt.NDArray[np.float64], list[Any]] | None = None
+        self._walls_list: tuple[npt.NDArray[np.float64], list[Any],
+                                tuple[float, float, list[Any]] | None] | None = None
         self._slips: list[float] = []  # 1 + slip, two a moving step (``_draw_slips``)
         self._slip_i = 0
         self._slip_source = _slip_source(self.rng)
@@ -140,11 +143,8 @@ class DiffDriveBody(VacuumParts):
         p = self.params
         pose = self.pose
         x, y = pose.to_world(p.radius_m, 0.0)
-        walls = self.world.walls
-        if self._walls_list is None or self._walls_list[0] is not walls:
-            self._walls_list = (walls, walls.tolist())
-        hit_m = raycast_one(self._walls_list[1], x, y, pose.heading_rad,
-                            p.range_max_cm / 100)
+        range_m = p.range_max_cm / 100
+        hit_m = raycast_one(self._walls_near(x, y, range_m), x, y, pose.heading_rad, range_m)
         for person in self.world.people:
             if person.present:
                 hit_m = min(hit_m, _ray_circle(x, y, pose.heading_rad,
@@ -155,6 +155,27 @@ class DiffDriveBody(VacuumParts):
                                            other.params.radius_m))
         cm = hit_m * 100 + self.rng.gauss(0, p.range_noise_cm)
         return float(min(p.range_max_cm, max(p.range_min_cm, cm)))
+
+    def _walls_near(self, x_m: float, y_m: float, range_m: float
+                    ) -> list[tuple[float, float, float, float]]:
+        """The walls a ray of ``range_m`` from (x, y) can meet, as a list (``raycast_one``).
+
+        A map's world has thousands of cell sides: the ones within ``_NEAR_M`` of a centre are
+        kept and reused until the robot is within ``range_m`` of that circle's edge. Order
+        is kept, so the nearest hit (the first of equals) is the one all the walls give."""
+        walls = self.world.walls
+        cached = self._walls_list
+        if cached is None or cached[0] is not walls:
+            cached = self._walls_list = (walls, walls.tolist(), None)
+        if walls.shape[0] <= _FEW_WALLS:
+            return cached[1]
+        near = cached[2]
+        if near is not None and math.hypot(x_m - near[0], y_m - near[1]) + range_m <= _NEAR_M:
+            return near[2]
+        keep = np.flatnonzero(segment_distances(walls, x_m, y_m) <= _NEAR_M)
+        listed = [cached[1][i] for i in keep.tolist()]
+        self._walls_list = (walls, cached[1], (x_m, y_m, listed))
+        return listed
 
     def battery(self) -> tuple[float, float, bool]:
         # A 3S Li-ion pack: 9.6 V empty to 12.6 V full, close enough to linear for a sim.

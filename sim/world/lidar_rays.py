@@ -7,7 +7,11 @@ sensor's place on the body's pose now, and each beam's range is the nearest of
 - the walls (scenario walls, boxes, a ``world.map``'s occupied cells' sides): one vectorised
   beam x segment intersection, over the segments whose angular extent, seen from the
   sensor, overlaps the group's arc (a group spans a few degrees, so most segments drop out
-  before the intersection);
+  before the intersection). A map's thousands of cell sides take two more steps: they are
+  binned in square tiles, and a tile whose bounding circle, seen from the sensor, misses the
+  arc is dropped whole; the segments left are met nearest first, a chunk at a time, and a
+  beam whose hit is nearer than the next chunk's nearest segment is done (in a hall most
+  beams end on the first chunk: the walls behind are never intersected);
 - people (two legs or a body circle, walking on their paths) and the other robots (a circle
   each): a beam x circle intersection;
 - the dock (its box), when the world has one.
@@ -47,6 +51,7 @@ class LidarRays:
         self._walls_key: object = None
         self._seg = np.zeros((0, 4))
         self._normal = np.zeros((0, 2))
+        self._tiles: WallTiles | None = None
 
     def _segments(self) -> tuple[FloatArray, FloatArray]:
         walls = self.world.walls
@@ -64,6 +69,7 @@ class LidarRays:
             self._seg = seg
             self._normal = np.column_stack((-ey / length, ex / length))
             self._walls_key = key
+            self._tiles = WallTiles(seg) if seg.shape[0] > _TILED_FROM else None
         return self._seg, self._normal
 
     def sensor_pose(self) -> tuple[float, float, float]:
@@ -80,7 +86,12 @@ class LidarRays:
         x, y, heading = self.sensor_pose()
         world_angles = angles + heading
         seg, normal = self._segments()
-        out = cast_segments(seg, normal, x, y, world_angles, self.cos_grazing)
+        if self._tiles is not None:
+            idx = self._tiles.facing(x, y, world_angles)
+            out = cast_nearest_first(seg[idx], normal[idx], x, y, world_angles,
+                                     self.cos_grazing)
+        else:
+            out = cast_segments(seg, normal, x, y, world_angles, self.cos_grazing)
         circles = self.circles()
         if circles.shape[0]:
             out = np.minimum(out, cast_circles(circles, x, y, world_angles))
@@ -100,6 +111,50 @@ class LidarRays:
         return np.asarray(rows, dtype=np.float64).reshape(-1, 3)
 
 
+_TILED_FROM = 256
+"""Worlds with more wall segments than this (a map's cell sides) are culled by tiles first."""
+_TILE_M = 2.0
+
+
+class WallTiles:
+    """Wall segments binned by their middle in ``_TILE_M`` squares, each tile with the circle
+    round its segments (long ones reach out of their tile: the circle covers them whole)."""
+
+    def __init__(self, seg: FloatArray, tile_m: float = _TILE_M) -> None:
+        mid_x = (seg[:, 0] + seg[:, 2]) / 2
+        mid_y = (seg[:, 1] + seg[:, 3]) / 2
+        key = (np.floor(mid_x / tile_m).astype(np.int64) * 1_000_003
+               + np.floor(mid_y / tile_m).astype(np.int64))
+        order = np.argsort(key, kind="stable")
+        _uniq, starts = np.unique(key[order], return_index=True)
+        self.members = np.split(order, starts[1:])
+        cx, cy, radius = [], [], []
+        for idx in self.members:
+            xs = np.concatenate((seg[idx, 0], seg[idx, 2]))
+            ys = np.concatenate((seg[idx, 1], seg[idx, 3]))
+            x0, x1, y0, y1 = xs.min(), xs.max(), ys.min(), ys.max()
+            cx.append((x0 + x1) / 2)
+            cy.append((y0 + y1) / 2)
+            radius.append(math.hypot(x1 - x0, y1 - y0) / 2)
+        self.cx, self.cy = np.array(cx), np.array(cy)
+        self.radius = np.array(radius)
+
+    def facing(self, x_m: float, y_m: float, angles_rad: FloatArray) -> npt.NDArray[np.intp]:
+        """Indices (ascending) of the segments of the tiles that may lie in the beams' arc."""
+        mid = float(np.arctan2(np.sin(angles_rad).mean(), np.cos(angles_rad).mean()))
+        half = float(np.abs(_wrap(angles_rad - mid)).max())
+        dx, dy = self.cx - x_m, self.cy - y_m
+        dist = np.hypot(dx, dy)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            spread = np.arcsin(np.clip(self.radius / dist, 0.0, 1.0))
+        off = np.abs(_wrap(np.arctan2(dy, dx) - mid))
+        near = (dist <= self.radius * 1.0001 + 1e-9) | (off <= half + spread + 1e-6)
+        picked = [self.members[i] for i in np.flatnonzero(near)]
+        if not picked:
+            return np.zeros(0, dtype=np.intp)
+        return np.sort(np.concatenate(picked))
+
+
 def dock_box(x_m: float, y_m: float, heading_rad: float, width_m: float, depth_m: float
              ) -> FloatArray:
     """The dock's outline: its face's middle at (x, y), looking along ``heading_rad``."""
@@ -111,16 +166,12 @@ def dock_box(x_m: float, y_m: float, heading_rad: float, width_m: float, depth_m
     return np.array([(*corners[i], *corners[(i + 1) % 4]) for i in range(4)])
 
 
-def cast_segments(seg: FloatArray, normal: FloatArray, x_m: float, y_m: float,
-                  angles_rad: FloatArray, cos_grazing: float = 0.0) -> FloatArray:
-    """Nearest hit of each beam (world angles) on the segments; inf for none or grazing."""
-    n = angles_rad.size
-    out = np.full(n, math.inf)
-    if seg.shape[0] == 0 or n == 0:
-        return out
+def _facing(seg: FloatArray, x_m: float, y_m: float, angles_rad: FloatArray
+            ) -> tuple[npt.NDArray[np.intp], FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The segments whose extent seen from the sensor meets the beams' arc: (their indices,
+    and every segment's ends relative to the sensor: ax, ay, bx, by)."""
     ax, ay = seg[:, 0] - x_m, seg[:, 1] - y_m
     bx, by = seg[:, 2] - x_m, seg[:, 3] - y_m
-    # Cull by angle: keep segments whose extent seen from the sensor meets the beams' arc.
     mid = float(np.arctan2(np.sin(angles_rad).mean(), np.cos(angles_rad).mean()))
     half = float(np.abs(_wrap(angles_rad - mid)).max()) + 1e-6
     a1 = _wrap(np.arctan2(ay, ax) - mid)
@@ -129,7 +180,79 @@ def cast_segments(seg: FloatArray, normal: FloatArray, x_m: float, y_m: float,
     behind = hi - lo > math.pi  # the segment's extent wraps through the back
     keep = np.where(behind, (hi <= -math.pi + half) | (lo >= math.pi - half) | (half >= 1.5),
                     (hi >= -half) & (lo <= half))
-    idx = np.flatnonzero(keep)
+    return np.flatnonzero(keep), ax, ay, bx, by
+
+
+_CHUNK = 96
+"""Segments intersected at once by ``cast_nearest_first``."""
+
+
+def cast_nearest_first(seg: FloatArray, normal: FloatArray, x_m: float, y_m: float,
+                       angles_rad: FloatArray, cos_grazing: float = 0.0) -> FloatArray:
+    """As ``cast_segments``, meeting the segments nearest first, ``_CHUNK`` of them, then
+    twice as many each time, and done with a beam once its hit is nearer than every segment
+    left (the same ranges; of two
+    segments hit at exactly the same distance, a corner, the nearer-listed one is taken)."""
+    n = angles_rad.size
+    out = np.full(n, math.inf)
+    if seg.shape[0] == 0 or n == 0:
+        return out
+    idx, ax, ay, bx, by = _facing(seg, x_m, y_m, angles_rad)
+    if idx.size == 0:
+        return out
+    ax, ay = ax[idx], ay[idx]
+    ex, ey = bx[idx] - ax, by[idx] - ay
+    length2 = ex * ex + ey * ey
+    with np.errstate(divide="ignore", invalid="ignore"):
+        along = np.clip(-(ax * ex + ay * ey) / length2, 0.0, 1.0)
+    along = np.where(length2 > 0, along, 0.0)
+    near = np.hypot(ax + along * ex, ay + along * ey)  # each segment's nearest point
+    order = np.argsort(near, kind="stable")
+    best_t = np.full(n, math.inf)
+    best_seg = np.zeros(n, dtype=np.intp)
+    open_beams = np.arange(n)
+    cos_a, sin_a = np.cos(angles_rad), np.sin(angles_rad)
+    start, size = 0, _CHUNK
+    while start < order.size:
+        part = order[start:start + size]
+        dx = cos_a[open_beams][:, None]
+        dy = sin_a[open_beams][:, None]
+        pax, pay, pex, pey = ax[part], ay[part], ex[part], ey[part]
+        denom = dx * pey - dy * pex
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (pax * pey - pay * pex) / denom
+            u = (pax * dy - pay * dx) / denom
+        hit = (np.abs(denom) > 1e-12) & (t > 0) & (u >= 0) & (u <= 1)
+        t = np.where(hit, t, math.inf)
+        k = t.argmin(axis=1)
+        t_k = t[np.arange(open_beams.size), k]
+        better = t_k < best_t[open_beams]
+        best_t[open_beams[better]] = t_k[better]
+        best_seg[open_beams[better]] = idx[part[k[better]]]
+        start += size
+        size *= 2  # beams still open look far: fewer, larger chunks
+        if start >= order.size:
+            break
+        open_beams = open_beams[best_t[open_beams] > near[order[start]]]
+        if open_beams.size == 0:
+            break
+    if cos_grazing > 0:
+        nrm = normal[best_seg]
+        incidence = np.abs(cos_a * nrm[:, 0] + sin_a * nrm[:, 1])
+        best_t = np.where(incidence < cos_grazing, math.inf, best_t)
+    out[:] = best_t
+    return out
+
+
+def cast_segments(seg: FloatArray, normal: FloatArray, x_m: float, y_m: float,
+                  angles_rad: FloatArray, cos_grazing: float = 0.0) -> FloatArray:
+    """Nearest hit of each beam (world angles) on the segments; inf for none or grazing."""
+    n = angles_rad.size
+    out = np.full(n, math.inf)
+    if seg.shape[0] == 0 or n == 0:
+        return out
+    # Cull by angle: keep segments whose extent seen from the sensor meets the beams' arc.
+    idx, ax, ay, bx, by = _facing(seg, x_m, y_m, angles_rad)
     if idx.size == 0:
         return out
     ax, ay = ax[idx], ay[idx]

@@ -19,7 +19,8 @@ from robotd.ctl.retry import Backoff
 DEFAULT_SOCKET = "/run/robotd/control.sock"
 EXIT_OK, EXIT_ERROR, EXIT_USAGE, EXIT_CONNECT = 0, 1, 2, 3
 CONTROL_FIRST_S = 0.3
-"""How long ``estop`` tries the control socket before the e-stop socket beside it."""
+"""How long ``estop`` waits for room in the control socket's listen queue before it goes to
+the e-stop socket beside it (a refusal sends it there at once)."""
 
 
 class CannotConnect(Exception):
@@ -42,14 +43,17 @@ class Connection:
     A connect that fails for a moment (``EAGAIN``: the daemon's listen queue is full;
     ``ECONNREFUSED``: it is between two sockets) and a first request refused for want of room
     ("too many clients": it was not carried out) are tried again, backing off, for up to
-    ``retry.budget_s`` (1 s); then the reason is raised as ``CannotConnect``.
+    ``retry.budget_s`` (1 s); then the reason is raised as ``CannotConnect``. With
+    ``retry_refusals=False`` a refusal is raised at once (``estop`` has a socket to go to).
     """
 
-    def __init__(self, path: str, timeout_s: float, *, retry: Backoff | None = None) -> None:
+    def __init__(self, path: str, timeout_s: float, *, retry: Backoff | None = None,
+                 retry_refusals: bool = True) -> None:
         self.path = path
         self._ids = itertools.count(1)
         self._timeout_s = timeout_s
         self._retry = retry or Backoff()
+        self._retry_refusals = retry_refusals
         self._answered = False
         self._buffer = bytearray()
         self._notifications: collections.deque[dict[str, Any]] = collections.deque()
@@ -81,7 +85,7 @@ class Connection:
             try:
                 reply = self._exchange(method, params)
             except Refused as exc:
-                if self._answered or not self._retry.again():
+                if self._answered or not self._retry_refusals or not self._retry.again():
                     tries = f" ({self._retry.attempts} attempts)" if not self._answered else ""
                     raise Refused(f"robotd refused the connection: {exc}{tries}") from None
                 self._reconnect()
@@ -181,7 +185,7 @@ def call_estop(path: str, timeout_s: float, params: dict[str, Any]) -> Any:
     it (``PATH.estop``) when the control socket cannot take it: full, its listen queue full
     (a connect storm), or no answer in time. Sending it twice is harmless: it is a latch."""
     try:
-        conn = Connection(path, timeout_s, retry=Backoff(CONTROL_FIRST_S))
+        conn = Connection(path, timeout_s, retry=Backoff(CONTROL_FIRST_S), retry_refusals=False)
     except CannotConnect as exc:
         return _estop_beside(path, timeout_s, params, exc)
     try:

@@ -68,6 +68,8 @@ class EstopSocket:
                 restrict(self.path, SOCKET_MODE)
         except OSError as exc:
             why = str(exc)
+            self.close()  # not left listening with the wrong mode
+            self._server = None
         if why is not None:
             log.warning("control.estop_socket_unavailable", path=self.path, why=why)
             return False

@@ -57,11 +57,17 @@ class Robot:
 
 
 @contextlib.asynccontextmanager
-async def serving(*, max_clients: int, policy: ClientPolicy
+async def serving(*, max_clients: int, policy: ClientPolicy, path_bytes: int | None = None
                   ) -> AsyncIterator[tuple[ControlServer, Robot]]:
+    """A ControlServer on a socket in a fresh directory (its path ``path_bytes`` long when
+    given) and the stand-in handlers behind it."""
     workdir = Path(tempfile.mkdtemp(prefix="rd-"))  # short: sun_path
+    sock = workdir / "c.sock"
+    if path_bytes is not None:
+        sock = workdir / ("d" * (path_bytes - len(str(sock)) - 1)) / "c.sock"
+        sock.parent.mkdir()
     robot = Robot()
-    server = ControlServer(str(workdir / "c.sock"), {"status": robot.status,
+    server = ControlServer(str(sock), {"status": robot.status,
                                                      "estop": robot.estop,
                                                      "report": robot.report,
                                                      "subscribe": robot.subscribe},
@@ -233,6 +239,20 @@ class TestEstopSocket:
         assert said[0]["error"]["code"] == -32601
         assert "serves only estop" in said[0]["error"]["message"]
         assert robot.estops == 0
+
+    async def test_a_control_path_too_long_for_it_leaves_the_control_socket_working(
+            self) -> None:
+        """PATH.estop past 107 bytes: no e-stop socket (logged), the control socket serves."""
+        async with serving(max_clients=8, policy=SLOW, path_bytes=104) as (server, robot):
+            assert len(server.path) == 104
+            assert server.estop_socket is not None
+            client = await RpcClient.connect(server.path)
+            reply = await client.call("estop")
+            await client.close()
+            with pytest.raises(FileNotFoundError):
+                os.stat(server.estop_socket.path)
+        assert reply["result"] == {"state": "estop"}
+        assert robot.estops == 1
 
     async def test_it_is_removed_when_the_daemon_stops(self) -> None:
         async with serving(max_clients=8, policy=SLOW) as (server, _):

@@ -14,6 +14,12 @@ The figures are an upper bound of the daemon's own: the process also runs the si
 world (physics, the fake MCU, LD19 packets, camera frames for OpenCV, BLE adverts and the
 laundry scenario's fleet server) on the same event loop and CPU.
 
+Two more rows measure the daemon alone: ``robotd run`` (profiles idle, and square, whose
+mission drives a square on the motor board) with the real Arduino driver on a pty, served at
+real rates (heartbeats, 20 Hz MOTOR and telemetry) by the fake motor board in a process of
+its own, whose CPU is not counted. Its encoders do not turn, so the square robot stays
+mid-mission, driving.
+
 The reference is a plain asyncio process running only robotd's loop monitor (same timer
 chain, same 0.25 s period): the floor of CPU and lag on this machine at this moment (the
 machine is shared, so both move together).
@@ -109,44 +115,76 @@ def state_class(state: str) -> str:
 
 
 def measure_profile(profile: str, seconds: float) -> tuple[dict[str, Phase], dict[str, Any]]:
-    scenario = SCENARIOS[profile]
+    """``robotd sim SCENARIO --realtime``: the profile's daemon with its simulated world."""
     with tempfile.TemporaryDirectory(prefix="bcpu-") as tmp:
         sock = str(Path(tmp) / "c.sock")
-        errors = Path(tmp) / "stderr"
-        with errors.open("w") as err:
-            proc = subprocess.Popen(
-                [str(Path(sys.executable).with_name("robotd")), "sim", scenario, "--realtime",
-                 "--socket", sock, "--quiet"],
-                stdout=subprocess.DEVNULL, stderr=err, cwd=tmp)
+        argv = [str(Path(sys.executable).with_name("robotd")), "sim", SCENARIOS[profile],
+                "--realtime", "--socket", sock, "--quiet"]
+        return measure_process(argv, sock, Path(tmp), seconds)
+
+
+def measure_run(profile: str, seconds: float) -> tuple[dict[str, Phase], dict[str, Any]]:
+    """``robotd run`` alone (no simulator in its process) with the real Arduino driver on a
+    pty, served at real rates by the fake motor board in a process of its own."""
+    with tempfile.TemporaryDirectory(prefix="bcpu-") as tmp:
+        work = Path(tmp)
+        board = subprocess.Popen(
+            [sys.executable, "-m", "sim.devices.motor_board.pty_mcu", "--link",
+             str(work / "ttyACM0")], stdout=subprocess.PIPE, text=True, cwd=ROOT)
         try:
-            conn = _connect(sock, proc, errors)
-            phases: dict[str, Phase] = {}
-            last_status: dict[str, Any] = {}
-            t_prev, cpu_prev = time.monotonic(), cpu_s(proc.pid)
-            end = t_prev + seconds
-            while time.monotonic() < end and proc.poll() is None:
-                time.sleep(max(0.0, PERIOD_S - (time.monotonic() - t_prev)))
-                try:
-                    last_status = conn.call("status")
-                    now, cpu = time.monotonic(), cpu_s(proc.pid)
-                except (CannotConnect, FileNotFoundError, ProcessLookupError):
-                    break  # the scenario ended
-                phase = phases.setdefault(state_class(last_status["state"]), Phase())
-                phase.cpu_s += cpu - cpu_prev
-                phase.wall_s += now - t_prev
-                phase.lags_ms.append(float(last_status["loop_lag_ms"]["last_ms"]))
-                phase.states.add(last_status["state"].split(".")[0] if state_class(
-                    last_status["state"]) == "mission" else last_status["state"])
-                t_prev, cpu_prev = now, cpu
-            conn.close()
+            assert board.stdout is not None
+            port = board.stdout.readline().strip()
+            sock = str(work / "c.sock")
+            config = work / "robotd.toml"
+            config.write_text(f'[robot]\nprofile = "{profile}"\nstate_dir = "{work / "state"}"\n'
+                              f'[control]\nsocket = "{sock}"\n[hal]\ndevices = ["motors"]\n'
+                              f'[serial]\nport = "{port}"\n')
+            argv = [str(Path(sys.executable).with_name("robotd")), "run", "--config",
+                    str(config)]
+            return measure_process(argv, sock, work, seconds)
         finally:
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGINT)
-                try:
-                    proc.wait(15)
-                except subprocess.TimeoutExpired:
-                    proc.kill()
-                    proc.wait()
+            board.send_signal(signal.SIGINT)
+            try:
+                board.wait(10)
+            except subprocess.TimeoutExpired:
+                board.kill()
+                board.wait()
+
+
+def measure_process(argv: list[str], sock: str, work: Path,
+                    seconds: float) -> tuple[dict[str, Phase], dict[str, Any]]:
+    errors = work / "stderr"
+    with errors.open("w") as err:
+        proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=err, cwd=work)
+    try:
+        conn = _connect(sock, proc, errors)
+        phases: dict[str, Phase] = {}
+        last_status: dict[str, Any] = {}
+        t_prev, cpu_prev = time.monotonic(), cpu_s(proc.pid)
+        end = t_prev + seconds
+        while time.monotonic() < end and proc.poll() is None:
+            time.sleep(max(0.0, PERIOD_S - (time.monotonic() - t_prev)))
+            try:
+                last_status = conn.call("status")
+                now, cpu = time.monotonic(), cpu_s(proc.pid)
+            except (CannotConnect, FileNotFoundError, ProcessLookupError):
+                break  # the scenario ended
+            state = last_status["state"]
+            phase = phases.setdefault(state_class(state), Phase())
+            phase.cpu_s += cpu - cpu_prev
+            phase.wall_s += now - t_prev
+            phase.lags_ms.append(float(last_status["loop_lag_ms"]["last_ms"]))
+            phase.states.add(state.split(".")[0] if state_class(state) == "mission" else state)
+            t_prev, cpu_prev = now, cpu
+        conn.close()
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)
+            try:
+                proc.wait(15)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
     return phases, last_status
 
 
@@ -253,6 +291,14 @@ def main() -> int:
 
     row("reference: asyncio + loop monitor", "-", measure_reference(args.seconds))
     verdicts = []
+    for profile in ("idle", "square"):  # the daemon alone: no simulated world in it
+        try:
+            phases, _status = measure_run(profile, args.seconds)
+        except NoDaemon as exc:
+            print(f"robotd run {profile}: not measured: {exc}")
+            continue
+        for state, phase in sorted(phases.items()):
+            row(f"robotd run {profile} (board on pty)", state, phase)
     for profile in profiles:
         try:
             phases, status = measure_profile(profile, args.seconds)

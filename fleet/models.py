@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from datetime import datetime
 
-from sqlalchemy import Boolean, Float, ForeignKey, Integer, String, Text
+from sqlalchemy import Boolean, Float, ForeignKey, Integer, String, Text, false
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
 from fleet.clock import UtcDateTime
@@ -68,6 +68,11 @@ class Robot(Base):
     fault_code: Mapped[str | None] = mapped_column(String(60), default=None)
     fault_message: Mapped[str | None] = mapped_column(String(500), default=None)
     battery_pct: Mapped[float | None] = mapped_column(Float, default=None)
+    # Back at base with a load: not dispatched again until unloaded (fleet.services.unload).
+    unload_pending: Mapped[bool] = mapped_column(Boolean, default=False,
+                                                 server_default=false())
+    unload_clear_since: Mapped[datetime | None] = mapped_column(UtcDateTime(), default=None)
+    """Since when its load cell has read below the minimum, while ``unload_pending``."""
 
 
 class Request(Base):

@@ -37,6 +37,9 @@ class FleetSettings(BaseModel):
     min_weight_kg: float = Field(0.5, alias="MinWeightKg", ge=0, le=1000)
     max_weight_kg: float = Field(10.0, alias="MaxWeightKg", gt=0, le=1000)
     require_weight_check: bool = Field(True, alias="RequireWeightCheck")
+    # A robot back at base with a load is dispatched again once its load cell has read below
+    # MinWeightKg this long (or the staff say it is unloaded).
+    unload_settled_s: float = Field(5.0, alias="UnloadSettledS", ge=0, le=3600)
     use_floor_color: bool = Field(False, alias="UseFloorColor")
 
     @model_validator(mode="after")
@@ -68,6 +71,7 @@ class SettingsUpdate(BaseModel):
     MinWeightKg: float | None = Field(None, ge=0, le=1000)
     MaxWeightKg: float | None = Field(None, gt=0, le=1000)
     RequireWeightCheck: bool | None = None
+    UnloadSettledS: float | None = Field(None, ge=0, le=3600)
     UseFloorColor: bool | None = None
 
     def given(self) -> dict[str, Any]:

@@ -25,9 +25,9 @@ from fleet.api.schemas import (
 )
 from fleet.errors import Conflict, NotFound
 from fleet.models import Beacon, Customer, Notification, Robot, Room
-from fleet.services import admin
+from fleet.services import admin, unload
 from fleet.services.common import robot_by_name
-from fleet.settings import SettingsUpdate, store_settings
+from fleet.settings import SettingsUpdate, load_settings, store_settings
 
 router = APIRouter(prefix="/api", tags=["admin"], responses=AUTH_ERRORS,
                    dependencies=[Depends(admin_only)])
@@ -67,6 +67,20 @@ async def patch_robot(name: Name, body: RobotPatch, http: HttpRequest) -> RobotO
         robot = await admin.update_robot(
             session, server.clock(), await _robot(session, name), is_active=body.IsActive,
             emergency_stop=body.EmergencyStop, maintenance_mode=body.MaintenanceMode)
+        return robot_out(robot)
+
+
+@router.post("/robots/{name}/unloaded", response_model=RobotOut, responses=errors(404, 409))
+async def robot_unloaded(name: Name, http: HttpRequest) -> RobotOut:
+    """The staff took the load off a robot back at base (``WaitingFor`` "unload"): it serves
+    the queue at once, without waiting for its load cell to settle. 409 when it is not
+    waiting to be unloaded."""
+    server = server_of(http)
+    await server.flush_pings()  # dispatched on its latest report
+    async with server.db.write() as session:
+        robot = await _robot(session, name)
+        await unload.confirm_unloaded(session, server.clock(), await load_settings(session),
+                                      robot)
         return robot_out(robot)
 
 

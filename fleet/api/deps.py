@@ -122,4 +122,5 @@ def robot_out(robot: Robot) -> RobotOut:
         Fault=(FaultOut(Code=robot.fault_code, Message=robot.fault_message or "")
                if robot.fault_code is not None else None),
         BatteryPct=robot.battery_pct,
+        WaitingFor="unload" if robot.unload_pending else None,
     )

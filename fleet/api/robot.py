@@ -73,7 +73,8 @@ def reply_json(reply: Reply) -> bytes:
     nav = reply.navigation
     return (b'{"ActiveBeacons":[' + nav.encoded_beacons() + b"]," + _encoded_request(
         reply.request_id, reply.request_status) + _encoded_orders(
-        nav.is_line_following, nav.follow_color, reply.emergency_stop, reply.maintenance_mode))
+        nav.is_line_following, nav.follow_color, reply.emergency_stop, reply.maintenance_mode,
+        reply.waiting_for))
 
 
 def _encoded_request(request_id: int | None, status: str | None) -> bytes:
@@ -86,9 +87,11 @@ def _encoded_request(request_id: int | None, status: str | None) -> bytes:
 
 @functools.lru_cache(maxsize=256)
 def _encoded_orders(line_following: bool, follow_color: str | None, emergency_stop: bool,
-                    maintenance_mode: bool) -> bytes:
-    """The reply's fields after ``ActiveBeacons`` and the closing brace."""
+                    maintenance_mode: bool, waiting_for: str | None) -> bytes:
+    """The reply's fields after ``ActiveBeacons`` and the closing brace (``WaitingFor``: an
+    extension, why a free robot is not sent out)."""
     return json.dumps({
         "IsLineFollowing": line_following, "FollowColor": follow_color,
         "EmergencyStop": emergency_stop, "MaintenanceMode": maintenance_mode,
+        "WaitingFor": waiting_for,
     }, separators=(",", ":")).encode()[1:]

@@ -115,6 +115,9 @@ class DataExchangeOut(BaseModel):
     FollowColor: str | None
     EmergencyStop: bool
     MaintenanceMode: bool
+    WaitingFor: Literal["unload", "line"] | None = None
+    """Why the robot, free, is not sent out: its load must come off first ("unload"), or the
+    painted line its next request needs is in use by another robot ("line")."""
 
 
 class RobotIn(Strict):
@@ -147,6 +150,7 @@ class RobotOut(BaseModel):
     EmergencyStopActive: bool | None = None
     Fault: FaultOut | None = None
     BatteryPct: float | None = None
+    WaitingFor: Literal["unload", "line"] | None = None
 
 
 class RoomIn(Strict):

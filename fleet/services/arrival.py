@@ -11,12 +11,14 @@ from sqlalchemy.ext.asyncio import AsyncSession
 
 from fleet.cache import BeaconRow, SiteView
 from fleet.models import Robot
+from fleet.services import unload
 from fleet.services.alerts import LAUNDRY_KINDS, STUCK, close_alerts, open_alerts
 from fleet.services.assignment import process_queue
 from fleet.services.common import current_request, release, set_status
 from fleet.services.navigation import target_beacons
 from fleet.services.notify import notify
-from fleet.status import DIRTY_ABOARD, Disposition, Status
+from fleet.settings import FleetSettings
+from fleet.status import DIRTY_ABOARD, HOLDS_LAUNDRY, Disposition, Status
 
 log = structlog.get_logger(__name__)
 
@@ -41,7 +43,7 @@ def reached(targets: Sequence[BeaconRow], sightings: Sequence[Sighting]) -> bool
 
 async def handle_arrival(
     session: AsyncSession, now: datetime, robot: Robot, sightings: Sequence[Sighting],
-    site: SiteView,
+    site: SiteView, cfg: FleetSettings,
 ) -> str:
     """Apply an IsInTarget=true report; returns what happened (for logs and tests)."""
     request = await current_request(session, robot)
@@ -97,7 +99,9 @@ async def handle_arrival(
                    request=request, robot_name=robot.name,
                    message=f"Clean laundry of cancelled request {request.id} is held at base.")
     release(robot)
-    await process_queue(session, now)
+    unload.hold(robot, now, cfg, laundry_aboard=status == Status.LAUNDRY_LOADED or (
+        status == Status.CANCELLED and request.cancelled_from in HOLDS_LAUNDRY))
+    await process_queue(session, now, cfg)
     log.info("fleet.robot.at_base", robot=robot.name, request_id=request.id,
              status=request.status)
     return "at-base"

@@ -41,7 +41,9 @@ def can_serve(robot: Robot, now: datetime, cfg: FleetSettings) -> bool:
 
 
 def is_available(robot: Robot, now: datetime, cfg: FleetSettings) -> bool:
-    return can_serve(robot, now, cfg) and robot.current_request_id is None
+    """Can serve, serves nothing, and carries nothing (not waiting to be unloaded)."""
+    return (can_serve(robot, now, cfg) and robot.current_request_id is None
+            and not robot.unload_pending)
 
 
 async def robot_by_name(session: AsyncSession, name: str) -> Robot | None:

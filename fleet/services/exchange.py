@@ -16,12 +16,12 @@ from typing import Any, cast
 
 from sqlalchemy import Connection, Table, bindparam, case, select, update
 
-from fleet.cache import Cached, SiteCache
+from fleet.cache import Cached, SiteCache, SiteView
 from fleet.clock import Clock
 from fleet.db import Database
 from fleet.errors import NotFound
 from fleet.models import Request, Robot
-from fleet.services import weight
+from fleet.services import unload, weight
 from fleet.services.arrival import Sighting, handle_arrival
 from fleet.services.assignment import process_queue
 from fleet.services.common import current_request, robot_by_name
@@ -57,6 +57,8 @@ class Reply:
     request_id: int | None = None
     """The request the robot serves (so it can remember it across a restart), or None."""
     request_status: str | None = None
+    waiting_for: str | None = None
+    """Why a free robot is not sent out: "unload" (its load must come off first), or None."""
 
 
 @dataclass(frozen=True)
@@ -75,12 +77,19 @@ class _Light:
     last_ping_at: datetime | None
     estop_active: bool | None
     fault_code: str | None
+    unload_pending: bool
+    unload_clear_since: datetime | None
+
+    @property
+    def waiting_for(self) -> str | None:
+        return "unload" if self.unload_pending else None
 
 
 _LIGHT_QUERY = (
     select(Robot.name, Robot.id, Robot.is_offline, Robot.emergency_stop, Robot.maintenance_mode,
            Request.id, Request.status, Request.customer_id, Request.robot_returned,
-           Robot.last_ping_at, Robot.estop_active, Robot.fault_code)
+           Robot.last_ping_at, Robot.estop_active, Robot.fault_code, Robot.unload_pending,
+           Robot.unload_clear_since)
     .select_from(Robot)
     .outerjoin(Request, Request.id == Robot.current_request_id)
 )
@@ -92,10 +101,10 @@ def _read_lights(conn: Connection) -> dict[str, _Light]:
 
 def _light(row: Any) -> _Light:
     (rid, offline, estop, maintenance, req_id, status, customer, returned, ping, estop_active,
-     fault_code) = row
+     fault_code, unload_pending, unload_clear_since) = row
     return _Light(rid, offline, estop or maintenance, estop, maintenance,
                   req_id, status or "", customer or 0, bool(returned), ping, estop_active,
-                  fault_code)
+                  fault_code, bool(unload_pending), unload_clear_since)
 
 
 class RobotViews:
@@ -174,10 +183,14 @@ def _stale(light: _Light, now: datetime, cfg: FleetSettings) -> bool:
         now - light.last_ping_at > timedelta(seconds=cfg.offline_after_s))
 
 
-def _may_change(light: _Light, report: Report, stale: bool = False) -> bool:
+def _may_change(light: _Light, report: Report, now: datetime, cfg: FleetSettings,
+                stale: bool = False) -> bool:
     if light.is_offline or stale:
         return True
     if light.fault_code != report.fault_code or light.estop_active != report.estop_active:
+        return True
+    if unload.step(light.unload_pending, light.unload_clear_since, report.weight_kg, now,
+                   cfg) is not None:
         return True
     if light.request_id is None:
         return False
@@ -192,23 +205,18 @@ async def exchange(
     light = await views.get(report.robot_name)
     cfg = await cache.settings()
     site = await cache.site()
-    stale = not light.is_offline and _stale(light, clock(), cfg)
-    if not _may_change(light, report, stale):
-        views.note_ping(light.robot_id, clock(), report)
-        request = light if light.request_id is not None else None
-        nav = navigation(site, cfg, request, stopped=light.stopped)
-        return Reply(nav, light.emergency_stop, light.maintenance_mode,
-                     light.request_id, light.status or None)
+    now = clock()
+    stale = not light.is_offline and _stale(light, now, cfg)
+    if not _may_change(light, report, now, cfg, stale):
+        views.note_ping(light.robot_id, now, report)
+        return _light_reply(light, site, cfg)
     if light.is_offline:
         # Back online: restored in a batch with the others coming back now (a reconnect
         # storm), then this report is handled as any other.
         await views.reconnects.restore(report.robot_name, report)
         light = await views.get(report.robot_name)
-        if not _may_change(light, report):
-            request = light if light.request_id is not None else None
-            nav = navigation(site, cfg, request, stopped=light.stopped)
-            return Reply(nav, light.emergency_stop, light.maintenance_mode,
-                         light.request_id, light.status or None)
+        if not _may_change(light, report, clock(), cfg):
+            return _light_reply(light, site, cfg)
     async with db.write() as session:
         now = clock()
         robot = await robot_by_name(session, report.robot_name)
@@ -222,7 +230,8 @@ async def exchange(
         if stale:
             await process_queue(session, now, cfg)
         if report.is_in_target:
-            await handle_arrival(session, now, robot, report.sightings, site)
+            await handle_arrival(session, now, robot, report.sightings, site, cfg)
+        await unload.apply(session, now, cfg, robot)
         current = await current_request(session, robot)
         if current is not None:
             weight.evaluate(session, now, cfg, current, report.weight_kg)
@@ -230,7 +239,15 @@ async def exchange(
                          stopped=robot.emergency_stop or robot.maintenance_mode)
         return Reply(nav, robot.emergency_stop, robot.maintenance_mode,
                      current.id if current is not None else None,
-                     str(current.status) if current is not None else None)
+                     str(current.status) if current is not None else None,
+                     "unload" if robot.unload_pending else None)
+
+
+def _light_reply(light: _Light, site: SiteView, cfg: FleetSettings) -> Reply:
+    request = light if light.request_id is not None else None
+    nav = navigation(site, cfg, request, stopped=light.stopped)
+    return Reply(nav, light.emergency_stop, light.maintenance_mode,
+                 light.request_id, light.status or None, light.waiting_for)
 
 
 def _apply_report(robot: Robot, now: datetime, report: Report) -> None:

@@ -232,6 +232,14 @@ class Fleet:
         return await self.exchange(robot, beacons=[beacon(BASE_MAC, rssi)], in_target=True,
                                    weight_kg=weight_kg)
 
+    async def unloaded(self, robot: str) -> dict[str, Any]:
+        """The staff take the load off a robot back at base: it may go out again at once
+        (otherwise it waits for its load cell to read empty for UnloadSettledS)."""
+        response = await self.http.post(f"/api/robots/{robot}/unloaded")
+        assert response.status_code == 200, response.text
+        body: dict[str, Any] = response.json()
+        return body
+
     async def robots(self) -> dict[str, dict[str, Any]]:
         response = await self.http.get("/api/robots")
         return {r["Name"]: r for r in response.json()}

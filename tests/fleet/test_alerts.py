@@ -23,7 +23,7 @@ async def delivering(fleet: Fleet, customer: int = 1) -> int:
     """A request whose robot-1 carries the clean laundry back (FinishedWashingGoingToRoom)."""
     request_id = await loaded(fleet, customer)
     await fleet.arrive_at_base("robot-1", weight_kg=3.0)
-    await fleet.exchange("robot-1", weight_kg=0.0)
+    await fleet.unloaded("robot-1")
     await fleet.do(request_id, "washing-done")
     assert (await fleet.get(request_id))["AssignedRobotName"] == "robot-1"
     return request_id

@@ -15,6 +15,7 @@ async def finish_at_base(fleet: Fleet, robot: str, request_id: int) -> None:
     await fleet.do(request_id, "confirm-loaded")
     await fleet.arrive_at_base(robot, weight_kg=3.0)
     assert await fleet.status(request_id) == "Washing"
+    await fleet.unloaded(robot)  # the staff take the laundry off: the robot is free
 
 
 class TestDuplicateRequests:

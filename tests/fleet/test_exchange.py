@@ -92,6 +92,7 @@ class TestArrival:
         await fleet.arrive_at_room(ROBOT, 1, weight_kg=2.0)
         await fleet.do(request["Id"], "confirm-loaded")
         await fleet.arrive_at_base(ROBOT)
+        await fleet.unloaded(ROBOT)
         body = await fleet.do(request["Id"], "washing-done")
         assert (body["Status"], body["AssignedRobotName"]) == ("FinishedWashingGoingToRoom",
                                                               ROBOT)
@@ -150,6 +151,7 @@ class TestWeightValidation:
         await fleet.arrive_at_room(ROBOT, 1, weight_kg=2.0)
         await fleet.do(request["Id"], "confirm-loaded")
         await fleet.arrive_at_base(ROBOT)
+        await fleet.unloaded(ROBOT)
         await fleet.do(request["Id"], "washing-done")
         await fleet.arrive_at_room(ROBOT, 1, weight_kg=2.0)
         assert (await fleet.act(request["Id"], "confirm-unloaded")).status_code == 409

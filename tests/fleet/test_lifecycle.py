@@ -27,6 +27,7 @@ async def step(fleet: Fleet, request_id: int, status: Status) -> None:
         await fleet.do(request_id, "confirm-loaded")
     elif status == Status.WASHING:
         await fleet.arrive_at_base(ROBOT, weight_kg=4.0)
+        await fleet.unloaded(ROBOT)  # the staff take the laundry off: the robot is free
     elif status == Status.GOING_TO_ROOM:
         await fleet.do(request_id, "washing-done")
     elif status == Status.ARRIVED_FOR_DELIVERY:

@@ -29,6 +29,7 @@ async def to_loaded(fleet, customer=1):
 async def to_delivery(fleet, customer=1):
     request_id = await to_loaded(fleet, customer)
     await fleet.arrive_at_base(ROBOT)
+    await fleet.unloaded(ROBOT)
     await fleet.do(request_id, "washing-done")
     return request_id
 

@@ -122,6 +122,13 @@ class ControlServer:
             with contextlib.suppress(FileNotFoundError):
                 os.unlink(self.path)
 
+    def figures(self) -> dict[str, int]:
+        """What the socket holds now (places, seats, promised places, refusals lingering) and
+        ``counts`` since it started."""
+        return {"clients": len(self.clients), "waiting": len(self._room),
+                "queued": self._room.queued, "promised": self._promised,
+                "lingering": self._lingering, **self.counts}
+
     def publish(self, topic: str, params: dict[str, Any]) -> None:
         """Send a notification to every client subscribed to ``topic`` (or to ``*``)."""
         line: bytes | None = None

@@ -15,6 +15,7 @@ import shutil
 import socket
 import stat
 import tempfile
+import threading
 from collections.abc import AsyncIterator
 from pathlib import Path
 from typing import Any
@@ -163,6 +164,35 @@ class TestWaitingRoom:
         assert not answered_early
         assert reply["result"] == again["result"] == {"state": "idle"}
         assert (counts["waited"], counts["refused"]) == (1, 0)
+
+    async def test_twenty_newcomers_share_two_places_first_come_first_served(self) -> None:
+        """Each asks once and leaves; the places go round, in the order they came, and none
+        is lost on the way (every waiter answered, no place left promised)."""
+        policy = ClientPolicy(wait_s=10, idle_timeout_s=3600, evict_idle_s=3600)
+        async with serving(max_clients=2, policy=policy) as (server, _):
+            holders = await busy_clients(server, 2)
+            answered: list[int] = []
+
+            async def ask_once(n: int) -> None:
+                client = await RpcClient.connect(server.path)
+                await client.call("status")
+                answered.append(n)
+                await client.close()
+
+            askers = []
+            for n in range(20):
+                askers.append(asyncio.create_task(ask_once(n)))
+                await asyncio.sleep(0.01)  # they come in this order
+            for holder in holders:
+                await holder.close()
+            await asyncio.wait_for(asyncio.gather(*askers), 10)
+            await asyncio.sleep(0.05)
+            figures = server.figures()
+        assert sorted(answered) == list(range(20))
+        assert answered[:2] in ([0, 1], [1, 0])
+        assert {k: figures[k] for k in ("waiting", "queued", "promised", "lingering")} == {
+            "waiting": 0, "queued": 0, "promised": 0, "lingering": 0}
+        assert (figures["waited"], figures["refused"]) == (20, 0)
 
     async def test_one_that_waits_longer_than_wait_s_is_refused_with_its_id(self) -> None:
         policy = ClientPolicy(wait_s=0.2, idle_timeout_s=3600, evict_idle_s=3600)
@@ -342,3 +372,48 @@ class TestIdleAndStalled:
         assert told[0]["error"]["data"] == {"reason": "idle"}
         assert "socket is full" in told[0]["error"]["message"]
         assert "result" in still
+
+
+HELD = ("clients", "waiting", "queued", "promised", "lingering")
+
+
+class TestStorm:
+    async def test_after_a_connect_storm_nothing_is_left_held(self) -> None:
+        """Four threads connect, ask and hang up as fast as they can for a second: an estop
+        sent in the middle of it is served; afterwards no place, seat, promise or lingering
+        refusal is left, and a newcomer is answered at once."""
+        policy = ClientPolicy(idle_timeout_s=3600, evict_idle_s=3600)
+        async with serving(max_clients=8, policy=policy) as (server, robot):
+            stop = threading.Event()
+
+            def storm() -> None:
+                while not stop.is_set():
+                    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as conn:
+                        conn.settimeout(1)
+                        with contextlib.suppress(OSError):
+                            conn.connect(server.path)
+                            conn.sendall(STATUS + b"\n")
+
+            threads = [threading.Thread(target=storm, daemon=True) for _ in range(4)]
+            for thread in threads:
+                thread.start()
+            await asyncio.sleep(0.5)
+            assert server.estop_socket is not None
+            tech = await RpcClient.connect(server.estop_socket.path)
+            await tech.send_line(ESTOP)
+            said = await until_closed(tech)
+            await tech.close()
+            stop.set()
+            await asyncio.to_thread(lambda: [t.join(5) for t in threads])
+            for _ in range(50):  # lingering refusals and waits run out within 1.5 s
+                figures = server.figures()
+                if not any(figures[k] for k in HELD):
+                    break
+                await asyncio.sleep(0.1)
+            late = await RpcClient.connect(server.path)
+            answer = await late.call("status")
+            await late.close()
+        assert said[0]["result"] == {"state": "estop"}
+        assert robot.estops == 1
+        assert {k: figures[k] for k in HELD} == dict.fromkeys(HELD, 0), figures
+        assert answer["result"] == {"state": "estop"}

@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from behaviours.docking.tables import WAIT_EMPTY_MAX_S
 from hal.options import Option, Order
 from hal.settings import SettingsView
 
@@ -70,9 +71,10 @@ DOCKING_OPTIONS: tuple[Option, ...] = (
     Option("back_off_m", "float", 0.25, "Back off this far before trying again.", min=0.02,
            max=2, tunable=True),
     Option("empty_min_s", "float", 10.0, "Station suction runs at least this long.", min=0,
-           max=300, tunable=True),
-    Option("empty_max_s", "float", 30.0, "... and at most this long (the seed's 10-30 s).",
-           min=0.1, max=300, tunable=True),
+           max=WAIT_EMPTY_MAX_S, tunable=True),
+    Option("empty_max_s", "float", 30.0,
+           "... and at most this long (the seed's 10-30 s; wait_empty's state timeout, 30 s, "
+           "is the hard limit).", min=0.1, max=WAIT_EMPTY_MAX_S, tunable=True),
     Option("bin_full_pct", "float", 60.0, "Empty the bin at the station from this level.",
            min=0, max=100, tunable=True),
     Option("bin_empty_pct", "float", 5.0, "The bin counts as empty at or below this level.",

@@ -12,6 +12,8 @@ from collections.abc import Awaitable, Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+import structlog
+
 from behaviours.docking.beams import BeamView
 from behaviours.docking.config import DockingConfig
 from behaviours.motion.moves import Mover
@@ -29,10 +31,13 @@ from hal.devices import (
     WallSensor,
 )
 from hal.readings import DockIrReading, DockSignal
+from hal.tasks import cancel_and_wait
 from hal.telemetry import Telemetry
 
 if TYPE_CHECKING:
     from behaviours.context import RobotContext
+
+log = structlog.get_logger(__name__)
 
 EMPTY = DockIrReading()
 
@@ -213,13 +218,42 @@ async def run_phase(ctx: RobotContext, senses: DockSenses, phase: str,
                     handlers: Handlers) -> None:
     """Run a phase's sub-steps: the handler of whichever sub-state is current, until the
     machine leaves ``phase`` (this task is cancelled then). A handler ends by firing the
-    trigger to the next sub-state; one that does not is run again after a short wait."""
+    trigger to the next sub-state; one that does not is run again after a short wait.
+
+    A handler whose sub-state was left by another trigger (a sub-state's own timeout, such
+    as ``wait_empty``'s) is cancelled at once: it must not go on acting for a state the
+    robot is no longer in (the station's suction ran on after ``vacuum_off``)."""
     while ctx.state.startswith(phase + "."):
         before = ctx.state
         handler = handlers.get(before)
         if handler is None:
             await asyncio.sleep(IDLE_S)
             continue
-        await handler(ctx, senses)
+        await _run_while_in(ctx, before, handler, senses)
         if ctx.state == before:
             await asyncio.sleep(IDLE_S)
+
+
+async def _run_while_in(ctx: RobotContext, state: str, handler: PhaseStep,
+                        senses: DockSenses) -> None:
+    """Run ``handler`` while the machine stays in ``state``; cancel it once it has left (the
+    handler's own trigger has moved the machine on by the time it returns, so only a
+    handler overtaken by another trigger is cut short)."""
+
+    async def step() -> None:
+        await handler(ctx, senses)
+
+    task = asyncio.create_task(step(), name=f"dock-step:{state}")
+    try:
+        while True:
+            done, _ = await asyncio.wait({task}, timeout=IDLE_S)
+            if done:
+                task.result()
+                return
+            if ctx.state != state:
+                log.info("dock.step_overtaken", step=state, state=ctx.state)
+                await cancel_and_wait(task)
+                return
+    finally:
+        if not task.done():
+            await cancel_and_wait(task)

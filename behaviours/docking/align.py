@@ -17,10 +17,11 @@ import math
 from typing import TYPE_CHECKING
 
 from behaviours.docking.beams import FRONT_RECEIVERS, BeamView, front_case, signal_case
+from behaviours.docking.reverse import back_up
 from behaviours.docking.search import FINE_DPS, PERIOD_S, scan_dock_dir
 from behaviours.docking.senses import DockSenses, Handlers, PhaseLoop
 from behaviours.docking.tables import DockState, DockTrigger
-from behaviours.motion.moves import wrap
+from behaviours.motion.moves import TURN_TOLERANCE_RAD, wrap
 
 if TYPE_CHECKING:
     from behaviours.context import RobotContext
@@ -33,6 +34,7 @@ OMNI_FORWARD_M = 0.12
 """Where the omni receiver sits ahead of the robot's centre (a mounting fact: where the
 beam was lost is where the omni was, not the centre)."""
 MAX_COMPARES = 12
+MIN_ADJUST_RAD = 2 * TURN_TOLERANCE_RAD
 FINE_ARC_DEG = 60.0
 """How far a slow turn goes looking for an edge of the front pair's arc (+-25 deg)."""
 FINE_INSIDE_DEG = 12.0
@@ -75,11 +77,17 @@ async def _sweep(senses: DockSenses, direction: float, max_m: float) -> float | 
 async def center_beam_search(ctx: RobotContext, senses: DockSenses) -> None:
     mover = senses.mover
     dock_dir = senses.dock_dir()
-    if senses.strength() > senses.config.align_strength:
-        # Too close (after a failed contact): back out to where the pair tells L from R.
+    def too_close() -> bool:
+        # Where the crossed pair does not tell L from R: saturated, or inside the force
+        # field (right at the station, off its axis, the pair may read weak or crossed).
+        return senses.strength() > senses.config.align_strength \
+            or senses.view().located("force_field")
+
+    if too_close():
+        # After a failed contact or an alignment lost: back out to where it can align.
         await mover.turn_to(dock_dir)
-        await mover.straight(BACK_OUT_MAX_M, -senses.config.approach_mps / 2,
-                             until=lambda: senses.strength() <= senses.config.align_strength)
+        await back_up(ctx, senses, BACK_OUT_MAX_M, senses.config.approach_mps / 2,
+                      why="center_beam_search", until=lambda: not too_close())
     # Side-on with the dock to the right, the omni receiver sits 12 cm ahead along the sweep:
     # near the axis the beam is behind it, so sweep backwards first; only in the front_right
     # beam alone (the robot off to the dock's left) does the axis lie ahead.
@@ -199,7 +207,10 @@ async def _adjust(ctx: RobotContext, senses: DockSenses, sign: float) -> None:
     back the other way halves the step, so the compare closes in on L ~ R."""
     run = senses.run
     if run.adjust_sign and sign != run.adjust_sign:
-        run.adjust_rad /= 2
+        # Halved, but never below what a turn can do (``moves.TURN_TOLERANCE_RAD``): a
+        # smaller step would not turn the robot at all and the compare would read the same
+        # again until MAX_COMPARES.
+        run.adjust_rad = max(MIN_ADJUST_RAD, run.adjust_rad / 2)
     run.adjust_sign = sign
     await senses.mover.turn_by(sign * run.adjust_rad)
     await ctx.trigger(DockTrigger.ADJUSTED,

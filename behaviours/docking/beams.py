@@ -49,6 +49,10 @@ class BeamView:
     def front_sees(self) -> bool:
         return any(self.sees_any(r) for r in FRONT_RECEIVERS)
 
+    def field_seen(self) -> bool:
+        """Any receiver sees the dock's force field (OI 161): the seed's "Force Field"."""
+        return any(self.sees(r, "force_field") for r in self.reading.beams)
+
 
 def position_case(view: BeamView) -> str | None:
     """Section 2's scan: the trigger of the case the beams call for, None for none.

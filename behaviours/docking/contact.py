@@ -17,6 +17,7 @@ from __future__ import annotations
 import asyncio
 from typing import TYPE_CHECKING
 
+from behaviours.docking.reverse import back_up
 from behaviours.docking.senses import DockSenses, PhaseLoop
 from behaviours.docking.tables import DockState, DockTrigger
 
@@ -68,7 +69,7 @@ async def align_check(ctx: RobotContext, senses: DockSenses) -> None:
     run.align_checks += 1
     if senses.bumped() and senses.contact_mv() == 0:
         # The nose met the station's body beside the pads: off the axis.
-        await senses.mover.straight(0.05, -senses.config.dock_mps)
+        await back_up(ctx, senses, 0.05, senses.config.dock_mps, why="align_check")
         await ctx.trigger(DockTrigger.ALIGN_LOST,
                           reason="bumped the station beside the contacts")
     elif not senses.view().dock_seen():
@@ -112,7 +113,7 @@ async def motor_stop(ctx: RobotContext, senses: DockSenses) -> None:
 async def retry(ctx: RobotContext, senses: DockSenses) -> None:
     """Back off, then check the contacts off the dock (section 4: "check contacts")."""
     cfg = senses.config
-    await senses.mover.straight(cfg.back_off_m, -cfg.approach_mps / 2)
+    await back_up(ctx, senses, cfg.back_off_m, cfg.approach_mps / 2, why="retry")
     await asyncio.sleep(CHECK_S)
     mv = senses.contact_mv()
     ctx.emit("dock.contacts_checked", contact_mv=mv, ok=mv == 0)

@@ -5,12 +5,20 @@ the profiles that dock (``Docking.machine_part``)."""
 from __future__ import annotations
 
 import asyncio
-from typing import Any
+from typing import Any, Final
+
+import structlog
 
 from behaviours.context import RobotContext
 from behaviours.docking.attempts import DockAttempts
-from behaviours.docking.tables import DOCKING_TRANSITIONS, docking_states
+from behaviours.docking.tables import DOCKING_TRANSITIONS, DockTrigger, docking_states
 from behaviours.machine_part import MachinePart
+
+log = structlog.get_logger(__name__)
+
+DOCK_FAILED_FAULT: Final = "dock_failed"
+"""The fault code once section 4's fallbacks are spent."""
+DOCK_IR_LOST_FAULT: Final = "dock_ir_lost"
 
 
 class AttemptCallbacks:
@@ -48,7 +56,14 @@ class AttemptCallbacks:
         self.dock_attempts.fell_back()
 
     def gave_up_docking(self, event: Any) -> None:
-        self.dock_attempts.gave_up(str(event.kwargs.get("reason", "")))
+        """The seed's fallback spent (or the dock IR lost): a fault, not a silent recovery
+        (``robotctl status`` shows it while the robot is in recovery; a robot that reports
+        to a fleet server sends it there)."""
+        why = self.dock_attempts.gave_up(str(event.kwargs.get("reason", "")))
+        code = DOCK_IR_LOST_FAULT if event.event.name == DockTrigger.DOCK_IR_LOST \
+            else DOCK_FAILED_FAULT
+        log.error("dock.gave_up", code=code, reason=why)
+        self._ctx.note_fault(code, why)
 
     def dock_succeeded(self, _event: Any) -> None:
         self.dock_attempts.succeeded(asyncio.get_running_loop().time())

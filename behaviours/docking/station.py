@@ -6,7 +6,8 @@ docking) starts ``emptying`` (door open on the bin door servo, station suction o
 the bin reads empty, suction off, door closed) and charging carries on; a full charge
 (``docking.charge_full_pct``) is ``charged`` -> ``standby``. Contacts that lose their voltage
 on the way are ``contacts_lost`` (dock again). ``standby`` waits for the robot's next job (the
-profile's ``next_job``) and ``undock`` backs out and turns round.
+profile's ``next_job``: the vacuum's cleaning schedule) and ``undock`` backs out under the
+reverse guard (``behaviours.docking.reverse``) and turns round.
 
 Whether the robot is docked survives a restart (``senses.DOCKED_RECORD``).
 """
@@ -19,6 +20,7 @@ import math
 from collections.abc import Awaitable, Callable
 from typing import TYPE_CHECKING
 
+from behaviours.docking.reverse import back_up
 from behaviours.docking.senses import DockSenses, PhaseLoop
 from behaviours.docking.tables import DockState, DockTrigger
 from hal.devices import LinkDown
@@ -113,11 +115,13 @@ async def door_close(ctx: RobotContext, senses: DockSenses) -> None:
 
 
 async def undock(ctx: RobotContext, senses: DockSenses) -> None:
+    """Back out ``undock_distance_m`` under the reverse guard (stopped early by a virtual wall
+    behind or a bumper), then turn round."""
     cfg = senses.config
     await senses.set_docked(False)
-    await senses.mover.straight(cfg.undock_distance_m, -cfg.approach_mps)
+    backed = await back_up(ctx, senses, cfg.undock_distance_m, cfg.approach_mps, why="undock")
     await senses.mover.turn_by(math.pi)
-    await ctx.trigger(DockTrigger.UNDOCKED)
+    await ctx.trigger(DockTrigger.UNDOCKED, backed_m=round(backed, 3))
 
 
 EMPTYING_LOOP = PhaseLoop(DockState.EMPTYING, {

@@ -167,6 +167,7 @@ duration_s = 8
         text = (SCENARIOS / "docking-rear.toml").read_text()
         text = text.replace("[robot]\n", "people = [ { name = \"ann\", x_m = 0.9, y_m = 2.05, "
                             "radius_m = 0.25 } ]\n\n[robot]\n")
+        text = text.replace("x_m = 0.6\n", "x_m = 1.6\n")  # beyond the person, facing away
         text = text.replace('name = "docking-rear"', 'name = "person"')
         head, _, _ = text.partition("[success]")
         path = tmp_path / "person.toml"

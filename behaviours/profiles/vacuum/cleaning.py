@@ -1,9 +1,14 @@
-"""Cleaning: a coverage pattern that bounces on bumps and follows walls.
+"""Cleaning: a coverage pattern that bounces on bumps and follows walls, and keeps out of
+virtual walls.
 
 Straight runs; a bump backs off a little and turns away by a random angle (100-200 deg,
 left); a wall met on the right (the side wall sensor) is followed for
-``vacuum.wall_follow_s``, then the robot bounces on. The random turns come from a generator
-the profile seeds, so a simulated run is repeatable.
+``vacuum.wall_follow_s``, then the robot bounces on. A virtual wall (the OI's beam, code 162,
+``docking.ir_codes.virtual_wall``) seen by any dock IR receiver is turned away from like a
+bump, before the robot has crossed it (the seed's rear receiver's "Virtual Wall"): ahead (the
+omni or a front receiver) 100-200 deg round, beside (one side receiver) 60-120 deg the other
+way; seen only behind (the rear receiver) the robot is leaving it and drives on. The random
+turns come from a generator the profile seeds, so a simulated run is repeatable.
 """
 
 from __future__ import annotations
@@ -13,8 +18,9 @@ import math
 import random
 from typing import TYPE_CHECKING
 
+from behaviours.docking.reverse import VIRTUAL_WALL
 from behaviours.motion.moves import Mover
-from hal.devices import BumperSensor, WallSensor
+from hal.devices import BumperSensor, DockIr, WallSensor
 
 if TYPE_CHECKING:
     from behaviours.context import RobotContext
@@ -25,19 +31,44 @@ WALL_TARGET_CM = 6.0
 WALL_SEEN_CM = 15.0
 WALL_LOST_CM = 30.0
 WALL_GAIN = 0.05
+LEAVE_BEAM_M = 0.5
+"""After turning away from a virtual wall the robot leaves its beam; still in it this much
+later, it turns away again."""
 
 
 class Coverage:
     """The cleaning pattern; ``run`` drives until cancelled."""
 
     def __init__(self, mover: Mover, bumpers: BumperSensor | None, wall: WallSensor | None,
-                 rng: random.Random) -> None:
+                 rng: random.Random, dock_ir: DockIr | None = None) -> None:
         self.mover = mover
         self.bumpers = bumpers
         self.wall = wall
         self.rng = rng
+        self.dock_ir = dock_ir
         self.bounces = 0
         self.wall_follows = 0
+        self.virtual_walls = 0
+        self._turned_at: tuple[float, float] | None = None
+
+    def _virtual_wall(self) -> frozenset[str]:
+        """The receivers that see a virtual wall now (none without dock IR receivers)."""
+        reading = None if self.dock_ir is None else self.dock_ir.latest()
+        if reading is None:
+            return frozenset()
+        return frozenset(r for r, beams in reading.beams.items() if VIRTUAL_WALL in beams)
+
+    def _heed_virtual_wall(self, seen: frozenset[str]) -> bool:
+        """Whether the beam seen now calls for a turn (not just behind, not the beam the robot
+        is leaving after a turn)."""
+        if not seen:
+            self._turned_at = None
+            return False
+        if seen == {"rear"}:
+            return False
+        if self._turned_at is None:
+            return True
+        return math.dist(self._turned_at, self.mover.position()) > LEAVE_BEAM_M
 
     def _bumped(self) -> bool:
         reading = None if self.bumpers is None else self.bumpers.latest()
@@ -55,6 +86,10 @@ class Coverage:
             while True:
                 if self._bumped():
                     await self.bounce(ctx)
+                    continue
+                seen = self._virtual_wall()
+                if self._heed_virtual_wall(seen):
+                    await self.turn_away(ctx, seen)
                     continue
                 wall = self._wall_cm()
                 now = loop.time()
@@ -78,3 +113,17 @@ class Coverage:
         angle = math.radians(self.rng.uniform(100, 200))
         ctx.emit("clean.bounce", turn_deg=round(math.degrees(angle)))
         await self.mover.turn_by(angle)
+
+    async def turn_away(self, ctx: RobotContext, seen: frozenset[str]) -> None:
+        """A virtual wall seen: stop and turn away from it (see the module's docstring)."""
+        self.virtual_walls += 1
+        await self.mover.send(0.0, 0.0)
+        ahead = bool(seen & {"omni", "front_left", "front_right"})
+        if ahead or seen >= {"side_left", "side_right"}:
+            angle = math.radians(self.rng.uniform(100, 200))
+        else:
+            sign = -1.0 if "side_left" in seen else 1.0
+            angle = sign * math.radians(self.rng.uniform(60, 120))
+        ctx.emit("clean.virtual_wall", receivers=sorted(seen), turn_deg=round(math.degrees(angle)))
+        await self.mover.turn_by(angle)
+        self._turned_at = self.mover.position()

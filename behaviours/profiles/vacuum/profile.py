@@ -3,8 +3,13 @@
 Mission states (seed section 1): ``mission.cleaning`` and ``mission.battery_check``; every
 ``vacuum.battery_check_s`` the robot passes through the check (each a logged transition):
 at or above ``docking.battery_threshold_pct`` it cleans on (``battery_ok``), below it
-``go_dock``. Docking is the shared capability (``behaviours.docking``); in standby the next
-clean is ``vacuum.standby_s`` away, and undocking leads back into ``mission.cleaning``.
+``go_dock``. A battery that cannot be read (no reading, or none for ``vacuum.battery_stale_s``)
+is neither: the robot cannot know when to dock, so the check reports the fault
+``battery_unreadable`` (``fault``: recovery, the motors stopped; ``robotctl status`` shows
+it, and a robot that reports to a fleet server sends it there). Docking is the shared
+capability (``behaviours.docking``); in standby the next clean is the schedule's
+(``vacuum.schedule``, the seed's "cleaning scheduled?"), and undocking leads back into
+``mission.cleaning``.
 """
 
 from __future__ import annotations
@@ -24,12 +29,17 @@ from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker
 from behaviours.profile import BaseProfile, StateTask
 from behaviours.profiles.vacuum.cleaning import Coverage
+from behaviours.profiles.vacuum.config import VacuumConfig
+from behaviours.profiles.vacuum.schedule import Schedule
 from behaviours.service import Service, TaskService
 
 if TYPE_CHECKING:
     from behaviours.context import RobotContext
 
 log = structlog.get_logger(__name__)
+
+BATTERY_UNREADABLE: Final = "battery_unreadable"
+"""The fault code of a battery the check cannot read."""
 
 DEVICES = ("motors", "encoders", "battery", "servo", "dock_ir", "dock_signal",
            "dock_contacts", "bumpers", "wall", "bin", "station")
@@ -106,7 +116,8 @@ class VacuumProfile(BaseProfile):
         return Mover(ctx.devices.motors, self._odometry, ctx.settings)
 
     async def _clean(self, ctx: RobotContext) -> None:
-        coverage = Coverage(self._mover(ctx), ctx.devices.bumpers, ctx.devices.wall, self._rng)
+        coverage = Coverage(self._mover(ctx), ctx.devices.bumpers, ctx.devices.wall, self._rng,
+                            ctx.devices.dock_ir)
         ctx.emit("clean.start")
         await coverage.run(ctx)
 
@@ -118,7 +129,17 @@ class VacuumProfile(BaseProfile):
         battery = ctx.devices.battery
         reading = None if battery is None else battery.latest()
         threshold = float(ctx.settings.get("docking.battery_threshold_pct"))
-        if reading is not None and reading.percent < threshold:
+        stale_s = float(ctx.settings.get("vacuum.battery_stale_s"))
+        age_s = None if reading is None else ctx.loop_time_s() - reading.t_s
+        if reading is None or age_s is None or age_s > stale_s:
+            why = ("no battery device" if battery is None else "no battery reading yet"
+                   if reading is None else f"no battery reading for {age_s:.0f} s")
+            log.error("clean.battery_unreadable", reason=why)
+            ctx.emit("clean.battery_unreadable", reason=why)
+            await ctx.trigger(CoreTrigger.FAULT, code=BATTERY_UNREADABLE,
+                              reason=f"battery cannot be read ({why}): the robot cannot tell "
+                                     "when to dock")
+        elif reading.percent < threshold:
             ctx.emit("clean.battery_low", battery_pct=round(reading.percent, 1),
                      threshold_pct=threshold)
             await ctx.trigger(DockTrigger.GO_DOCK, reason="battery low")
@@ -126,4 +147,19 @@ class VacuumProfile(BaseProfile):
             await ctx.trigger(VacuumTrigger.BATTERY_OK)
 
     async def _next_clean(self, ctx: RobotContext) -> None:
-        await asyncio.sleep(float(ctx.settings.get("vacuum.standby_s")))
+        """Standby: until the schedule's next start (or ``standby_s``, when set), whichever
+        comes first; the seed's "No -> STANDBY" loop is this wait."""
+        config = VacuumConfig.from_settings(ctx.settings)
+        schedule = Schedule.parse(config.schedule, config.timezone)
+        now = ctx.wall_clock()
+        start = schedule.next_start(now)
+        waits = [] if start is None else [(start - now).total_seconds()]
+        if config.standby_s > 0:
+            waits.append(config.standby_s)
+        ctx.emit("clean.next", at=None if start is None else start.isoformat(),
+                 in_s=None if not waits else round(min(waits), 3),
+                 by="schedule" if start is not None and waits[0] == min(waits) else
+                 "standby_s" if waits else None)
+        if not waits:
+            await asyncio.Event().wait()  # nothing scheduled: standby until told otherwise
+        await asyncio.sleep(min(waits))

@@ -17,6 +17,7 @@ from fleet.site import parse_site
 from sim.actors.asgi_pipe import AsgiPipe
 
 TOKEN = "pipe-test-admin-token-0123456789abcdef"
+ROBOT_TOKEN = "pipe-test-robot-token-0123456789abcdef"
 SITE = f"""
 [[rooms]]
 name = "Room 101"
@@ -38,6 +39,11 @@ name = "robot-1"
 role = "admin"
 subject = "staff"
 token = "{TOKEN}"
+
+[[tokens]]
+role = "robot"
+subject = "robot-1"
+token = "{ROBOT_TOKEN}"
 """
 BASE = "http://fleet.sim"
 
@@ -117,6 +123,12 @@ class TestTheClientGetsTheSameAnswers:
                          inline_sqlite=True)
         await app.state.fleet.start(monitors=False)
         try:
+            # A robot is assignable once it has reported (issue 27: online means reported).
+            async with httpx.AsyncClient(transport=AsgiPipe(app), base_url=BASE) as robot:
+                reported = await robot.post(
+                    "/api/Robot/robot-1/data-exchange", json={"RobotName": "robot-1"},
+                    headers={"Authorization": f"Bearer {ROBOT_TOKEN}"})
+                assert reported.status_code == 200, reported.text
             auth = {"Authorization": f"Bearer {TOKEN}"}
             created = await both(app, "POST", "/api/requests", json={"CustomerId": 1},
                                  headers=auth)

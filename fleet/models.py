@@ -35,6 +35,15 @@ class Beacon(Base):
     is_active: Mapped[bool] = mapped_column(Boolean, default=True)
 
 
+class LineRoom(Base):
+    """A room on a painted line that several rooms share (a line is its rooms' rows)."""
+
+    __tablename__ = "line_rooms"
+
+    line: Mapped[str] = mapped_column(String(100), primary_key=True)
+    room_id: Mapped[int] = mapped_column(ForeignKey("rooms.id"), primary_key=True)
+
+
 class Customer(Base):
     __tablename__ = "customers"
 
@@ -73,6 +82,8 @@ class Robot(Base):
                                                  server_default=false())
     unload_clear_since: Mapped[datetime | None] = mapped_column(UtcDateTime(), default=None)
     """Since when its load cell has read below the minimum, while ``unload_pending``."""
+    waiting_for_line: Mapped[str | None] = mapped_column(String(100), default=None)
+    """Free, but the next request it would serve is on this line, in use by another robot."""
 
 
 class Request(Base):

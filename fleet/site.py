@@ -24,6 +24,10 @@ room = "Room 101"              # optional (the beacon's room by default)
 [[robots]]
 name = "robot-1"
 
+[[lines]]                   # rooms on one painted line: one robot at a time travels it
+name = "main"
+rooms = ["Room 101", "Room 102"]
+
 [[tokens]]                  # for the simulator and tests; a real site issues its tokens with
 role = "robot"              # `robotd-fleet token create` (random, shown once)
 subject = "robot-1"         # robot name, customer id ("1") or admin name
@@ -44,7 +48,7 @@ from sqlalchemy.ext.asyncio import AsyncSession
 
 from fleet import tokens
 from fleet.errors import FleetError
-from fleet.services import admin
+from fleet.services import admin, lines
 from fleet.settings import store_settings
 from fleet.tokens import Role
 
@@ -54,13 +58,14 @@ _KEYS: dict[str, dict[str, type]] = {
                 "active": bool},
     "customers": {"id": int, "name": str, "beacon": str, "room": str},
     "robots": {"name": str},
+    "lines": {"name": str, "rooms": list},
     "tokens": {"role": str, "subject": str, "token": str},
 }
 _MAX_CHARS = {"floor_color": 32, "name": 100, "room": 100}
 """What the database's columns hold (fleet/models.py): a longer value is refused here."""
 _REQUIRED: dict[str, set[str]] = {
     "rooms": {"name"}, "beacons": {"mac", "name", "room"}, "customers": {"name"},
-    "robots": {"name"}, "tokens": {"role", "subject", "token"},
+    "robots": {"name"}, "lines": {"name", "rooms"}, "tokens": {"role", "subject", "token"},
 }
 
 
@@ -75,6 +80,7 @@ class Site:
     beacons: list[dict[str, Any]] = field(default_factory=list)
     customers: list[dict[str, Any]] = field(default_factory=list)
     robots: list[dict[str, Any]] = field(default_factory=list)
+    lines: list[dict[str, Any]] = field(default_factory=list)
     tokens: list[dict[str, Any]] = field(default_factory=list)
     source: str = "<site>"
 
@@ -122,11 +128,21 @@ def _entries(source: str, section: str, value: Any) -> list[dict[str, Any]]:
             if limit is not None and isinstance(item, str) and len(item) > limit:
                 msg = f"{where}.{key}: at most {limit} characters, got {len(item)}"
                 raise SiteError(msg)
+            if isinstance(item, list):
+                _check_room_names(f"{where}.{key}", item)
         missing = _REQUIRED[section] - entry.keys()
         if missing:
             msg = f"{where}: missing {', '.join(sorted(missing))}"
             raise SiteError(msg)
     return value
+
+
+def _check_room_names(where: str, rooms: list[Any]) -> None:
+    for j, room in enumerate(rooms):
+        if not isinstance(room, str) or not 1 <= len(room) <= _MAX_CHARS["room"]:
+            msg = (f"{where}[{j}]: must be a room name (1-{_MAX_CHARS['room']} characters), "
+                   f"got {room!r}")
+            raise SiteError(msg)
 
 
 def load_site(path: str | Path) -> Site:
@@ -156,6 +172,14 @@ async def apply_site(session: AsyncSession, now: datetime, site: Site) -> None:
                                      beacon=c.get("beacon"), customer_id=c.get("id"))
         for r in site.robots:
             await admin.add_robot(session, now, r["name"], exist_ok=True)
+        for i, line in enumerate(site.lines):
+            try:
+                rooms = [(await admin.room_by_name(session, room)).id
+                         for room in line["rooms"]]
+            except FleetError as exc:
+                msg = f"{site.source}: lines[{i}].rooms: {exc.message}"
+                raise SiteError(msg) from exc
+            await lines.put_line(session, line["name"], rooms)
         for i, t in enumerate(site.tokens):
             if t["role"] not in set(Role):
                 msg = (f"{site.source}: tokens[{i}].role: must be one of "

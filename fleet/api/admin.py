@@ -16,6 +16,8 @@ from fleet.api.schemas import (
     BeaconOut,
     CustomerIn,
     CustomerOut,
+    LineIn,
+    LineOut,
     NotificationOut,
     RobotIn,
     RobotOut,
@@ -25,7 +27,8 @@ from fleet.api.schemas import (
 )
 from fleet.errors import Conflict, NotFound
 from fleet.models import Beacon, Customer, Notification, Robot, Room
-from fleet.services import admin, unload
+from fleet.services import admin, lines, unload
+from fleet.services.assignment import process_queue
 from fleet.services.common import robot_by_name
 from fleet.settings import SettingsUpdate, load_settings, store_settings
 
@@ -134,6 +137,28 @@ def _beacon_out(beacon: Beacon, room: Room) -> BeaconOut:
     return BeaconOut(Id=beacon.id, MacAddress=beacon.mac_address, Name=beacon.name,
                      RoomName=room.name, RssiThreshold=beacon.rssi_threshold_dbm,
                      IsBase=beacon.is_base, IsActive=beacon.is_active)
+
+
+@router.get("/lines", response_model=list[LineOut])
+async def list_lines(http: HttpRequest) -> list[LineOut]:
+    """The painted lines that rooms share, each with its rooms."""
+    async with server_of(http).db.read() as session:
+        return [LineOut(Name=name, Rooms=rooms)
+                for name, rooms in (await lines.all_lines(session)).items()]
+
+
+@router.put("/lines", response_model=LineOut, responses=ERRORS)
+async def put_line(body: LineIn, http: HttpRequest) -> LineOut:
+    """Declare a painted line that these rooms share (at most one robot travels it at a
+    time), or replace its rooms; no rooms removes it. 404 for a room that does not exist."""
+    server = server_of(http)
+    await server.flush_pings()
+    async with server.db.write() as session:
+        rooms = [(await admin.room_by_name(session, room)).id for room in body.Rooms]
+        await lines.put_line(session, body.Name, rooms)
+        await process_queue(session, server.clock())  # a line removed may free a request
+        found = (await lines.all_lines(session)).get(body.Name, [])
+    return LineOut(Name=body.Name, Rooms=found)
 
 
 @router.get("/customers", response_model=list[CustomerOut])

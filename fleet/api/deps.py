@@ -11,6 +11,7 @@ from sqlalchemy.ext.asyncio import AsyncSession
 from fleet.api.schemas import ErrorOut, FaultOut, RequestOut, RobotOut
 from fleet.models import Request, Robot
 from fleet.server import FleetServer
+from fleet.services.common import waiting_for
 from fleet.services.weight import Weighed, can_confirm_loaded, can_confirm_unloaded
 from fleet.settings import FleetSettings
 
@@ -122,5 +123,5 @@ def robot_out(robot: Robot) -> RobotOut:
         Fault=(FaultOut(Code=robot.fault_code, Message=robot.fault_message or "")
                if robot.fault_code is not None else None),
         BatteryPct=robot.battery_pct,
-        WaitingFor="unload" if robot.unload_pending else None,
+        WaitingFor=waiting_for(robot.unload_pending, robot.waiting_for_line),
     )

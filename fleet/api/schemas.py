@@ -183,6 +183,17 @@ class BeaconOut(BaseModel):
     IsActive: bool
 
 
+class LineIn(Strict):
+    Name: Text
+    Rooms: Annotated[list[Text], Field(max_length=100)]
+    """The rooms on this painted line (replacing those it had; none: the line is removed)."""
+
+
+class LineOut(BaseModel):
+    Name: str
+    Rooms: list[str]
+
+
 class CustomerIn(Strict):
     Name: Text
     RoomName: Text | None = None

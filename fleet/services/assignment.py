@@ -5,12 +5,13 @@ from __future__ import annotations
 from datetime import UTC, datetime
 
 import structlog
-from sqlalchemy import and_, select
+from sqlalchemy import and_, select, update
 from sqlalchemy.ext.asyncio import AsyncSession
 
 from fleet.errors import NoRobotAvailable
 from fleet.models import Request, Robot
 from fleet.services.common import can_serve, is_available, set_status
+from fleet.services.lines import blocking, line_map, occupied
 from fleet.services.notify import notify
 from fleet.settings import FleetSettings, load_settings
 from fleet.status import Status
@@ -38,6 +39,8 @@ def dispatch(
     robot.current_request_id = request.id
     robot.last_assigned_at = now
     robot.is_in_target = False
+    if robot.waiting_for_line is not None:
+        robot.waiting_for_line = None
     log.info("fleet.robot.dispatched", robot=robot.name, request_id=request.id)
 
 
@@ -94,31 +97,65 @@ _QUEUED = and_(Request.status == Status.PENDING, Request.is_approved.is_(True))
 async def process_queue(
     session: AsyncSession, now: datetime, cfg: FleetSettings | None = None
 ) -> list[Request]:
-    """Dispatch approved Pending requests, oldest first, while robots are available."""
+    """Dispatch approved Pending requests, oldest first, while robots are available; a
+    request for a room on a painted line another robot is on waits (``fleet.services.lines``)
+    and the next one that can go goes."""
     # Usually nothing waits: then no need to load every robot (a robot's reconnect, a cancel
     # and a timeout all run this).
     if (await session.execute(select(Request.id).where(_QUEUED).limit(1))).first() is None:
+        await _clear_line_waits(session)
         return []
     if cfg is None:
         cfg = await load_settings(session)
     robots = [r for r in await serving_robots(session, now, cfg) if is_available(r, now, cfg)]
+    lines = await line_map(session)
     if not robots:
+        await _clear_line_waits(session)
         return []
+    query = select(Request).where(_QUEUED).order_by(Request.created_at, Request.id)
     pending = (await session.execute(
-        select(Request)
-        .where(_QUEUED)
-        .order_by(Request.created_at, Request.id)
-        .limit(len(robots))
-    )).scalars().all()
+        query if lines is not None else query.limit(len(robots)))).scalars().all()
+    on_line = await occupied(session, lines) if lines is not None else {}
+    waiting: dict[int, str] = {}  # free robot id -> the line its next request waits for
     dispatched = []
     for request in pending:
+        if not robots:
+            break
+        line = blocking(lines, on_line, request.customer_id) if lines is not None else None
+        if line is not None:
+            _wait_for_line(request, robots, waiting, line, on_line[line])
+            continue
         robot = next((r for r in robots if r.id == request.assigned_robot_id), robots[0])
         robots.remove(robot)
+        waiting.pop(robot.id, None)
         dispatch(request, robot, now)
+        if lines is not None:
+            on_line.update(dict.fromkeys(lines.lines_of(request.customer_id), robot.name))
         notify(session, now, recipient="customer", kind="request.accepted", request=request,
                robot_name=robot.name, message=f"Robot {robot.name} is on its way.")
         dispatched.append(request)
+    for robot in robots:
+        if robot.waiting_for_line != waiting.get(robot.id):
+            robot.waiting_for_line = waiting.get(robot.id)
     return dispatched
+
+
+def _wait_for_line(request: Request, robots: list[Robot], waiting: dict[int, str], line: str,
+                   holder: str) -> None:
+    """The request waits Pending; its robot (the one named for it if free, else the first
+    free one not yet waiting) is told why."""
+    robot = next((r for r in robots if r.id == request.assigned_robot_id), None) or next(
+        (r for r in robots if r.id not in waiting), None)
+    if robot is not None:
+        waiting.setdefault(robot.id, line)
+        request.assigned_robot_id = robot.id
+    log.info("fleet.request.waits_for_line", request_id=request.id, line=line, holder=holder,
+             robot=robot.name if robot is not None else None)
+
+
+async def _clear_line_waits(session: AsyncSession) -> None:
+    await session.execute(update(Robot).where(Robot.waiting_for_line.is_not(None))
+                          .values(waiting_for_line=None))
 
 
 async def pick_delivery_robot(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from datetime import datetime, timedelta
+from typing import Literal
 
 import structlog
 from sqlalchemy import select
@@ -44,6 +45,13 @@ def is_available(robot: Robot, now: datetime, cfg: FleetSettings) -> bool:
     """Can serve, serves nothing, and carries nothing (not waiting to be unloaded)."""
     return (can_serve(robot, now, cfg) and robot.current_request_id is None
             and not robot.unload_pending)
+
+
+def waiting_for(unload_pending: bool, line: str | None) -> Literal["unload", "line"] | None:
+    """Why a free robot is not sent out (the exchange's ``WaitingFor``)."""
+    if unload_pending:
+        return "unload"
+    return "line" if line is not None else None
 
 
 async def robot_by_name(session: AsyncSession, name: str) -> Robot | None:

@@ -24,7 +24,7 @@ from fleet.models import Request, Robot
 from fleet.services import unload, weight
 from fleet.services.arrival import Sighting, handle_arrival
 from fleet.services.assignment import process_queue
-from fleet.services.common import current_request, robot_by_name
+from fleet.services.common import current_request, robot_by_name, waiting_for
 from fleet.services.condition import apply_condition
 from fleet.services.navigation import Navigation, navigation
 from fleet.services.reconnect import Reconnects
@@ -79,17 +79,18 @@ class _Light:
     fault_code: str | None
     unload_pending: bool
     unload_clear_since: datetime | None
+    waiting_for_line: str | None
 
     @property
     def waiting_for(self) -> str | None:
-        return "unload" if self.unload_pending else None
+        return waiting_for(self.unload_pending, self.waiting_for_line)
 
 
 _LIGHT_QUERY = (
     select(Robot.name, Robot.id, Robot.is_offline, Robot.emergency_stop, Robot.maintenance_mode,
            Request.id, Request.status, Request.customer_id, Request.robot_returned,
            Robot.last_ping_at, Robot.estop_active, Robot.fault_code, Robot.unload_pending,
-           Robot.unload_clear_since)
+           Robot.unload_clear_since, Robot.waiting_for_line)
     .select_from(Robot)
     .outerjoin(Request, Request.id == Robot.current_request_id)
 )
@@ -101,10 +102,10 @@ def _read_lights(conn: Connection) -> dict[str, _Light]:
 
 def _light(row: Any) -> _Light:
     (rid, offline, estop, maintenance, req_id, status, customer, returned, ping, estop_active,
-     fault_code, unload_pending, unload_clear_since) = row
+     fault_code, unload_pending, unload_clear_since, line) = row
     return _Light(rid, offline, estop or maintenance, estop, maintenance,
                   req_id, status or "", customer or 0, bool(returned), ping, estop_active,
-                  fault_code, bool(unload_pending), unload_clear_since)
+                  fault_code, bool(unload_pending), unload_clear_since, line)
 
 
 class RobotViews:
@@ -240,7 +241,7 @@ async def exchange(
         return Reply(nav, robot.emergency_stop, robot.maintenance_mode,
                      current.id if current is not None else None,
                      str(current.status) if current is not None else None,
-                     "unload" if robot.unload_pending else None)
+                     waiting_for(robot.unload_pending, robot.waiting_for_line))
 
 
 def _light_reply(light: _Light, site: SiteView, cfg: FleetSettings) -> Reply:

@@ -13,6 +13,7 @@ from fleet.models import Customer, Request
 from fleet.services.assignment import assign_new, dispatch, pick_delivery_robot, process_queue
 from fleet.services.cancellation import cancel
 from fleet.services.common import set_status
+from fleet.services.lines import blocking, line_map, occupied
 from fleet.services.notify import notify
 from fleet.services.weight import can_confirm_loaded, can_confirm_unloaded
 from fleet.settings import FleetSettings
@@ -102,6 +103,7 @@ async def apply_action(
             request.washing_started_at = now
         case Action.WASHING_DONE:
             robot = await pick_delivery_robot(session, now, cfg, request)
+            await _check_line_free(session, request, robot.name)
             if request.washing_started_at is None:
                 request.washing_started_at = now
             dispatch(request, robot, now, Status.GOING_TO_ROOM)
@@ -117,6 +119,19 @@ async def apply_action(
             notify(session, now, recipient="admin", kind="request.paid", request=request,
                    message=f"Request {request.id} was paid.")
     return request
+
+
+async def _check_line_free(session: AsyncSession, request: Request, robot_name: str) -> None:
+    """Conflict when the customer's room is on a painted line another robot is on."""
+    lines = await line_map(session)
+    if lines is None:
+        return
+    on_line = await occupied(session, lines)
+    line = blocking(lines, on_line, request.customer_id, robot_name)
+    if line is not None:
+        msg = (f"cannot deliver request {request.id} now: line {line!r} is in use by robot "
+               f"{on_line[line]}; try again when it is back at base")
+        raise Conflict(msg)
 
 
 def _kg(weight_kg: float | None) -> str:

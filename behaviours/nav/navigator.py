@@ -211,8 +211,11 @@ class NavStack:
         self.localiser.correction = compose(pose, inverse(np.asarray(self._odom())))
         self.localiser.mark_uncertain()
         self.pose_epoch += 1
-        log.info("nav.pose_set", x_m=x_m, y_m=y_m, heading_deg=math.degrees(theta_rad),
-                 sigma_m=sigma_m)
+        fields = {"est_x_m": round(x_m, 4), "est_y_m": round(y_m, 4),
+                  "est_heading_deg": round(math.degrees(theta_rad), 2),
+                  "sigma_m": None if sigma_m is None else round(sigma_m, 4)}
+        log.info("nav.pose_set", **fields)
+        self.emit("nav.pose_set", **fields)
 
     async def relocalise(self) -> bool:
         """Find the robot anywhere on the map (``relocalise.py``); True once localised."""
@@ -221,7 +224,9 @@ class NavStack:
                   spread_m=None if est is None else round(min(est.spread_m, 99.0), 4),
                   match_fraction=round(self.localiser.match_fraction, 3))
         config = self.localiser.config
-        result = await self.relocaliser.run(config.relocalise_limit_s)
+        epoch = self.pose_epoch
+        result = await self.relocaliser.run(config.relocalise_limit_s,
+                                            lambda: self.pose_epoch != epoch)
         pose = self.pose()
         fields: dict[str, Any] = {
             "ok": result.ok, "searches": result.searches,
@@ -230,7 +235,8 @@ class NavStack:
             "fit_per_beam": round(result.fit_per_beam, 3) if math.isfinite(
                 result.fit_per_beam) else None,
             "est_x_m": round(pose.x_m, 4), "est_y_m": round(pose.y_m, 4),
-            "est_heading_deg": round(math.degrees(pose.theta_rad), 2)}
+            "est_heading_deg": round(math.degrees(pose.theta_rad), 2),
+            "by": "operator" if self.pose_epoch != epoch else "search"}
         if result.ok:
             self.relocalisations += 1
             log.info("nav.relocalised", **fields)
@@ -297,7 +303,7 @@ class NavStack:
                 est = self.localiser.estimate
                 self.emit("localisation.diverged", spread_m=round(
                     min(est.spread_m if est else 99.0, 99.0), 4),
-                    match_fraction=round(self.localiser.match_fraction, 3))
+                    match_fraction=round(self.localiser.match_fraction, 3), detail=detail)
                 if self.localiser.config.relocalise == "global":
                     if await self.relocalise():
                         continue
@@ -315,10 +321,17 @@ class NavStack:
         """One drive at the goal: (reason, detail), ``_REPLAN`` after an operator's pose."""
         task = asyncio.create_task(self.follower.go_to(x_m, y_m))
         epoch = self.pose_epoch
+        jumps = self.localiser.jumps
         reason, detail = "reached", ""
         try:
             while True:
                 done, _ = await asyncio.wait({task}, timeout=_WATCH_S)
+                if self.localiser.jumps != jumps:  # an arrival on a leapt pose is none
+                    jump_m, jump_rad = self.localiser.last_jump
+                    reason = "diverged"
+                    detail = (f"localisation jumped {jump_m:.2f} m, "
+                              f"{math.degrees(jump_rad):.0f} deg")
+                    break
                 if done:
                     break
                 if self.pose_epoch != epoch:

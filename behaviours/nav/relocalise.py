@@ -65,6 +65,7 @@ class Relocaliser:
         self.odometry = odometry
         self.settings = settings
         self._search: GlobalSearch | None = None
+        self._given: Callable[[], bool] = lambda: False
         self.rng = np.random.default_rng(localiser.config.seed + 1)
 
     @property
@@ -74,13 +75,20 @@ class Relocaliser:
             self._search = GlobalSearch(self.localiser.grid)
         return self._search
 
-    async def run(self, limit_s: float) -> Relocalisation:
+    async def run(self, limit_s: float, given: Callable[[], bool] = lambda: False
+                  ) -> Relocalisation:
+        """Relocalise within ``limit_s``; ``given()`` true: an operator gave the pose
+        meanwhile (``robotctl pose set``), which ends the search as done."""
         loop = asyncio.get_running_loop()
         started = loop.time()
         await self._stop()
         searches, turned, fit = 0, 0.0, -math.inf
         detail = f"not localised within {limit_s:g} s"
+        self._given = given
         while loop.time() - started < limit_s:
+            if given():
+                return Relocalisation(True, searches, loop.time() - started, turned, fit,
+                                      "an operator's pose")
             scan = await self._fresh_scan()
             if scan is None or self.localiser.status == LIDAR_LOST:
                 detail = "no LiDAR scan to relocalise with"
@@ -88,6 +96,8 @@ class Relocaliser:
             beams = select_beams(scan, _SCAN_BEAMS, self.localiser.config.laser_max_range_m)
             poses, fit = await asyncio.to_thread(self.search.candidates, beams, self.rng)
             searches += 1
+            if given():
+                continue  # the operator's pose stands; the loop's head says so
             self.localiser.start_from(poses)
             self.localiser.mark_uncertain()
             log.info("nav.relocalise_search", search=searches, candidates=poses.shape[0],
@@ -109,7 +119,7 @@ class Relocaliser:
         turned = 0.0
         since: float | None = None
         try:
-            while turned < 2 * math.pi and loop.time() < deadline_s:
+            while turned < 2 * math.pi and loop.time() < deadline_s and not self._given():
                 with contextlib.suppress(LinkDown):
                     await self.motors.drive(command)
                 await asyncio.sleep(_STEP_S)

@@ -57,6 +57,18 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("resume", help="leave estop for idle")
     trigger = sub.add_parser("trigger", help="fire a state machine trigger (e.g. go_dock)")
     trigger.add_argument("name", metavar="NAME")
+    pose = sub.add_parser("pose", help="a navigating robot's pose on its map")
+    pose_sub = pose.add_subparsers(dest="pose_command", required=True, metavar="set")
+    pset = pose_sub.add_parser("set", help="pose set X Y THETA: where the robot is (metres and "
+                               "degrees, map frame); its localisation starts again from there")
+    pset.add_argument("x", metavar="X", type=float, help="x in the map frame (m)")
+    pset.add_argument("y", metavar="Y", type=float, help="y in the map frame (m)")
+    pset.add_argument("theta", metavar="THETA", type=float,
+                      help="heading, degrees counter-clockwise from +x")
+    pset.add_argument("--sigma", type=float, default=None,
+                      help="how far off the position may be (m; default 0.25)")
+    pset.add_argument("--sigma-deg", type=float, default=None,
+                      help="how far off the heading may be (degrees; default 10)")
     for command in profile_commands().values():
         own = sub.add_parser(command.name, help=command.help)
         for option in command.options:
@@ -100,6 +112,8 @@ def main(argv: list[str] | None = None) -> int:
 
             return watch(conn, args.interval, sys.stdout)
         method, params = _request(args)
+        if args.command == "pose":  # the method is the running profile's own
+            method = f"{conn.call('status', {}).get('profile')}.{method}"
         result = conn.call(method, params)
         if args.json:
             print(json.dumps(result, indent=2, default=str))
@@ -152,6 +166,13 @@ def _request(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
         return "estop", {"reason": args.reason}
     if args.command == "trigger":
         return "trigger", {"name": args.name}
+    if args.command == "pose":
+        params = {"x_m": args.x, "y_m": args.y, "heading_deg": args.theta}
+        if args.sigma is not None:
+            params["sigma_m"] = args.sigma
+        if args.sigma_deg is not None:
+            params["sigma_deg"] = args.sigma_deg
+        return "set_pose", params
     own = profile_commands().get(args.command)
     if own is not None:
         return own.method, {o.param: getattr(args, o.param) for o in own.options}

@@ -21,9 +21,10 @@ from sim.world.geometry import Pose
 
 
 async def _kidnapped(goal: tuple[float, float], *, operator: bool = False,
-                     relocalise: str = "global") -> dict[str, Any]:
+                     relocalise: str = "global", operator_after_s: float | None = None
+                     ) -> dict[str, Any]:
     """Drive towards ``goal`` from the nav-kidnap start, teleport the body 1 m aside after
-    5 s; with ``operator`` the true pose is given by hand 1 s later."""
+    5 s; with ``operator`` the true pose is given by hand as it is put down."""
     scenario = load_scenario("nav-kidnap")
     spec = scenario.robots[0]
     settings = robot_settings(scenario, spec, None)
@@ -50,8 +51,9 @@ async def _kidnapped(goal: tuple[float, float], *, operator: bool = False,
         await asyncio.sleep(5.0)
         p = body.pose
         body.pose = Pose(p.x_m, p.y_m - 1.0, p.heading_rad)
-        if operator:
-            await asyncio.sleep(1.0)
+        if operator_after_s is not None:
+            await asyncio.sleep(operator_after_s)
+        if operator or operator_after_s is not None:
             t = body.pose
             nav.set_pose(t.x_m, t.y_m, t.heading_rad, 0.05, math.radians(3))
             events.append((loop.time(), "status_after_set", {"status": nav.localiser.status}))
@@ -93,7 +95,7 @@ def test_with_relocalisation_off_a_divergence_fails_the_goal() -> None:
 
 
 def test_an_operators_pose_replans_from_it() -> None:
-    """The operator gives the true pose 1 s after the kidnap: the filter re-seeded there
+    """The operator gives the true pose as the robot is put down: the filter re-seeded there
     (uncertain until the next scan), no divergence, the goal reached."""
     result = vclock.run(_kidnapped((5.0, 1.8), operator=True))
     kinds = [kind for _t, kind, _f in result["events"]]
@@ -101,3 +103,12 @@ def test_an_operators_pose_replans_from_it() -> None:
     after = next(f for _t, kind, f in result["events"] if kind == "status_after_set")
     assert after["status"] == UNCERTAIN
     assert "nav.relocalise" not in kinds
+
+
+def test_an_operators_pose_during_a_search_ends_it() -> None:
+    """The operator gives the pose 3 s after the kidnap, while the robot searches: the
+    relocalisation ends as done (by the operator) and the goal is reached from that pose."""
+    result = vclock.run(_kidnapped((5.0, 1.8), operator_after_s=3.0))
+    found = next(f for _t, kind, f in result["events"] if kind == "nav.relocalised")
+    assert found["by"] == "operator"
+    assert result["reason"] == "reached" and result["off_m"] <= 0.10

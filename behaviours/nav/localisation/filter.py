@@ -37,6 +37,15 @@ log = structlog.get_logger(__name__)
 FloatArray = npt.NDArray[np.float64]
 OdomPose = tuple[float, float, float]
 
+JUMP_M = 0.5
+JUMP_RAD = math.radians(20)
+"""An update that moves a settled filter's pose this far is a jump (``jumps``): a robot
+carried off, or the filter gone to a look-alike place; either way, lost."""
+SETTLE_UPDATES = 5
+"""Scans that update a re-seeded filter though the robot stands still (``mark_uncertain``)."""
+_ROUGHEN_M = 0.02
+_ROUGHEN_RAD = math.radians(1.0)
+
 LOCALISED = "localised"
 UNCERTAIN = "uncertain"  # past a limit, not yet for diverged_s
 DIVERGED = "diverged"
@@ -93,6 +102,11 @@ class Localiser:
         self.status = UNCERTAIN
         self.divergences = 0
         self.lidar_only: LidarOnlyMotion | None = None  # encoders failed: lidar_only.py
+        self._settle = 0  # updates still owed to a re-seeded filter standing still
+        self._settled = False  # localised since the last (re)start: jumps count from then
+        self.jumps = 0
+        self.last_jump: tuple[float, float] = (0.0, 0.0)
+        """(metres, radians) the last jump moved the pose."""
 
     # --- starting -------------------------------------------------------------------------
 
@@ -125,13 +139,17 @@ class Localiser:
 
     def mark_uncertain(self) -> None:
         """Re-seeded (an operator's pose, a relocalisation): not judged yet, so neither
-        localised nor diverged until the next scan says."""
+        localised nor diverged until the next scan says; the next ``SETTLE_UPDATES`` scans
+        update the filter even if the robot stands still (each with a little roughening, as
+        no motion spreads the particles), so a robot put down by hand settles where it is."""
         self._bad_since_s = None
+        self._settle = SETTLE_UPDATES
         self._set_status(UNCERTAIN)
 
     def _restart(self, poses: FloatArray, guess: OdomPose | None) -> None:
         self.particles = ParticleSet(poses)
         self._odom_at_update = None
+        self._settled = False
         self.estimate = (None if guess is None
                          else Estimate(guess[0], guess[1], guess[2], math.inf, math.inf))
         self._bad_since_s = None
@@ -171,6 +189,11 @@ class Localiser:
         if len(self.particles) and (self.lidar_only is not None or self._moved_enough(odom)):
             self._update(odom, beams)
             updated = True
+        elif len(self.particles) and self._settle > 0:
+            self._settle -= 1
+            self._roughen()
+            self._update(odom, beams)
+            updated = True
         self.match_fraction = self.field.match_fraction(
             self.pose_array(odom), beams, self.config.match_distance_m)
         self._judge(now_s)
@@ -184,6 +207,12 @@ class Localiser:
         return (math.hypot(odom[0] - last[0], odom[1] - last[1]) >= c.update_min_d_m
                 or abs(math.remainder(odom[2] - last[2], 2 * math.pi)) >= c.update_min_a_rad)
 
+    def _roughen(self) -> None:
+        ps = self.particles
+        noise = self.rng.standard_normal(ps.poses.shape)
+        ps.poses = ps.poses + noise * np.array([_ROUGHEN_M, _ROUGHEN_M, _ROUGHEN_RAD])
+        ps.poses[:, 2] = wrap(ps.poses[:, 2])
+
     def _update(self, odom: OdomPose, beams: FloatArray) -> None:
         c = self.config
         ps = self.particles
@@ -194,7 +223,9 @@ class Localiser:
                                               self.rng)
         factors, likelihoods = self.field.weights(ps.poses, beams)
         ps.weigh(factors, likelihoods, c.alpha_slow, c.alpha_fast)
+        before = self.pose_array(odom)
         self.estimate = ps.estimate()
+        self._note_jump(before)
         if self.lidar_only is not None:
             self.lidar_only.estimated(self.estimate.as_array())
         self.correction = compose(self.estimate.as_array(), inverse(np.asarray(odom)))
@@ -203,6 +234,18 @@ class Localiser:
                     recover=c.alpha_slow > 0 and c.alpha_fast > 0)
         self._odom_at_update = odom
         self.updates += 1
+
+    def _note_jump(self, before: FloatArray) -> None:
+        est = self.estimate
+        if est is None or not self._settled:
+            return
+        jump_m = math.hypot(est.x_m - before[0], est.y_m - before[1])
+        jump_rad = abs(math.remainder(est.theta_rad - before[2], 2 * math.pi))
+        if jump_m >= JUMP_M or jump_rad >= JUMP_RAD:
+            self.jumps += 1
+            self.last_jump = (jump_m, jump_rad)
+            log.warning("localisation.jump", jump_m=round(jump_m, 3),
+                        jump_deg=round(math.degrees(jump_rad), 1), status=self.status)
 
     def set_lidar_only(self, on: bool, odom: OdomPose) -> None:
         """LiDAR-only (the encoders failed: ``lidar_only.py``) or back on odometry."""
@@ -242,6 +285,7 @@ class Localiser:
                or self.match_fraction < c.min_match_fraction)
         if not bad:
             self._bad_since_s = None
+            self._settled = True
             self._set_status(LOCALISED)
             return
         if self._bad_since_s is None:

@@ -19,10 +19,11 @@ import structlog
 from behaviours.machine_tables import CoreTrigger, mission_children
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker
+from behaviours.nav.control import pose_methods
 from behaviours.nav.localisation.filter import LocalisedPose
 from behaviours.nav.navigator import NavLocalisation, NavOutcome, NavStack, stored_pose
 from behaviours.persistence import MissionRecord
-from behaviours.profile import BaseProfile, StateTask
+from behaviours.profile import BaseProfile, ControlMethod, StateTask
 from behaviours.service import Service, TaskService
 from hal.options import Option, Section
 
@@ -92,6 +93,10 @@ class PatrolProfile(BaseProfile):
 
     def mission_records(self) -> tuple[MissionRecord, ...]:
         return (PATROL_MISSION, POSE_RECORD)
+
+    def control_methods(self, ctx: RobotContext) -> dict[str, ControlMethod]:
+        """``patrol.set_pose`` (``robotctl pose set``): an operator's pose for the filter."""
+        return pose_methods(self.name, lambda: self.nav)
 
     def services(self, ctx: RobotContext) -> list[Service]:
         d = ctx.devices

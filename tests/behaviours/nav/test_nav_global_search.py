@@ -95,3 +95,34 @@ class TestOnTheWarehouse:
         poses, _fit = search.candidates(select_beams(scan, 450, 12.0), rng)
         assert _near(poses, truth) > 0
         assert search.positions > 20000
+
+
+class TestLostAndReseeded:
+    def test_a_settled_filter_that_leaps_counts_a_jump(self) -> None:
+        """Localised, then every particle moved 1 m (the filter gone to a look-alike): a
+        jump; a filter still converging after its start moves freely."""
+        rng = np.random.default_rng(6)
+        loc = Localiser(grid(), LocalisationConfig())
+        loc.start_at(2.0, 0.5, 0.0, 0.05, 0.05)
+        loc.on_scan((0.0, 0.0, 0.0), scan_at((2.0, 0.5, 0.0), rng), 0.0)
+        assert loc.status == LOCALISED and loc.jumps == 0
+        loc.particles.poses[:, 0] += 1.0
+        loc.on_scan((0.3, 0.0, 0.0), scan_at((2.3, 0.5, 0.0), rng), 0.1)
+        assert loc.jumps == 1 and loc.last_jump[0] >= 0.5
+        fresh = Localiser(grid(), LocalisationConfig())
+        fresh.start_at(1.5, 0.5, 0.0)  # 0.5 m off: the first updates may move it far
+        fresh.on_scan((0.0, 0.0, 0.0), scan_at((2.0, 0.5, 0.0), rng), 0.0)
+        assert fresh.jumps == 0
+
+    def test_a_reseeded_filter_settles_standing_still(self) -> None:
+        """An operator's pose 15 cm and 8 deg off, the robot standing: the settling updates
+        bring it within 5 cm and localised."""
+        rng = np.random.default_rng(7)
+        loc = Localiser(grid(), LocalisationConfig())
+        loc.start_at(3.15, 2.4, 0.14, 0.2, math.radians(10))
+        loc.mark_uncertain()
+        for i in range(8):
+            loc.on_scan((0.0, 0.0, 0.0), scan_at((3.0, 2.5, 0.0), rng), i * 0.1)
+        p = loc.pose_array((0.0, 0.0, 0.0))
+        assert loc.status == LOCALISED
+        assert math.hypot(p[0] - 3.0, p[1] - 2.5) < 0.05

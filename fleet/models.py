@@ -146,6 +146,19 @@ class Alert(Base):
     resolution: Mapped[str | None] = mapped_column(String(60), default=None)
 
 
+class Refund(Base):
+    """A refund owed to the customer of a paid request that was cancelled (seed section 12,
+    "Process Refund if Payment Made")."""
+
+    __tablename__ = "refunds"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    request_id: Mapped[int] = mapped_column(ForeignKey("requests.id"), unique=True)
+    customer_id: Mapped[int] = mapped_column(Integer)
+    created_at: Mapped[datetime] = mapped_column(UtcDateTime())
+    reason: Mapped[str] = mapped_column(String(200))
+
+
 class Setting(Base):
     __tablename__ = "settings"
 

@@ -64,7 +64,14 @@ ALLOWED: dict[Action, frozenset[Status]] = {
     Action.CONFIRM_UNLOADED: frozenset({Status.ARRIVED_FOR_DELIVERY}),
     Action.WASHING_STARTED: frozenset({Status.WASHING}),
     Action.WASHING_DONE: frozenset({Status.WASHING}),
-    Action.PAY: frozenset(Status) - {Status.DECLINED, Status.CANCELLED},
+    # Flowchart 1: the customer pays after Completed. Paying earlier is allowed once the
+    # laundry is in the service's hands (loaded); a paid request cancelled from there on gets a
+    # refund (section 12). Before that nothing has been done that could be paid for (a request
+    # may still be declined, time out or lose its robot).
+    Action.PAY: frozenset({
+        Status.LAUNDRY_LOADED, Status.WASHING, Status.GOING_TO_ROOM, Status.ARRIVED_FOR_DELIVERY,
+        Status.GOING_TO_BASE, Status.COMPLETED,
+    }),
 }
 
 

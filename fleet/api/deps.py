@@ -6,10 +6,11 @@ from datetime import datetime
 from typing import Protocol
 
 from fastapi import Request as HttpRequest
+from sqlalchemy import select
 from sqlalchemy.ext.asyncio import AsyncSession
 
-from fleet.api.schemas import ErrorOut, FaultOut, RequestOut, RobotOut
-from fleet.models import Request, Robot
+from fleet.api.schemas import ErrorOut, FaultOut, RefundOut, RequestOut, RobotOut
+from fleet.models import Refund, Request, Robot
 from fleet.server import FleetServer
 from fleet.services.common import waiting_for
 from fleet.services.weight import Weighed, can_confirm_loaded, can_confirm_unloaded
@@ -49,7 +50,20 @@ def server_of(http: HttpRequest) -> FleetServer:
 async def request_out(session: AsyncSession, cfg: FleetSettings, request: Request) -> RequestOut:
     robot = (await session.get(Robot, request.assigned_robot_id)
              if request.assigned_robot_id is not None else None)
-    return request_body(request, robot.name if robot is not None else None, cfg)
+    refund = (await session.execute(
+        select(Refund).where(Refund.request_id == request.id))).scalar_one_or_none()
+    return request_body(request, robot.name if robot is not None else None, cfg,
+                        refund_out(refund.id, refund.created_at, refund.reason)
+                        if refund is not None else None)
+
+
+def refund_out(refund_id: int | None, created_at: datetime | None,
+               reason: str | None) -> RefundOut | None:
+    """A request's refund as the API shows it (None: no refund; the columns of an outer
+    join are then null)."""
+    if refund_id is None or created_at is None or reason is None:
+        return None
+    return RefundOut(Id=refund_id, CreatedAt=created_at, Reason=reason)
 
 
 class RequestFields(Weighed, Protocol):
@@ -84,7 +98,7 @@ class RequestFields(Weighed, Protocol):
 
 
 def request_body(request: RequestFields, robot_name: str | None,
-                 cfg: FleetSettings) -> RequestOut:
+                 cfg: FleetSettings, refund: RefundOut | None = None) -> RequestOut:
     """A request as the API shows it (``robot_name``: the assigned robot's)."""
     return RequestOut(
         Id=request.id, CustomerId=request.customer_id, Status=request.status,
@@ -97,7 +111,7 @@ def request_body(request: RequestFields, robot_name: str | None,
         Overweight=request.overweight,
         CanConfirmLoaded=can_confirm_loaded(request, cfg),
         CanConfirmUnloaded=can_confirm_unloaded(request, cfg),
-        AdminAlert=request.admin_alert,
+        AdminAlert=request.admin_alert, Refund=refund,
     )
 
 

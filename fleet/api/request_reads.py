@@ -12,12 +12,12 @@ from typing import Any
 from sqlalchemy import Connection, Select, bindparam, select
 
 from fleet.api.auth import check_customer
-from fleet.api.deps import request_body
+from fleet.api.deps import refund_out, request_body
 from fleet.api.schemas import RequestOut
 from fleet.errors import NotFound
-from fleet.models import Request, Robot
+from fleet.models import Refund, Request, Robot
 from fleet.server import FleetServer
-from fleet.settings import read_settings
+from fleet.settings import FleetSettings, read_settings
 from fleet.status import Status
 from fleet.tokens import Principal, Role
 
@@ -25,8 +25,12 @@ from fleet.tokens import Principal, Role
 # for the request and one for each robot, each through a session), shown from the row without
 # making ORM objects. Built once: statements are immutable, and building one costs more than
 # SQLAlchemy's cached compilation of it.
-_WITH_ROBOT = select(Request.__table__, Robot.name.label("assigned_robot_name")).outerjoin(
-    Robot, Robot.id == Request.assigned_robot_id)
+_WITH_ROBOT = (
+    select(Request.__table__, Robot.name.label("assigned_robot_name"),
+           Refund.id.label("refund_id"), Refund.created_at.label("refund_created_at"),
+           Refund.reason.label("refund_reason"))
+    .outerjoin(Robot, Robot.id == Request.assigned_robot_id)
+    .outerjoin(Refund, Refund.request_id == Request.id))
 _ONE = _WITH_ROBOT.where(Request.id == bindparam("request_id"))
 _NEWEST_FIRST = _WITH_ROBOT.order_by(Request.id.desc())
 _DEFAULT_LIMIT = 100
@@ -42,7 +46,7 @@ async def one_request(server: FleetServer, caller: Principal, request_id: int) -
             msg = f"request {request_id} does not exist"
             raise NotFound(msg)
         check_customer(caller, row.customer_id, f"request {request_id}")
-        return request_body(row, row.assigned_robot_name, read_settings(conn))
+        return _body(row, read_settings(conn))
 
     return await server.db.run_read(read)
 
@@ -65,7 +69,11 @@ async def newest_requests(server: FleetServer, caller: Principal, status: Status
 
     def read(conn: Connection) -> list[RequestOut]:
         cfg = read_settings(conn)
-        return [request_body(row, row.assigned_robot_name, cfg) for row in conn.execute(query)]
+        return [_body(row, cfg) for row in conn.execute(query)]
 
     return await server.db.run_read(read)
 
+
+def _body(row: Any, cfg: FleetSettings) -> RequestOut:
+    return request_body(row, row.assigned_robot_name, cfg, refund_out(
+        row.refund_id, row.refund_created_at, row.refund_reason))

@@ -39,6 +39,12 @@ class RequestCreate(Strict):
     CustomerId: Id
 
 
+class RefundOut(BaseModel):
+    Id: int
+    CreatedAt: datetime
+    Reason: str
+
+
 class RequestOut(BaseModel):
     Id: int
     CustomerId: int
@@ -58,6 +64,8 @@ class RequestOut(BaseModel):
     CanConfirmLoaded: bool
     CanConfirmUnloaded: bool
     AdminAlert: str | None
+    Refund: RefundOut | None = None
+    """The refund owed for a paid request that was cancelled."""
 
 
 class DetectedBeacon(BaseModel):

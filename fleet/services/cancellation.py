@@ -8,7 +8,7 @@ import structlog
 from sqlalchemy.ext.asyncio import AsyncSession
 
 from fleet.errors import Conflict
-from fleet.models import Request
+from fleet.models import Refund, Request
 from fleet.services.common import robot_serving, set_status
 from fleet.services.notify import notify
 from fleet.status import ALLOWED, HOLDS_LAUNDRY, Action, Disposition, Status
@@ -56,6 +56,8 @@ async def cancel(
         request.robot_returned = True
     if request.is_paid:
         request.refund_due = True
+        session.add(Refund(request_id=request.id, customer_id=request.customer_id,
+                           created_at=now, reason=f"{reason} (from {prior})"))
         message += " A refund will be processed."
     notify(session, now, recipient="customer", kind="request.cancelled", request=request,
            robot_name=robot.name if robot is not None else None, message=message)

@@ -151,10 +151,11 @@ class TestCancellationBranches:
             "CleanLaundryHeldAtBase", True)
 
     async def test_a_paid_request_is_flagged_for_refund(self, fleet):
-        request = await fleet.request(1)
-        await fleet.do(request["Id"], "pay")
-        body = await fleet.do(request["Id"], "cancel")
+        request_id = await to_loaded(fleet)  # paying is allowed once the laundry is loaded
+        await fleet.do(request_id, "pay")
+        body = await fleet.do(request_id, "cancel")
         assert body["RefundDue"] is True
+        request = {"Id": request_id}
         texts = [n["Message"] for n in await fleet.notifications(request_id=request["Id"])]
         assert any("refund" in t for t in texts)
 
@@ -174,14 +175,14 @@ class TestOfflineRobots:
                                                                           "Available")
 
     async def test_offline_en_route_cancels_and_notifies(self, fleet):
+        """(Nothing is paid yet on the way to the customer: no refund is due.)"""
         request = await fleet.request(1)
-        await fleet.do(request["Id"], "pay")
         fleet.clock.advance(31)
         await fleet.exchange("robot-2")
         await fleet.server.check_offline()
         body = await fleet.get(request["Id"])
         assert (body["Status"], body["CancelReason"], body["RefundDue"]) == (
-            "Cancelled", "RobotOffline", True)
+            "Cancelled", "RobotOffline", False)
         customer = await fleet.notifications(recipient="customer", request_id=request["Id"])
         assert any("Service disruption" in n["Message"] for n in customer)
 

@@ -8,6 +8,7 @@ timeouts cannot fire into a state that was already left.
 from __future__ import annotations
 
 import asyncio
+import functools
 from collections.abc import Awaitable, Callable, Coroutine
 from dataclasses import dataclass, field
 from typing import Any
@@ -33,6 +34,15 @@ from behaviours.profile import Profile, StateTask
 log = structlog.get_logger(__name__)
 
 TransitionSink = Callable[[str, str, str], None]
+MAX_TASK_RESTARTS = 1
+"""A state task that ended with its trigger refused is started again at most this often per
+entry of its state (a task that keeps firing a refused trigger would loop for ever)."""
+
+
+def _outward(path: str) -> list[str]:
+    """A dotted state path and its parents, innermost first."""
+    parts = path.split(".")
+    return [".".join(parts[:i]) for i in range(len(parts), 0, -1)]
 
 
 class DottedState(AsyncTimeout, NestedAsyncState):
@@ -105,6 +115,8 @@ class RobotMachine:
         self._before: str = RootState.BOOT
         self._driver: asyncio.Task[None] | None = None
         self._tasks: dict[str, asyncio.Task[None]] = {}
+        self._restarts: dict[str, int] = {}
+        self._watched: set[str] = set()
         self._state_tasks: dict[str, StateTask] = dict(profile.state_tasks())
         parts = tuple(profile.machine_parts(ctx))
         self.states = root_states(profile.mission_states(), parts)
@@ -205,8 +217,52 @@ class RobotMachine:
             log.exception("state.trigger_failed", trigger=request.trigger, state=self.state)
             return False
         if not result:
-            log.debug("state.refused", trigger=request.trigger, state=self.state)
+            # The error table's invalid transition: logged as an error, the state kept, and
+            # a recovery attempted: a state task that fired it and ended would leave the
+            # robot in a state nothing drives any more, so it is started again (once per
+            # entry of that state).
+            log.error("state.refused", trigger=request.trigger, state=self.state,
+                      allowed=self.allowed_triggers())
+            self._recover_refused(request.trigger)
         return result
+
+    def _recover_refused(self, trigger: str) -> None:
+        """The current state's task (innermost first), once it has ended with the machine
+        still in that state, is started again; at most ``MAX_TASK_RESTARTS`` times per entry
+        of that state. (The task that fired the refused trigger is usually still awaiting
+        the answer: it is watched until it ends.)"""
+        generation = self._generation
+        for path in _outward(self.state):
+            task = self._tasks.get(path)
+            if task is None or path not in self._state_tasks:
+                continue
+            if task.done():
+                self._restart(path, trigger, generation)
+            elif path not in self._watched:
+                self._watched.add(path)
+                task.add_done_callback(functools.partial(
+                    self._ended_after_refusal, path=path, trigger=trigger,
+                    generation=generation))
+            return
+
+    def _ended_after_refusal(self, task: asyncio.Task[None], *, path: str, trigger: str,
+                             generation: int) -> None:
+        self._watched.discard(path)
+        if not task.cancelled() and self._tasks.get(path) is task:
+            self._restart(path, trigger, generation)
+
+    def _restart(self, path: str, trigger: str, generation: int) -> None:
+        if generation != self._generation:
+            return  # the machine moved on meanwhile: nothing to recover
+        restarts = self._restarts.get(path, 0)
+        if restarts >= MAX_TASK_RESTARTS:
+            log.error("state.task_not_restarted", state=path, trigger=trigger,
+                      restarts=restarts)
+            return
+        self._restarts[path] = restarts + 1
+        log.warning("state.task_restarted", state=path, trigger=trigger, restarts=restarts + 1)
+        self._tasks[path] = asyncio.create_task(
+            self._run_state_task(path, self._state_tasks[path]), name=f"state:{path}")
 
     def _changed(self, event: Any) -> None:
         self._generation += 1
@@ -236,6 +292,7 @@ class RobotMachine:
             if path == RootState.ESTOP:
                 await self._latch_estop(event)
             self.profile.on_enter(path, self.ctx)
+            self._restarts.pop(path, None)
             task_fn = self._state_tasks.get(path)
             if task_fn is not None:
                 self._tasks[path] = asyncio.create_task(self._run_state_task(path, task_fn),

@@ -360,3 +360,57 @@ class TestDriver:
             return rig.task.done()
 
         assert run_with(DockingIdle(), body) is True
+
+
+class TestInvalidTransition:
+    """The delivery seed's error table: an invalid transition is logged as an error, the state
+    is kept, and a recovery is attempted."""
+
+    def test_a_refused_trigger_is_an_error_and_the_state_is_kept(self) -> None:
+        import structlog
+
+        async def body(rig: Rig) -> tuple[bool, str, list[dict[str, Any]]]:
+            with structlog.testing.capture_logs() as logs:
+                fired = await rig.machine.trigger("arrived")  # idle has no such arrow
+            return fired, rig.machine.state, logs
+
+        fired, state, logs = run_with(DriveProfile(), body)
+        assert fired is False and state == "idle"
+        refused = [e for e in logs if e["event"] == "state.refused"]
+        assert refused and refused[0]["log_level"] == "error"
+        assert refused[0]["trigger"] == "arrived" and "start_mission" in refused[0]["allowed"]
+
+    def test_a_task_that_ended_on_a_refused_trigger_is_started_again_once(self) -> None:
+        """A state task fires a trigger its state refuses and ends: the robot would sit in a
+        state nothing drives. The task is started again (once per entry): here the second
+        run fires the right trigger."""
+        runs: list[str] = []
+
+        async def drive(ctx: RobotContext) -> None:
+            runs.append(ctx.state)
+            await ctx.trigger("arrived" if len(runs) > 1 else "start_mission")
+
+        async def body(rig: Rig) -> str:
+            assert await rig.machine.trigger("start_mission")
+            for _ in range(20):
+                await asyncio.sleep(0.05)
+            return rig.machine.state
+
+        assert run_with(DriveProfile(drive), body) == "mission.unload"
+        assert runs == ["mission.drive", "mission.drive"]
+
+    def test_a_task_that_keeps_firing_refused_triggers_is_not_restarted_for_ever(self) -> None:
+        runs: list[str] = []
+
+        async def drive(ctx: RobotContext) -> None:
+            runs.append(ctx.state)
+            await ctx.trigger("start_mission")
+
+        async def body(rig: Rig) -> str:
+            assert await rig.machine.trigger("start_mission")
+            for _ in range(20):
+                await asyncio.sleep(0.05)
+            return rig.machine.state
+
+        assert run_with(DriveProfile(drive), body) == "mission.drive"
+        assert len(runs) == 2

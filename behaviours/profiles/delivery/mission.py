@@ -22,6 +22,7 @@ replanning of issue 16); people come from its LiDAR people tracker (``people_out
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import math
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
@@ -34,9 +35,11 @@ from behaviours.nav.localisation.filter import LIDAR_LOST, LOCALISED
 from behaviours.nav.localisation.people import Person
 from behaviours.nav.navigator import NavOutcome, NavStack
 from behaviours.profiles.delivery.memory import DeliveryMemory
+from behaviours.profiles.delivery.nav_errors import NavErrors
 from behaviours.profiles.delivery.orders import Accepted, OrderVerifier
 from behaviours.profiles.delivery.recovery import GoodCorrection, category_of, face, relocalise
 from behaviours.profiles.delivery.states import DeliveryTrigger
+from hal.devices import LinkDown
 from hal.tasks import cancel_and_wait
 
 log = structlog.get_logger(__name__)
@@ -65,6 +68,11 @@ apart."""
 STANDOFF_GAP_M = 0.34
 """The gap the approach aims for: inside the 50 cm, outside the guard's 30 cm."""
 GAP_MARGIN_M = 0.1
+APPROACH_PROGRESS_M = 0.1
+"""Getting this much closer to the customer is progress (the approach's stuck clock)."""
+HAND_CLEAR_S = 0.5
+"""A hand gone from the box opening this long: the box may close."""
+HAND_MARGIN_S = 0.05
 """Reached below 50 cm less this: the LiDAR sees the near side of the legs, the pose is a few
 centimetres off; the true gap must still be under 50 cm."""
 
@@ -81,14 +89,17 @@ class Places:
     delivery_s: float
     verifying_s: float
     loading_s: float
+    delivering_limit_s: float = 15.0
 
 
 class DeliveryMission:
     """The state tasks over one robot's navigation stack, orders and memory."""
 
     def __init__(self, nav: NavStack, verifier: OrderVerifier, memory: DeliveryMemory,
-                 places: Places, mark_delivered: Callable[[int], Awaitable[None]]) -> None:
+                 places: Places, mark_delivered: Callable[[int], Awaitable[None]],
+                 errors: NavErrors | None = None) -> None:
         self.nav = nav
+        self.errors = errors if errors is not None else NavErrors(nav, None)
         self.verifier = verifier
         self.memory = memory
         self.places = places
@@ -109,7 +120,8 @@ class DeliveryMission:
         return math.hypot(pose.x_m - self.places.home[0], pose.y_m - self.places.home[1])
 
     async def go(self, ctx: RobotContext, x_m: float, y_m: float, why: str) -> NavOutcome:
-        """``go_to`` with the error table's localisation rule: a diverged filter is stopped and
+        """``go_to`` with the error table's navigation rows (``nav_errors``: obstacle, failed
+        plan, goal unreachable) and its localisation rule: a diverged filter is stopped and
         re-localised (3 attempts) and the goal tried again; any other failure is returned (a
         lost LiDAR has had its 30 s of odometry inside the localisation already)."""
         while True:
@@ -118,13 +130,20 @@ class DeliveryMission:
             off_m = math.hypot(x_m - pose.x_m, y_m - pose.y_m)
             if off_m <= self.nav.planner_config.goal_tolerance_m:  # there already (a resume)
                 return NavOutcome("reached", (x_m, y_m), pose.x_m, pose.y_m, off_m, 0, 0.0)
-            outcome = await self.nav.go_to(x_m, y_m)
+            outcome = await self.errors.go(ctx, x_m, y_m)
             if outcome.reason != "diverged" or not await relocalise(ctx, self.nav, self.good):
                 return outcome
 
     async def nav_failed(self, ctx: RobotContext, outcome: NavOutcome) -> None:
-        category = category_of(outcome.reason, self.nav.motors.connected)
+        category = category_of(outcome.reason, self.nav.motors.connected,
+                               self.errors.encoders_failed)
         self.last_category = category
+        if category in ("motor", "serial_timeout"):
+            # The error table: a motor command that fails is an emergency stop and a
+            # critical error before error_recovery.
+            log.critical("delivery.motor_failure", category=category, detail=outcome.detail)
+            with contextlib.suppress(LinkDown):
+                await self.nav.motors.stop()
         ctx.emit("delivery.error", category=category, detail=outcome.detail,
                  state=ctx.state)
         await ctx.trigger(DeliveryTrigger.NAVIGATION_ERROR, category=category)
@@ -167,7 +186,8 @@ class DeliveryMission:
         if self.distance_home_m() > self.places.tolerance_m:
             outcome = await self.go(ctx, *self.places.home, why="home")
             if not outcome.reached:
-                category = category_of(outcome.reason, self.nav.motors.connected)
+                category = category_of(outcome.reason, self.nav.motors.connected,
+                                       self.errors.encoders_failed)
                 self.last_category = category
                 ctx.emit("delivery.error", category=category, detail=outcome.detail,
                          state=ctx.state)
@@ -220,6 +240,8 @@ class DeliveryMission:
         aimed = (target.map_x_m, target.map_y_m)
         drive: asyncio.Task[NavOutcome] | None = None
         failed = 0
+        stuck_s = float(ctx.settings.get("delivery.stuck_s"))
+        closest_m, closer_at = math.inf, loop.time()
         try:
             while True:
                 now = loop.time()
@@ -238,6 +260,20 @@ class DeliveryMission:
                     return
                 pose = self.nav.pose()
                 range_m = math.hypot(target.map_x_m - pose.x_m, target.map_y_m - pose.y_m)
+                if range_m < closest_m - APPROACH_PROGRESS_M:
+                    closest_m, closer_at = range_m, now
+                elif now - closer_at > stuck_s:
+                    # Goal unreachable: no closer for the error table's 30 s, whatever
+                    # standoff (the alternate paths) was tried.
+                    await cancel_and_wait(drive)
+                    await self.nav.drive.stop()
+                    ctx.emit("delivery.stuck", stuck_s=round(now - closer_at, 2),
+                             limit_s=stuck_s, action="give_up_approach")
+                    await self.nav_failed(ctx, NavOutcome(
+                        "no_progress", (target.map_x_m, target.map_y_m), pose.x_m, pose.y_m,
+                        range_m, 0, now - closer_at,
+                        f"no closer to the customer for {now - closer_at:.1f} s"))
+                    return
                 if range_m - BODIES_M < self.places.approach_m - GAP_MARGIN_M \
                         and (drive is None or drive.done()):
                     await cancel_and_wait(drive)
@@ -353,6 +389,7 @@ class DeliveryMission:
     async def delivering(self, ctx: RobotContext) -> None:
         order_id = self.memory.order_id
         await asyncio.sleep(self.places.delivery_s)
+        await self.wait_for_hand(ctx)
         await self.memory.handed_over()
         if order_id is not None:
             try:
@@ -363,6 +400,37 @@ class DeliveryMission:
         if self.customer is not None:
             self._dismiss(self.customer.map_x_m, self.customer.map_y_m)
         await ctx.trigger(DeliveryTrigger.DELIVERY_COMPLETE, order_id=order_id)
+
+    async def wait_for_hand(self, ctx: RobotContext) -> None:
+        """The box does not close on a hand: while the front IR sensor sees something in the
+        box opening (``delivery.hand_cm``), the hand-over waits, until it has been clear for
+        ``HAND_CLEAR_S``, and never past the state's hard limit (its timeout then ends the
+        state; ``delivery.hand_in_box`` says whether the hand went)."""
+        loop = asyncio.get_running_loop()
+        start = loop.time()
+        limit_s = self.places.delivering_limit_s - self.places.delivery_s - HAND_MARGIN_S
+        hand_cm = float(ctx.settings.get("delivery.hand_cm"))
+        clear_since: float | None = None
+        seen: float | None = None
+        while loop.time() - start < limit_s:
+            close_cm = self.errors.front_cm()
+            now = loop.time()
+            if close_cm is not None and close_cm < hand_cm:
+                seen = close_cm if seen is None else min(seen, close_cm)
+                clear_since = None
+            elif seen is None:
+                return  # nothing in the opening: the hand-over ends on time
+            else:
+                clear_since = now if clear_since is None else clear_since
+                if now - clear_since >= HAND_CLEAR_S:
+                    break
+            await asyncio.sleep(WATCH_S)
+        waited = round(loop.time() - start, 3)
+        gone = clear_since is not None
+        ctx.emit("delivery.hand_in_box", waited_s=waited, closest_cm=seen, gone=gone)
+        if not gone:
+            log.error("delivery.hand_in_box", waited_s=waited, note="still there at the limit")
+            await asyncio.Event().wait()  # the state's hard limit decides (error_recovery)
 
     async def resetting(self, ctx: RobotContext) -> None:
         outcome = await self.go(ctx, *self.places.home, why="home")

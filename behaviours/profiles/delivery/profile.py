@@ -43,6 +43,7 @@ from behaviours.profiles.delivery.config import timers_from
 from behaviours.profiles.delivery.loading import LoadingConfirmation
 from behaviours.profiles.delivery.memory import DELIVERY_MISSION, DeliveryMemory
 from behaviours.profiles.delivery.mission import DeliveryMission, Places
+from behaviours.profiles.delivery.nav_errors import NavErrors
 from behaviours.profiles.delivery.orders import OrderVerifier, SqliteOrders, sqlite_path
 from behaviours.profiles.delivery.outputs import StateOutputs
 from behaviours.profiles.delivery.recovery import ErrorRecovery
@@ -152,12 +153,13 @@ class DeliveryProfile(BaseProfile):
             tolerance_m=float(s.get("delivery.position_tolerance_m")),
             approach_m=float(s.get("delivery.approach_distance_m")),
             delivery_s=timers.delivery_duration_s, verifying_s=timers.verifying_timeout_s,
-            loading_s=timers.loading_timeout_s)
+            loading_s=timers.loading_timeout_s, delivering_limit_s=timers.delivering_timeout_s)
 
         async def mark(order_id: int) -> None:
             await orders.mark_delivered(order_id, ctx.wall_clock().isoformat())
 
-        self.mission = DeliveryMission(nav, OrderVerifier(orders), memory, places, mark)
+        self.mission = DeliveryMission(nav, OrderVerifier(orders), memory, places, mark,
+                                       NavErrors(nav, d.front_range))
         self.recovery = ErrorRecovery(nav, memory, home, self.mission.good)
         self.mission.good.watch()
         box = self.box = BoxController(_SeenServo(d.servo, ctx.emit), ctx.emit,
@@ -173,7 +175,8 @@ class DeliveryProfile(BaseProfile):
 
         return [
             TaskService("odometry", OdometryTracker(d.encoders, odometry).run, critical=True),
-            TaskService("encoder_watch", _encoder_watch(ctx, nav, d.encoders, motors).run),
+            TaskService("encoder_watch", _encoder_watch(ctx, nav, d.encoders, motors,
+                                                        self.mission.errors).run),
             NavLocalisation(nav),
             TaskService("delivery.outputs", outputs.run),
             TaskService("delivery.poses", lambda: _pose_events(ctx, nav),
@@ -265,12 +268,14 @@ class DeliveryProfile(BaseProfile):
 
 
 def _encoder_watch(ctx: RobotContext, nav: NavStack, encoders: Encoders,
-                   motors: CommandedMotors) -> EncoderWatch:
+                   motors: CommandedMotors, errors: NavErrors) -> EncoderWatch:
     """The seed's encoder failure: an error event (category ``encoder``), LiDAR-only
-    localisation and half speed while the counters are frozen; the mission goes on."""
+    localisation and half speed while the counters are frozen; the mission goes on (a goal
+    that then makes no progress is a motor failure: ``recovery.category_of``)."""
 
     def changed(failed: bool, figures: dict[str, Any]) -> None:
         nav.encoders_failed(failed)
+        errors.encoders_failed = failed
         ctx.emit("odometry.encoders_failed" if failed else "odometry.encoders_back",
                  state=ctx.state, **figures)
 

@@ -5,12 +5,13 @@ Categories (``delivery.error`` events, ``last_error`` in the state store):
 | category | detected by | handled |
 |---|---|---|
 | ``localisation_divergence`` | ``go_to`` → ``diverged`` | re-localised (3 tries), recovery |
-| ``no_path`` | ``go_to`` → ``no_path`` (the planner's) | error_recovery |
-| ``stuck`` | ``go_to`` → ``no_progress`` (``planner.no_progress_s``) | error_recovery |
+| ``no_path`` | ``go_to`` → ``no_path``, again after 2 s relaxed | error_recovery |
+| ``stuck`` | no progress for ``delivery.stuck_s``, then an alternate path | error_recovery |
 | ``lidar_lost`` | ``lidar_lost``: 30 s on odometry alone | error_recovery |
 | ``camera_failure`` | no QR reader / frame reads fail | warning, failure sound, to waiting |
 | ``encoder`` | ``EncoderWatch``: driven, ticks frozen 0.5 s | LiDAR-only, half speed; goes on |
-| ``serial_timeout`` / ``motor`` | the motor link down when a goal fails | error_recovery |
+| ``serial_timeout`` | the motor link down 1.5 s while driving | emergency stop, recovery |
+| ``motor`` | no progress, encoders frozen: the wheels do not turn | emergency stop, recovery |
 | ``database`` | ``OrderVerifier`` (3 retries) | the order refused, the customer told |
 | ``servo`` | ``BoxController`` (3 tries of 2 s) | logged, the delivery goes on |
 | ``loading_timeout`` / ``delivering_timeout`` | the state timers | error_recovery |
@@ -172,11 +173,15 @@ async def relocalise(ctx: RobotContext, nav: NavStack, good: GoodCorrection | No
     return False
 
 
-def category_of(reason: str, motors_connected: bool) -> str:
+def category_of(reason: str, motors_connected: bool, encoders_failed: bool = False) -> str:
     """A failed goal's category: the motor link first (a robot that cannot drive is stuck
-    for that reason), then the navigation's own."""
+    for that reason: ``serial_timeout``), then wheels that do not turn (no progress while the
+    encoder counts are frozen: neither the ticks nor the LiDAR see motion: ``motor``), then
+    the navigation's own."""
     if not motors_connected:
         return "serial_timeout"
+    if encoders_failed and reason == "no_progress":
+        return "motor"
     return NAV_CATEGORY.get(reason, reason)
 
 

@@ -12,8 +12,11 @@ from sim.actions.people import _person
 from sim.actions.step import Action, Step
 from sim.devices.frame_source import FrameSource
 from sim.scenario import ScenarioError
+from sim.world.snag import Snag
 
 log = structlog.get_logger(__name__)
+
+STEP_IN_GAP_M = 0.04
 
 
 async def _confirm(step: Step) -> None:
@@ -105,7 +108,38 @@ def _qr_camera_replug(step: Step) -> None:
     _qr_camera(step).replug()
 
 
+def _step_in(step: Step) -> None:
+    """``person.step_in``: ``name`` steps (or reaches: a small ``radius_m`` person is a hand)
+    right in front of the robot, ``STEP_IN_GAP_M`` from its nose; ``duration_s``: gone
+    again after that long. What the front IR sensor sees under 10 cm (the error table's
+    obstacle collision) or a hand in the box opening."""
+    person = _person(step)
+    body = step.rig.body
+    pose = body.pose
+    ahead = STEP_IN_GAP_M + body.params.radius_m + person.radius_m
+    person.walk = None
+    person.x_m, person.y_m = pose.to_world(ahead, 0.0)
+    person.present = True
+    duration = step.duration_s()
+    if duration is not None:
+        step.later(duration, lambda: setattr(person, "present", False), "person.stepped_out")
+
+
+def snag(step: Step) -> None:
+    """``body.snag``: the robot caught where it stands (``sim.world.snag``) for
+    ``duration_s`` (required), then ``body.released``."""
+    duration = step.duration_s()
+    if duration is None:
+        msg = "body.snag.duration_s: expected how long the robot stays caught (seconds)"
+        raise ScenarioError(msg)
+    held = Snag(step.rig.body)
+    held.hold()
+    step.later(duration, held.release, "body.released")
+
+
 DELIVERY_ACTIONS: dict[str, Action] = {
+    "body.snag": snag,
+    "person.step_in": _step_in,
     "qr_camera.unplug": _qr_camera_unplug,
     "qr_camera.replug": _qr_camera_replug,
     "servo.fail": _servo_fail,

@@ -1,0 +1,100 @@
+"""RelayBot's error table in whole missions (seed relaybot-delivery-design.md, "Error
+Handling"): a serial timeout and a motor failure reach error_recovery with their categories;
+a verifying timeout, and a navigation error from approaching, returning and resetting, each
+happen in a run (the robot snagged: ``body.snag``). The navigation rows on the way to the
+warehouse (obstacle, stuck, alternate path) are ``delivery-stuck`` (test_sim_delivery.py)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+from delivery_harness import ORDER_7, kinds, mission_text, moves, person, run_mission
+
+QUICK = "\n[config.delivery]\nwarehouse_x_m = 1.5\nwarehouse_y_m = -1.2\n"
+"""A warehouse near home: a whole mission in about 80 s of virtual time."""
+
+
+def _steps(*steps: str) -> str:
+    return "".join(f"[[script]]\n{step}\n" for step in steps)
+
+
+WALK_IN = ('at_s = 2.0\naction = "person.walk"\nname = "customer"\n'
+           "points = [[0.0, 3.4], [1.4, 1.0]]\nspeed_mps = 1.0\n")
+CONFIRM = ('at_s = 2.2\nwhen_state = "mission.loading"\ndelay_s = 1.0\n'
+           'action = "staff.confirm_loaded"\n')
+LEAVE = ('at_s = 3.0\nwhen_state = "mission.error_recovery"\naction = "person.walk"\n'
+         'name = "customer"\npoints = [[0.0, 3.4], [-1.6, 3.4]]\nspeed_mps = 1.0\n')
+HOME_WAITING = ('final_state = "mission.waiting"\nstates_reached = ["mission.error_recovery"]\n'
+                "no_estop = true\nfinal_poses = [ { x_m = 0.0, y_m = 0.0, tolerance_m = 0.10 } ]")
+
+
+def _run(*steps: str, qr: str | None = ORDER_7, config: str = QUICK,
+         success: str = HOME_WAITING, limit_s: int = 300) -> list[dict[str, Any]]:
+    result = run_mission(mission_text(
+        config=config, people=person("customer", -1.6, 3.4, qr), script=_steps(*steps),
+        success=f"time_limit_s = {limit_s}\n{success}"))
+    assert result.reasons == []
+    return result.events
+
+
+def _recovered_from(events: list[dict[str, Any]]) -> tuple[str, str, str | None]:
+    into = next(m for m in moves(events) if m[2] == "mission.error_recovery")
+    category = kinds(events, "delivery.recovery")[0]["category"]
+    return into[0], into[1], category
+
+
+@pytest.mark.parametrize(("fault", "category"), [
+    # The motor board's cable out for 16 s on the way to the warehouse: commands unanswered.
+    (('at_s = 2.5\nwhen_state = "mission.navigating_to_warehouse"\ndelay_s = 1.0\n'
+      'action = "mcu.unplug"\nduration_s = 16.0\n',), "serial_timeout"),
+    # The wheels do not turn (no encoder ticks, no motion) though the board answers.
+    (('at_s = 2.5\nwhen_state = "mission.navigating_to_warehouse"\ndelay_s = 1.0\n'
+      'action = "encoders.fail"\nduration_s = 25.0\n',
+      'at_s = 2.6\naction = "body.snag"\nduration_s = 24.0\n'), "motor"),
+])
+def test_serial_timeout_and_motor_failure_reach_error_recovery(fault: tuple[str, ...],
+                                                               category: str) -> None:
+    events = _run(WALK_IN, *fault, LEAVE)
+    assert _recovered_from(events) == ("mission.navigating_to_warehouse", "navigation_error",
+                                       category)
+    assert ("mission.error_recovery", "recovery_complete", "mission.waiting") in moves(events)
+    assert not kinds(events, "delivery.stuck")  # not the planner's to work round
+
+
+def test_a_verifying_timeout_goes_back_to_waiting() -> None:
+    """The customer shows no code: the (configured, shorter) timeout ends verifying."""
+    events = _run(WALK_IN, qr=None, config=QUICK + "verifying_timeout_s = 6.0\n",
+                  success='final_state = "mission.waiting"\n'
+                          'states_reached = ["mission.verifying"]\nno_estop = true',
+                  limit_s=80)
+    assert ("mission.verifying", "timeout", "mission.waiting") in moves(events)
+    stays = [e["t"] for e in events if e["kind"] == "transition"
+             and e["dst"] == "mission.verifying"]
+    left = next(e["t"] for e in events if e["kind"] == "transition"
+                and e["src"] == "mission.verifying")
+    assert left - stays[0] == pytest.approx(6.0, abs=0.01)
+
+
+@pytest.mark.parametrize(("state", "snag_s"), [
+    ("approaching", 40.0),
+    ("returning_to_customer", 70.0),
+    ("resetting", 70.0),
+])
+def test_a_navigation_error_from_each_navigating_state(state: str, snag_s: float) -> None:
+    """The robot snagged in ``state``: the approach gives up after its standoffs, the others
+    after 30 s stuck and an alternate path; navigation_error, error_recovery, home once the
+    snag lets go."""
+    # The steps run in turn; approached, the customer stops 2.6 m away (walking up to the
+    # robot, they would reach it themselves).
+    first = (WALK_IN, CONFIRM) if state != "approaching" else (
+        'at_s = 2.0\naction = "person.walk"\nname = "customer"\n'
+        "points = [[0.0, 3.4], [0.0, 2.6]]\nspeed_mps = 1.0\n",)
+    events = _run(*first,
+                  f'at_s = 2.5\nwhen_state = "mission.{state}"\ndelay_s = 0.5\n'
+                  f'action = "body.snag"\nduration_s = {snag_s}\n', LEAVE)
+    src, trigger, category = _recovered_from(events)
+    assert (src, trigger) == (f"mission.{state}", "navigation_error")
+    assert category == "stuck"
+    if state != "approaching":
+        assert kinds(events, "delivery.alternate_path")

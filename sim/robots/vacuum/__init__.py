@@ -1,5 +1,6 @@
-"""The robot vacuum's simulator slice: its docking scenarios, the virtual wall they may put in
-the world, and its success conditions.
+"""The robot vacuum's simulator slice: docking scenarios, virtual walls, success conditions.
+
+Its scenarios may put a virtual wall in the world.
 
 The dock, its beams and the station are the world's, shared by every robot with dock IR
 receivers."""

@@ -174,7 +174,8 @@ ALL_CHECKS = ("not_a_server_error", "status_code_conformance", "content_type_con
               "positive_data_acceptance", "negative_data_rejection", "use_after_free",
               "ensure_resource_availability", "missing_required_header", "ignored_auth",
               "object_level_authorization", "unsupported_method", "allow_header_conformance")
-MAX_RESPONSE_TIME_S = 5.0
+MAX_RESPONSE_TIME_S = 30.0
+"""A hang, not a speed target (a shared machine at load 9 can take seconds for one response)."""
 EXAMPLES = 25
 
 

@@ -24,6 +24,7 @@ from hal.telemetry import NULL_TELEMETRY, Telemetry
 from robotd import __version__
 from robotd.config import ConfigError, Settings, load_config
 from robotd.config.overrides import overrides_path
+from robotd.control.admission import ClientPolicy
 from robotd.control.methods import control_handlers
 from robotd.control.server import ControlServer
 from robotd.health import LoopMonitor, WatchdogFeeder
@@ -92,7 +93,8 @@ class Daemon:
             self.control = ControlServer(
                 socket_path, control_handlers(self),
                 max_clients=settings.get("control.max_clients"),
-                queue_limit=settings.get("control.client_queue"))
+                queue_limit=settings.get("control.client_queue"),
+                policy=ClientPolicy.from_settings(settings.get))
         self.supervisor = Supervisor(
             self._services(), policy=RestartPolicy(
                 base_s=settings.get("supervisor.restart_base_s"),

@@ -52,8 +52,27 @@ _CORE: tuple[Section, ...] = (
     Section("control", "The local control socket for robotctl.", (
         opt("socket", "str", "/run/robotd/control.sock", "Unix socket path."),
         opt("max_clients", "int", 64, "Connections accepted at once.", min=1, max=4096),
-        opt("client_queue", "int", 256, "Notifications queued per client before it loses some.",
-          min=1, max=100000),
+        opt("client_queue", "int", 256,
+          "Lines queued per client: past it a subscriber loses notifications, and a client "
+          "is not read until its replies drain.", min=1, max=100000),
+        opt("idle_timeout_s", "float", 60.0,
+          "A connection that sends no request for this long is closed (not a reading "
+          "subscriber).", min=0.1, max=86400),
+        opt("stall_timeout_s", "float", 10.0,
+          "A connection whose replies have not drained for this long is closed.",
+          min=0.1, max=3600),
+        opt("evict_idle_s", "float", 1.0,
+          "When the socket is full, a connection idle or stalled this long gives its place "
+          "to a newcomer.", min=0.0, max=3600),
+        opt("wait_max", "int", 128, "Connections past max_clients that wait for a place.",
+          min=0, max=4096),
+        opt("wait_s", "float", 1.0, "How long a waiting connection may wait for a place.",
+          min=0.01, max=60),
+        opt("lines_per_s", "float", 4096.0,
+          "Work units a client may spend per second (a request is one, 256 blank lines one).",
+          min=1, max=1e7),
+        opt("lines_burst", "float", 4096.0, "Work units a client may spend at once.",
+          min=1, max=1e7),
     )),
     Section("logging", "Structured logs.", (
         opt("level", "str", "info", "Lowest level logged.",

@@ -8,9 +8,9 @@ way, newcomers wait for a place (``overflow``); an ``estop`` is served past the 
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol
 
 
 @dataclass(frozen=True, slots=True)
@@ -52,10 +52,19 @@ class ClientPolicy:
     lingering_max: int = 64
     estop_socket_max: int = 16
 
+    @classmethod
+    def from_settings(cls, get: Callable[[str], Any]) -> ClientPolicy:
+        """The policy the ``[control]`` keys set (``get`` reads one, e.g. ``Settings.get``)."""
+        return cls(**{name: get(f"control.{name}") for name in _CONFIGURED})
+
     @property
     def reap_every_s(self) -> float:
         """How often idle and stalled connections are looked for."""
         return min(1.0, max(0.01, min(self.idle_timeout_s, self.stall_timeout_s) / 4))
+
+
+_CONFIGURED = ("wait_max", "wait_s", "idle_timeout_s", "stall_timeout_s", "evict_idle_s",
+               "lines_per_s", "lines_burst")
 
 
 class Activity(Protocol):

@@ -24,6 +24,8 @@ class Client:
         self._queue: deque[bytes] = deque()
         self._limit = queue_limit
         self._wake = asyncio.Event()
+        self._room = asyncio.Event()
+        self._room.set()
         self.dropped = 0
         self.dropped_total = 0
         self.closed = False
@@ -40,7 +42,14 @@ class Client:
             return False
         self._queue.append(line)
         self._wake.set()
+        if len(self._queue) >= self._limit:
+            self._room.clear()
         return True
+
+    async def room_for_replies(self) -> None:
+        """Wait while its queue is full: a client is not read faster than it reads its
+        replies (one that stops reading is evicted as stalled, not here)."""
+        await self._room.wait()
 
     def send_notification(self, line: bytes) -> None:
         """Queue a notification, or count it lost when the client is behind."""
@@ -69,6 +78,7 @@ class Client:
                 self._writer.write(notice)
             while self._queue:
                 self._writer.write(self._queue.popleft())
+            self._room.set()
             self.writing_since_s = loop.time()
             await self._writer.drain()
             self.writing_since_s = None
@@ -82,6 +92,7 @@ class Client:
         if not self.closed:
             self.closed = True
             self._wake.set()
+            self._room.set()
             self._writer.close()
 
     def close_saying(self, line: bytes) -> None:
@@ -92,6 +103,7 @@ class Client:
         self.closed = True
         self._queue.clear()
         self._wake.set()
+        self._room.set()
         if self.writing_since_s is not None:
             self._writer.transport.abort()
             return

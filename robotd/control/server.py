@@ -195,6 +195,7 @@ class ControlServer:
         after each chunk) and reading no faster than its budget allows."""
         loop = asyncio.get_running_loop()
         for line in lines:
+            await client.room_for_replies()
             if client.closed or client.gone:
                 return
             if isinstance(line, TooLong):

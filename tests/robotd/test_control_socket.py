@@ -203,8 +203,11 @@ class TestManyClients:
         assert clients_seen == 50
 
     async def test_a_client_that_never_reads_does_not_stop_the_others(self) -> None:
-        """A stuck client that floods requests is cut off; the others keep their answers."""
-        async with running_daemon(config={"control": {"client_queue": 8}}) as daemon:
+        """A stuck client that floods requests is read no further once its replies back up,
+        and is cut off when they have not drained for ``stall_timeout_s``; the others keep
+        their answers throughout."""
+        config = {"control": {"client_queue": 8, "stall_timeout_s": 0.5}}
+        async with running_daemon(config=config) as daemon:
             stuck = await RpcClient.connect(socket_of(daemon))
             await stuck.call("subscribe", {"topics": ["*"]})
             request = json.dumps({"jsonrpc": "2.0", "id": 1, "method": "status"}).encode()

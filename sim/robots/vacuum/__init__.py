@@ -1,8 +1,7 @@
-"""The robot vacuum's simulator slice: its docking scenarios, the virtual wall they may put in
-the world, and its success conditions.
+"""The robot vacuum's simulator slice: docking scenarios, a virtual wall, success conditions.
 
 The dock, its beams and the station are the world's, shared by every robot with dock IR
-receivers."""
+receivers; the virtual wall (``world.py``) is sent in the dock's cycle."""
 
 from __future__ import annotations
 

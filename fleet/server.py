@@ -22,6 +22,7 @@ from fleet.auth import Authenticator
 from fleet.cache import SiteCache
 from fleet.clock import Clock, system_clock
 from fleet.db import Database
+from fleet.push import EventHub, Webhooks
 from fleet.services.assignment import process_queue
 from fleet.services.exchange import RobotViews
 from fleet.services.offline import check_offline
@@ -65,6 +66,8 @@ class FleetServer:
         self.cache = SiteCache(self.db)
         self.views = RobotViews(self.db, self.clock)
         self.auth = Authenticator(self.db, max_failures_per_min=auth_failures_per_min)
+        self.events = EventHub(self.db)
+        self.webhooks = Webhooks(self.db, self.cache.settings)
         self._tasks: list[asyncio.Task[None]] = []
         self.started = False
 
@@ -108,6 +111,8 @@ class FleetServer:
             with contextlib.suppress(asyncio.CancelledError):
                 await task
         self._tasks = []
+        await self.events.stop()
+        await self.webhooks.stop()
         try:
             await self.flush_pings()
         except Exception:

@@ -150,6 +150,8 @@ class Webhooks:
         self._transport = transport
         self._queue: asyncio.Queue[NotificationOut] = asyncio.Queue(maxsize=self.QUEUE_MAX)
         self._task: asyncio.Task[None] | None = None
+        self.urls: tuple[str, ...] | None = None
+        """``WebhookUrls`` as last seen (None: not known yet); none: nothing is queued."""
         self.sent = 0
         self.failed = 0
         self.dropped = 0
@@ -157,6 +159,8 @@ class Webhooks:
 
     def _committed(self, session: AsyncSession) -> None:
         created: list[Notification] = session.info.get(CREATED) or []
+        if self.urls == ():
+            return
         for row in created:
             try:
                 self._queue.put_nowait(notification_out(row))
@@ -183,6 +187,7 @@ class Webhooks:
                 except Exception:
                     log.exception("fleet.webhook.settings_failed")
                     continue
+                self.urls = cfg.webhook_urls
                 for url in cfg.webhook_urls:
                     await self._post(client, cfg, url, item)
 

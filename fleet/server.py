@@ -86,6 +86,7 @@ class FleetServer:
                     "SELECT setval(pg_get_serial_sequence('customers', 'id'), "
                     "COALESCE((SELECT MAX(id) FROM customers), 0) + 1, false)"))
             await process_queue(session, now)
+            self.webhooks.urls = (await load_settings(session)).webhook_urls
         self.cache.invalidate()
         self.auth.invalidate()
         self.started = True
@@ -152,6 +153,7 @@ class FleetServer:
         while True:
             try:
                 cfg = await self.cache.settings()
+                self.webhooks.urls = cfg.webhook_urls  # changed by another process, perhaps
             except Exception:
                 log.exception("fleet.monitor.failed", monitor=name)
                 cfg = FleetSettings.model_validate({})

@@ -202,6 +202,7 @@ async def put_settings(body: SettingsUpdate, http: HttpRequest) -> dict[str, Any
         except ValidationError as exc:
             raise Conflict("; ".join(str(e["msg"]) for e in exc.errors())) from exc
     server_of(http).cache.invalidate()
+    server_of(http).webhooks.urls = merged.webhook_urls
     return merged.public()
 
 

@@ -127,3 +127,20 @@ def test_the_box_does_not_close_on_a_hand() -> None:
     boxes = [(e["t"], e["angle_deg"]) for e in kinds(result.events, "delivery.box")]
     closed = next(t for t, angle in boxes if angle == 0 and t > into)
     assert closed >= into + 12.0
+
+
+def test_a_failed_plan_is_retried_after_2_s_with_relaxed_constraints() -> None:
+    """The warehouse spot 0.27 m below the shelves' end: no path with the planner's 0.30 m
+    clearance (the goal in collision); logged, 2 s, planned again with 0.20 m: reached."""
+    config = "\n[config.delivery]\nwarehouse_x_m = 3.6\nwarehouse_y_m = 0.33\n"
+    result = run_mission(mission_text(
+        config=config, people=person("customer", -1.6, 3.4, ORDER_7), script=_steps(WALK_IN),
+        success='time_limit_s = 120\nfinal_state = "mission.loading"\nno_estop = true'))
+    assert result.reasons == []
+    failed = kinds(result.events, "delivery.no_path")[0]
+    retried = kinds(result.events, "delivery.relaxed_plan")[0]
+    assert "collision" in failed["detail"] and failed["relaxed_clearance_m"] == 0.2
+    assert retried["reason"] == "reached"
+    assert retried["t"] - failed["t"] >= 2.0
+    assert ("mission.navigating_to_warehouse", "reached_warehouse",
+            "mission.loading") in moves(result.events)

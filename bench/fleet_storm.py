@@ -11,7 +11,7 @@ import asyncio
 import json
 import time
 
-from bench_fleet import Conn, exchange_body, robot_token, served_fleet
+from bench_fleet import Conn, exchange_body, robot_token, served_fleet, with_state
 
 
 async def run_storm(db_url: str, robots: int, port: int,
@@ -33,7 +33,7 @@ async def run_storm(db_url: str, robots: int, port: int,
         started = time.perf_counter()
         answers = await asyncio.gather(*(
             conn.call("POST", f"/api/Robot/robot-{i}/data-exchange",
-                      exchange_body(f"robot-{i}", i), robot_token(i))
+                      exchange_body(f"robot-{i}", i, state=with_state(i)), robot_token(i))
             for i, conn in enumerate(conns)))
         elapsed_s = time.perf_counter() - started
         bad = [status for status, _ in answers if status != 200]

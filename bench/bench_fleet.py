@@ -13,7 +13,10 @@ storm (bench/fleet_storm.py): every robot offline, then all report at once; it p
 until the last one is answered (restored), and checks that all are online.
 
 The site has 40 customer rooms with a beacon each (every reply lists all 41 beacons). Half of
-the robots serve a request (they get customer-room targets), half idle. Each robot
+the robots serve a request (they get customer-room targets), half idle. Every other robot also
+sends what issue 27 added to the exchange (State, EmergencyStopActive, Fault, BatteryPct):
+the data-exchange latency is printed for all, and for the robots with and without the new
+fields, side by side from the same run. Each robot
 keeps one HTTP/1.1 connection, as a real robot's client does. Server CPU per request is read
 from /proc over the measured seconds only; the load generator (protocol callbacks on loop
 timers, uvloop) prints its own, since it shares the machine's cores with the server.
@@ -119,12 +122,22 @@ def http_request(method: str, path: str, body: bytes = b"", token: str | None = 
             f"{auth}Content-Length: {len(body)}\r\n\r\n").encode() + body
 
 
-def exchange_body(name: str, i: int) -> bytes:
-    return json.dumps({
+def exchange_body(name: str, i: int, *, state: bool = False) -> bytes:
+    """A robot's report; ``state``: with the fields issue 27 added (a robot on its way)."""
+    body = {
         "RobotName": name, "Timestamp": "2026-01-05T08:00:00Z",
         "DetectedBeacons": [{"MacAddress": room_mac(i % ROOMS), "Rssi": -80, "Distance": 4.0}],
         "IsInTarget": False, "WeightKg": 0.0, "UltrasonicDistance": 120.0,
-    }).encode()
+    }
+    if state:
+        body.update({"State": "mission.to_room", "EmergencyStopActive": False, "Fault": None,
+                     "BatteryPct": 87.5})
+    return json.dumps(body).encode()
+
+
+def with_state(i: int) -> bool:
+    """Every other robot sends the new fields."""
+    return i % 2 == 0
 
 
 class Robot(asyncio.Protocol):
@@ -189,11 +202,13 @@ class Robot(asyncio.Protocol):
 
 
 async def load(port: int, robots: int, seconds: float, pid: int, *,
-               health: bool) -> tuple[list[float], float, float]:
-    """Latencies of N robots calling once a second (after a 3 s warm-up), and the server's and
-    this load generator's CPU seconds over the measured part."""
+               health: bool) -> tuple[list[float], float, float, list[float]]:
+    """Latencies of N robots calling once a second (after a 3 s warm-up), the server's and
+    this load generator's CPU seconds over the measured part, and the latencies of the robots
+    that send the new fields (``with_state``; the others are the first list)."""
     loop = asyncio.get_running_loop()
     latencies: list[float] = []
+    stated: list[float] = []
     errors: list[int] = []
     start = loop.time() + 0.5
     warmup = WARMUP_S
@@ -211,19 +226,19 @@ async def load(port: int, robots: int, seconds: float, pid: int, *,
         name = f"robot-{i}"
         request = (http_request("GET", "/health") if health else
                    http_request("POST", f"/api/Robot/{name}/data-exchange",
-                                exchange_body(name, i), robot_token(i)))
+                                exchange_body(name, i, state=with_state(i)), robot_token(i)))
         finished: asyncio.Future[None] = loop.create_future()
         done.append(finished)
-        await loop.create_connection(
-            lambda r=request, f=finished: Robot(r, start + random.random(), stop_at,
-                                                measure_from, latencies, errors, f),
-            "127.0.0.1", port)
+        into = stated if with_state(i) and not health else latencies
+        robot = Robot(request, start + random.random(), stop_at, measure_from, into, errors,
+                      finished)
+        await loop.create_connection(lambda r=robot: r, "127.0.0.1", port)
     await asyncio.gather(*done)
     sample()
     if errors:
         msg = f"{len(errors)} errors, e.g. HTTP {errors[0]} (0: connection lost)"
         raise RuntimeError(msg)
-    return latencies, cpu[1] - cpu[0], own[1] - own[0]
+    return latencies, cpu[1] - cpu[0], own[1] - own[0], stated
 
 
 async def wait_ready(port: int, proc: subprocess.Popen[bytes]) -> None:
@@ -262,9 +277,12 @@ async def run_one(db_url: str, robots: int, seconds: float, port: int,
     # report takes the write path.
     async with served_fleet(db_url, robots, port, extra) as (admin, pid):
         admin.close()
-        latencies, cpu, own = await load(port, robots, seconds, pid, health=False)
-        base, health_cpu_s, _ = await load(port, robots, seconds, pid, health=True)
+        plain, cpu, own, stated = await load(port, robots, seconds, pid, health=False)
+        base, health_cpu_s, _, _ = await load(port, robots, seconds, pid, health=True)
+        latencies = plain + stated
         return {"rps": len(latencies) / seconds, "p50": pct(latencies, 0.5),
+                "plain_p50": pct(plain, 0.5), "plain_p99": pct(plain, 0.99),
+                "state_p50": pct(stated, 0.5), "state_p99": pct(stated, 0.99),
                 "cpu_ms": cpu / len(latencies) * 1000,
                 "client_cpu_ms": own / len(latencies) * 1000,
                 "health_cpu_ms": health_cpu_s / len(base) * 1000,
@@ -272,12 +290,26 @@ async def run_one(db_url: str, robots: int, seconds: float, port: int,
                 "health_p50": pct(base, 0.5), "health_p99": pct(base, 0.99)}
 
 
+async def report_all(conn: Conn, robots: int) -> None:
+    """Every robot makes one data exchange."""
+    for i in range(robots):
+        status, body = await conn.call("POST", f"/api/Robot/robot-{i}/data-exchange",
+                                       exchange_body(f"robot-{i}", i, state=with_state(i)),
+                                       robot_token(i))
+        if status != 200:
+            msg = f"robot-{i}'s data exchange: HTTP {status} {body!r}"
+            raise RuntimeError(msg)
+
+
 @contextlib.asynccontextmanager
 async def served_fleet(db_url: str, robots: int, port: int, extra: tuple[str, ...] = (),
-                       settings: str = "") -> AsyncIterator[tuple[Conn, int]]:
+                       settings: str = "", after: dict[str, object] | None = None,
+                       ) -> AsyncIterator[tuple[Conn, int]]:
     """A ``robotd-fleet serve`` of its own for a run: the site's ``robots``, a request from
     half the customers and one report from every robot made. Yields an admin connection and
-    the server's pid; the server is stopped after."""
+    the server's pid; the server is stopped after. (The robots report before the requests
+    are made: a robot that has never reported is not online, and a site with no robot online
+    refuses requests.) ``after``: settings put once all that is done."""
     workdir = Path(tempfile.mkdtemp(prefix="bench-fleet-"))
     site = workdir / "site.toml"
     site.write_text(site_toml(robots, settings))
@@ -288,11 +320,21 @@ async def served_fleet(db_url: str, robots: int, port: int, extra: tuple[str, ..
     try:
         await wait_ready(port, proc)
         admin = Conn(port)
+        await report_all(admin, robots)
         for c in range(1, robots // 2 + 1):
-            await admin.call("POST", "/api/requests", json.dumps({"CustomerId": c}).encode())
-        for i in range(robots):
-            await admin.call("POST", f"/api/Robot/robot-{i}/data-exchange",
-                             exchange_body(f"robot-{i}", i), robot_token(i))
+            status, _ = await admin.call("POST", "/api/requests",
+                                         json.dumps({"CustomerId": c}).encode())
+            if status != 201:
+                msg = f"POST /api/requests for customer {c}: HTTP {status}"
+                raise RuntimeError(msg)
+        # Again, right before the measurement: the requests took a while, and a robot silent
+        # for OfflineAfterS would take the write path (or go offline) in the measured part.
+        await report_all(admin, robots)
+        if after:
+            status, body = await admin.call("PUT", "/api/settings", json.dumps(after).encode())
+            if status != 200:
+                msg = f"PUT /api/settings: HTTP {status} {body!r}"
+                raise RuntimeError(msg)
         yield admin, proc.pid
     finally:
         proc.terminate()
@@ -306,6 +348,9 @@ async def served_fleet(db_url: str, robots: int, port: int, extra: tuple[str, ..
 def report(backend: str, robots: int, r: dict[str, float]) -> None:
     print(f"{backend:10s} robots={robots:4d}  {r['rps']:7.1f} req/s  p50={r['p50']:6.1f} ms  "
           f"p99={r['p99']:6.1f} ms  max={r['max']:6.1f} ms  server CPU {r['cpu_ms']:.2f} ms/req\n"
+          f"{'':10s} with State/EmergencyStopActive/Fault/BatteryPct: p50={r['state_p50']:.1f} ms "
+          f"p99={r['state_p99']:.1f} ms; without them: p50={r['plain_p50']:.1f} ms "
+          f"p99={r['plain_p99']:.1f} ms (same run, half the robots each)\n"
           f"{'':10s} same load on GET /health: p50={r['health_p50']:.1f} ms "
           f"p99={r['health_p99']:.1f} ms  server CPU {r['health_cpu_ms']:.2f} ms/req  "
           f"-> exchange p99 / health p99 = {r['p99'] / r['health_p99']:.1f}x\n"

@@ -11,7 +11,7 @@ import asyncio
 import json
 import time
 
-from bench_fleet import Conn, exchange_body, robot_token, served_fleet
+from bench_fleet import Conn, exchange_body, robot_token, served_fleet, with_state
 
 
 async def run_storm(db_url: str, robots: int, port: int,
@@ -19,8 +19,9 @@ async def run_storm(db_url: str, robots: int, port: int,
     """A reconnect storm: every robot reports, goes offline (OfflineAfterS 2 s, checked every
     second), then all report at once on connections opened beforehand. Returns the seconds
     from the first send to the last answer, and how many robots are online after."""
-    async with served_fleet(db_url, robots, port, extra,
-                            "OfflineAfterS = 2\nOfflineCheckPeriodS = 1\n") as (admin, _pid):
+    # OfflineAfterS only once the requests are made: robots are online until then.
+    async with served_fleet(db_url, robots, port, extra, "OfflineCheckPeriodS = 1\n",
+                            after={"OfflineAfterS": 2}) as (admin, _pid):
         # Another process's state, seen only through its API: poll it.
         while sum(r["IsOffline"] for r in await _robots(admin)) < robots:  # noqa: ASYNC110
             await asyncio.sleep(0.5)
@@ -32,7 +33,7 @@ async def run_storm(db_url: str, robots: int, port: int,
         started = time.perf_counter()
         answers = await asyncio.gather(*(
             conn.call("POST", f"/api/Robot/robot-{i}/data-exchange",
-                      exchange_body(f"robot-{i}", i), robot_token(i))
+                      exchange_body(f"robot-{i}", i, state=with_state(i)), robot_token(i))
             for i, conn in enumerate(conns)))
         elapsed_s = time.perf_counter() - started
         bad = [status for status, _ in answers if status != 200]

@@ -17,7 +17,7 @@ import structlog
 from fastapi import FastAPI
 from starlette.types import Receive, Scope, Send
 
-from fleet.api import admin, alerts, requests, robot, tokens
+from fleet.api import admin, alerts, events, requests, robot, tokens
 from fleet.api.auth import Authenticate
 from fleet.api.body_limit import BodyLimit
 from fleet.api.docs import add_offline_docs
@@ -98,6 +98,7 @@ def create_app(
     app.include_router(admin.router)
     app.include_router(tokens.router)
     app.include_router(alerts.router)
+    app.include_router(events.router)
     add_error_handlers(app)
     add_offline_docs(app)
 

@@ -19,6 +19,8 @@ from fleet.logsetup import configure_logging
 from fleet.site import SiteError, load_site
 
 DEFAULT_DB = "sqlite:////var/lib/robotd-fleet/fleet.db"
+SHUTDOWN_GRACE_S = 3
+"""At stop, requests under way get this long; event streams still open are then ended."""
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -105,7 +107,9 @@ def main(argv: list[str] | None = None) -> int:
     # the loop, asyncio.run(server.serve()) would not.
     config = uvicorn.Config(app, host=args.host, port=args.port, log_config=None,
                             access_log=args.access_log, lifespan="on", loop="auto",
-                            http=CoalescingHttpToolsProtocol)
+                            http=CoalescingHttpToolsProtocol,
+                            # open event streams (GET /api/events) never end on their own
+                            timeout_graceful_shutdown=SHUTDOWN_GRACE_S)
     server = uvicorn.Server(config)
     try:
         server.run()

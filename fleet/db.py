@@ -124,6 +124,9 @@ class Database:
         self._write_lock = asyncio.Lock()
         # Counts serialized write transactions of this process (caches of rows compare it).
         self.generation = 0
+        # Called with the session after each ``write()`` transaction commits (what it added is
+        # in ``session.info``, e.g. the notifications ``fleet.push`` delivers).
+        self.after_commit: list[Callable[[AsyncSession], None]] = []
         # With inline SQLite on a file: run_read's and run_write's synchronous engines.
         self._sync_read: Engine | None = None
         self._sync_write: Engine | None = None
@@ -190,17 +193,29 @@ class Database:
         """A transaction committed at the end; ``serial`` ones run one at a time site-wide."""
         try:
             if self.dialect == "sqlite":
-                async with self._write_lock, self._writes() as session, session.begin():
-                    yield session
+                async with self._write_lock, self._writes() as session:
+                    async with session.begin():
+                        yield session
+                    self._committed(session)
                 return
-            async with self._writes() as session, session.begin():
-                if serial:
-                    await session.execute(
-                        text("SELECT pg_advisory_xact_lock(:key)"), {"key": _ADVISORY_LOCK_KEY})
-                yield session
+            async with self._writes() as session:
+                async with session.begin():
+                    if serial:
+                        await session.execute(text("SELECT pg_advisory_xact_lock(:key)"),
+                                              {"key": _ADVISORY_LOCK_KEY})
+                    yield session
+                self._committed(session)
         finally:
             if serial:
                 self.generation += 1
+
+    def _committed(self, session: AsyncSession) -> None:
+        """Tell the ``after_commit`` listeners (they must not raise or block)."""
+        for listener in self.after_commit:
+            try:
+                listener(session)
+            except Exception:
+                log.exception("fleet.db.after_commit_failed")
 
     async def migrate(self) -> None:
         """Bring the schema to the newest migration."""

@@ -22,6 +22,7 @@ from fleet.auth import Authenticator
 from fleet.cache import SiteCache
 from fleet.clock import Clock, system_clock
 from fleet.db import Database
+from fleet.push import EventHub, Webhooks
 from fleet.services.assignment import process_queue
 from fleet.services.exchange import RobotViews
 from fleet.services.offline import check_offline
@@ -65,6 +66,8 @@ class FleetServer:
         self.cache = SiteCache(self.db)
         self.views = RobotViews(self.db, self.clock)
         self.auth = Authenticator(self.db, max_failures_per_min=auth_failures_per_min)
+        self.events = EventHub(self.db)
+        self.webhooks = Webhooks(self.db, self.cache.settings)
         self._tasks: list[asyncio.Task[None]] = []
         self.started = False
 
@@ -83,6 +86,7 @@ class FleetServer:
                     "SELECT setval(pg_get_serial_sequence('customers', 'id'), "
                     "COALESCE((SELECT MAX(id) FROM customers), 0) + 1, false)"))
             await process_queue(session, now)
+            self.webhooks.urls = (await load_settings(session)).webhook_urls
         self.cache.invalidate()
         self.auth.invalidate()
         self.started = True
@@ -108,6 +112,8 @@ class FleetServer:
             with contextlib.suppress(asyncio.CancelledError):
                 await task
         self._tasks = []
+        await self.events.stop()
+        await self.webhooks.stop()
         try:
             await self.flush_pings()
         except Exception:
@@ -147,6 +153,7 @@ class FleetServer:
         while True:
             try:
                 cfg = await self.cache.settings()
+                self.webhooks.urls = cfg.webhook_urls  # changed by another process, perhaps
             except Exception:
                 log.exception("fleet.monitor.failed", monitor=name)
                 cfg = FleetSettings.model_validate({})

@@ -5,13 +5,16 @@ from __future__ import annotations
 
 import functools
 import json
-from typing import Any
+from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, StringConstraints, model_validator
 from sqlalchemy import Connection, select
 from sqlalchemy.ext.asyncio import AsyncConnection, AsyncSession
 
 from fleet.models import Setting
+
+WebhookUrl = Annotated[str, StringConstraints(max_length=500, pattern=r"^https?://[^\s]+$")]
+"""An http:// or https:// URL."""
 
 
 class FleetSettings(BaseModel):
@@ -41,6 +44,10 @@ class FleetSettings(BaseModel):
     # MinWeightKg this long (or the staff say it is unloaded).
     unload_settled_s: float = Field(5.0, alias="UnloadSettledS", ge=0, le=3600)
     use_floor_color: bool = Field(False, alias="UseFloorColor")
+    # Every notification is POSTed as JSON to each of these URLs (fleet.push.Webhooks).
+    webhook_urls: tuple[WebhookUrl, ...] = Field((), alias="WebhookUrls", max_length=10)
+    webhook_retries: int = Field(3, alias="WebhookRetries", ge=0, le=10)
+    webhook_timeout_s: float = Field(5.0, alias="WebhookTimeoutS", gt=0, le=60)
 
     @model_validator(mode="after")
     def _weights_ordered(self) -> FleetSettings:
@@ -73,6 +80,9 @@ class SettingsUpdate(BaseModel):
     RequireWeightCheck: bool | None = None
     UnloadSettledS: float | None = Field(None, ge=0, le=3600)
     UseFloorColor: bool | None = None
+    WebhookUrls: Annotated[list[WebhookUrl], Field(max_length=10)] | None = None
+    WebhookRetries: int | None = Field(None, ge=0, le=10)
+    WebhookTimeoutS: float | None = Field(None, gt=0, le=60)
 
     def given(self) -> dict[str, Any]:
         return {k: v for k, v in self.model_dump().items() if v is not None}

@@ -146,7 +146,7 @@ class NavStack:
 
     def _show(self, pose: LocalisedPose) -> None:
         """The live view at the pose rate: estimate, the odom frame, the newest scan,
-        particles, plan and map (the heavy ones are decimated by the telemetry adapter;
+        particles, plan, map and zones (the heavy ones are decimated by the telemetry adapter;
         odometry itself is ``OdometryTracker``'s). No listener on the LiDAR: the device
         outlives a daemon the simulator restarts, the service's poses do not."""
         t = self.telemetry
@@ -164,6 +164,13 @@ class NavStack:
         t.path("path", plan.points if plan is not None else [])
         grid = self.planner.grid
         t.grid("map", grid.occupied, grid.resolution_m, (grid.origin_x_m, grid.origin_y_m))
+        keepout = self.planner.keepout
+        if keepout is not None:  # the zones beside the map (decimated as it is)
+            t.grid("keepout", keepout.inside, grid.resolution_m,
+                   (grid.origin_x_m, grid.origin_y_m))
+        if self.zones.speed is not None:
+            t.sample("speed_limit", limit_mps=self.speed_limit.limit_mps,
+                     value=self.speed_limit.value)
 
     def encoders_failed(self, failed: bool) -> None:
         """The seed's encoder failure: LiDAR-only localisation and half the speed while the

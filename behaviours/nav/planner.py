@@ -20,10 +20,11 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 import numpy.typing as npt
 
-from behaviours.nav.astar import search
+from behaviours.nav.astar import Search, search
 from behaviours.nav.config import PlannerConfig
 from behaviours.nav.distance_field import DistanceField
 from behaviours.nav.grid import Grid
@@ -31,6 +32,10 @@ from behaviours.nav.smoothing import Point, path_length_m, shorten
 
 REASONS = ("start_outside", "goal_outside", "start_in_collision", "goal_in_collision",
            "start_in_keepout", "goal_in_keepout", "disconnected")
+HIERARCHY_CELLS = 1_000_000
+"""Grids of at least this many cells are searched in two steps (``Planner._search``)."""
+COARSE_CELLS = 4
+CORRIDOR_M = 1.0
 KEEPOUT_BAND_COST = 10.0
 """A cell of the margin round a keep-out zone costs this many times its own cost."""
 
@@ -103,8 +108,8 @@ class Planner:
         cost = self.cost
         if self._escape is not None and not self.free[start_cell]:
             cost = self._escape  # the start is in a keep-out zone's margin: out of it first
-        found = search(cost, start_cell[0] * cols + start_cell[1],
-                       goal_cell[0] * cols + goal_cell[1], self.grid.resolution_m, self.kernel)
+        found = self._search(cost, start_cell[0] * cols + start_cell[1],
+                             goal_cell[0] * cols + goal_cell[1])
         if not found.cells:
             msg = (f"no path from ({start[0]:.2f}, {start[1]:.2f}) to ({goal[0]:.2f}, "
                    f"{goal[1]:.2f}): they are not connected with {self.config.clearance_m} m "
@@ -118,6 +123,49 @@ class Planner:
             points = shorten(self.grid, self.free, points)
         return Plan(points, found.cost, path_length_m(points), found.expanded,
                     len(found.cells))
+
+    def _search(self, cost: npt.NDArray[np.float64], start: int, goal: int) -> Search:
+        """A* on the grid; on a large map (``HIERARCHY_CELLS``) first on blocks of
+        ``COARSE_CELLS`` cells (a block is as dear as its dearest cell, so a block path is a
+        path), then on the cells within ``CORRIDOR_M`` of that path only: a warehouse's
+        far-apart goals expanded most of its 1.7 M cells. Should the corridor hold no path
+        (a passage narrower than a block), the whole grid is searched."""
+        res = self.grid.resolution_m
+        if cost.size < HIERARCHY_CELLS:
+            return search(cost, start, goal, res, self.kernel)
+        corridor, coarse_expanded = self._corridor(cost, start, goal)
+        if corridor is not None:
+            found = search(np.where(corridor, cost, math.inf), start, goal, res, self.kernel)
+            if found.cells:
+                return Search(found.cells, found.cost, found.expanded + coarse_expanded)
+        found = search(cost, start, goal, res, self.kernel)
+        return Search(found.cells, found.cost, found.expanded + coarse_expanded)
+
+    def _corridor(self, cost: npt.NDArray[np.float64], start: int, goal: int
+                  ) -> tuple[npt.NDArray[np.bool_] | None, int]:
+        """The fine cells within ``CORRIDOR_M`` of the block path (None: no block path)."""
+        k = COARSE_CELLS
+        rows, cols = cost.shape
+        crow, ccol = -(-rows // k), -(-cols // k)
+        padded = np.full((crow * k, ccol * k), math.inf)
+        padded[:rows, :cols] = cost
+        coarse = np.ascontiguousarray(padded.reshape(crow, k, ccol, k).max(axis=(1, 3)))
+        (sr, sc), (gr, gc) = divmod(start, cols), divmod(goal, cols)
+        # The start's and goal's own blocks may hold a wall cell: enterable all the same.
+        for r, c in ((sr // k, sc // k), (gr // k, gc // k)):
+            block = padded[r * k:(r + 1) * k, c * k:(c + 1) * k]
+            coarse[r, c] = float(np.min(block)) if np.isfinite(block).any() else math.inf
+        found = search(coarse, (sr // k) * ccol + sc // k, (gr // k) * ccol + gc // k,
+                       self.grid.resolution_m * k, self.kernel)
+        if not found.cells:
+            return None, found.expanded
+        on_path = np.zeros((crow, ccol), dtype=np.uint8)
+        path = np.asarray(found.cells)
+        on_path[path // ccol, path % ccol] = 1
+        reach = max(1, math.ceil(CORRIDOR_M / (self.grid.resolution_m * k)))
+        near = cv2.dilate(on_path, np.ones((2 * reach + 1, 2 * reach + 1), dtype=np.uint8))
+        fine = np.repeat(np.repeat(near.astype(np.bool_), k, axis=0), k, axis=1)
+        return fine[:rows, :cols], found.expanded
 
     def _standing_cell(self, point: Point, what: str) -> tuple[int, int]:
         row, col = self.grid.cell_of(*point)

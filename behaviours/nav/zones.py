@@ -29,8 +29,10 @@ import numpy.typing as npt
 
 from behaviours.nav.config import ZoneConfig
 from behaviours.nav.grid import BoolGrid, Grid
+from behaviours.nav.map_file import WALLS, map_path
 from behaviours.nav.planner import KeepoutCells
-from hal.occupancy_map import OccupancyMap, read_map_yaml
+from hal.occupancy_map import MapFileError, OccupancyMap, read_map_yaml
+from hal.options import ConfigProblem
 
 FloatArray = npt.NDArray[np.float64]
 Point = tuple[float, float]
@@ -222,3 +224,26 @@ def _ahead(points: Sequence[Point], distance_m: float, step_m: float) -> FloatAr
         out.append(np.column_stack((ax + t * (bx - ax), ay + t * (by - ay))))
         left -= run
     return np.concatenate(out)
+
+
+def zone_file_problems(values: dict[str, dict[str, object]], path: str,
+                       where: dict[tuple[str, str], int]) -> list[ConfigProblem]:
+    """``check-config``'s problems with the masks the ``map`` section names (a mask that does
+    not parse keeps the daemon from starting, as a bad map does):
+    ``robotd.toml:LINE: map.keepout_file: PATH: what is wrong``."""
+    section = values.get("map", {})
+    map_file = section.get("file", WALLS)
+    map_at = None if map_file == WALLS or not isinstance(map_file, str) \
+        else map_path(map_file, Path(path).parent)
+    problems = []
+    for key in ("keepout_file", "speed_file"):
+        name = section.get(key)
+        if not isinstance(name, str) or not name:
+            continue
+        try:
+            read_map_yaml(mask_path(name, map_at))
+        except MapFileError as exc:
+            problems.append(ConfigProblem(path, where.get(("map", key)), f"map.{key}",
+                                          str(exc)))
+    return problems
+

@@ -30,6 +30,7 @@ from fleet.models import Beacon, Customer, Notification, Robot, Room
 from fleet.services import admin, lines, unload
 from fleet.services.assignment import process_queue
 from fleet.services.common import robot_by_name
+from fleet.services.notify import notification_out
 from fleet.settings import SettingsUpdate, load_settings, store_settings
 
 router = APIRouter(prefix="/api", tags=["admin"], responses=AUTH_ERRORS,
@@ -201,6 +202,7 @@ async def put_settings(body: SettingsUpdate, http: HttpRequest) -> dict[str, Any
         except ValidationError as exc:
             raise Conflict("; ".join(str(e["msg"]) for e in exc.errors())) from exc
     server_of(http).cache.invalidate()
+    server_of(http).webhooks.urls = merged.webhook_urls
     return merged.public()
 
 
@@ -222,7 +224,4 @@ async def list_notifications(
         query = query.where(Notification.customer_id == customer_id)
     async with server_of(http).db.read() as session:
         rows = (await session.execute(query)).scalars().all()
-        return [NotificationOut(
-            Id=n.id, CreatedAt=n.created_at, Recipient=n.recipient, Level=n.level, Kind=n.kind,
-            Message=n.message, CustomerId=n.customer_id, RequestId=n.request_id,
-            RobotName=n.robot_name) for n in rows]
+        return [notification_out(n) for n in rows]

@@ -8,6 +8,10 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, StringConstraints
 
+from fleet.services.notify import NotificationOut
+
+__all__ = ["NotificationOut"]  # the notification's public form is the service's
+
 
 def _whole_number(value: object) -> object:
     """JSON has one number type: ``3.0`` is the integer 3 (as the OpenAPI schema's "integer"
@@ -213,18 +217,6 @@ class CustomerOut(BaseModel):
     Name: str
     RoomId: int | None
     BeaconMacAddress: str | None
-
-
-class NotificationOut(BaseModel):
-    Id: int
-    CreatedAt: datetime
-    Recipient: str
-    Level: str
-    Kind: str
-    Message: str
-    CustomerId: int | None
-    RequestId: int | None
-    RobotName: str | None
 
 
 class AlertOut(BaseModel):

@@ -93,12 +93,15 @@ async def restore_many(session: AsyncSession, now: datetime, robots: list[Robot]
         request = (requests.get(robot.current_request_id)
                    if robot.current_request_id is not None else None)
         if request is not None and request.admin_alert is not None:
+            # (An open offline alert always has AdminAlert set: most robots coming back in a
+            # storm have none, and cost no alert query.)
             request.admin_alert = None
-        if request is not None and request.disposition != Disposition.ON_ROBOT:
-            # Back with the laundry and on its way again. (Cancelled while it was away, the
-            # laundry's fate is the staff's to record: that alert stays open.)
-            await close_alerts(session, now, kinds=[OFFLINE_LAUNDRY], request_id=request.id,
-                               resolution="RobotReconnected", by=robot.name)
+            if request.disposition != Disposition.ON_ROBOT:
+                # Back with the laundry and on its way again. (Cancelled while it was away,
+                # the laundry's fate is the staff's to record: that alert stays open.)
+                await close_alerts(session, now, kinds=[OFFLINE_LAUNDRY],
+                                   request_id=request.id, resolution="RobotReconnected",
+                                   by=robot.name)
         if robot.name in first_reports:
             notify(session, now, recipient="admin", kind="robot.online", robot_name=robot.name,
                    message=f"Robot {robot.name} reported for the first time.")

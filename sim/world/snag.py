@@ -14,8 +14,9 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
+from sim.world.floor_plan import WorldError
 from sim.world.geometry import Pose
 
 if TYPE_CHECKING:
@@ -60,3 +61,14 @@ class Snag:
                 await asyncio.sleep(HOLD_S)
 
 
+def snag_action(step: Any) -> None:
+    """``body.snag``: the robot caught where it stands for ``duration_s`` (required), then
+    ``body.released``. ``step`` is a ``sim.actions.Step`` (not imported: the actions stand on
+    the world, not the other way round)."""
+    duration = step.duration_s()
+    if duration is None:
+        msg = "body.snag.duration_s: expected how long the robot stays caught (seconds)"
+        raise WorldError(msg)
+    held = Snag(step.rig.body)
+    held.hold()
+    step.later(duration, held.release, "body.released")

@@ -23,7 +23,7 @@ CUSTOMER_2 = token_for("customer", "2")
 ROBOT_OPS = {("post", "/api/Robot/{RobotName}/data-exchange")}
 CUSTOMER_OPS = {("post", "/api/requests"), ("get", "/api/requests"),
                 ("get", "/api/requests/{request_id}"),
-                ("post", "/api/requests/{request_id}/{action}")}
+                ("post", "/api/requests/{request_id}/{action}"), ("get", "/api/events")}
 PUBLIC_OPS = {("get", "/health")}
 PATH_VALUES = {"RobotName": "robot-1", "request_id": "1", "action": "cancel",
                "name": "robot-1", "token_id": "1", "alert_id": "1"}

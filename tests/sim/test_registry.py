@@ -37,7 +37,8 @@ class TestBuiltinScenarios:
         """The scenarios the README lists are all still built in."""
         assert {"laundry", "laundry-loop", "square", "docking", "docking-rear", "nav",
                 "nav-map", "nav-kidnap", "cabinet", "cabinet-sealed", "delivery",
-                "delivery-faults", "turtlebot3-square"} <= set(builtin_names())
+                "delivery-faults", "depot-square", "nav-depot", "delivery-warehouse",
+                "delivery-warehouse-kidnap"} <= set(builtin_names())
 
     def test_success_keys_are_the_common_and_each_slices_own(self) -> None:
         keys = success_keys()

@@ -98,3 +98,49 @@ def test_a_navigation_error_from_each_navigating_state(state: str, snag_s: float
     assert category == "stuck"
     if state != "approaching":
         assert kinds(events, "delivery.alternate_path")
+
+
+def test_the_box_does_not_close_on_a_hand() -> None:
+    """A hand in the box opening when the 10 s are up (the front IR sensor under
+    delivery.hand_cm): the hand-over waits until it has gone, then the box closes."""
+    hand = '    { name = "hand", x_m = -1.9, y_m = -1.9, present = false, legs = false, ' \
+           'radius_m = 0.03 },\n'
+    result = run_mission(mission_text(
+        config=QUICK, people=person("customer", -1.6, 3.4, ORDER_7) + hand,
+        script=_steps(WALK_IN, CONFIRM,
+                      'at_s = 2.5\nwhen_state = "mission.delivering"\ndelay_s = 8.0\n'
+                      'action = "person.step_in"\nname = "hand"\nduration_s = 4.0\n'),
+        success=('time_limit_s = 200\nfinal_state = "mission.waiting"\n'
+                 'states_reached = ["mission.resetting"]\nno_estop = true'))
+        # a front IR sensor that reads under 15 cm (the default's floor is 20)
+        .replace("\nheading_deg = 0.00\n", "\nheading_deg = 0.00\nbody = { range_min_cm = 4.0 }\n",
+                 1))
+    assert result.reasons == []
+    log = [e for e in result.events if e["kind"] == "transition"]
+    into = next(e["t"] for e in log if e["dst"] == "mission.delivering")
+    out = next(e for e in log if e["src"] == "mission.delivering")
+    waited = kinds(result.events, "delivery.hand_in_box")[0]
+    assert waited["gone"] is True and waited["closest_cm"] < 15
+    # The hand was there from 8 s to 12 s: the hand-over ends 0.5 s after it went.
+    assert out["trigger"] == "delivery_complete"
+    assert out["t"] - into == pytest.approx(12.5, abs=0.2)
+    boxes = [(e["t"], e["angle_deg"]) for e in kinds(result.events, "delivery.box")]
+    closed = next(t for t, angle in boxes if angle == 0 and t > into)
+    assert closed >= into + 12.0
+
+
+def test_a_failed_plan_is_retried_after_2_s_with_relaxed_constraints() -> None:
+    """The warehouse spot 0.27 m below the shelves' end: no path with the planner's 0.30 m
+    clearance (the goal in collision); logged, 2 s, planned again with 0.20 m: reached."""
+    config = "\n[config.delivery]\nwarehouse_x_m = 3.6\nwarehouse_y_m = 0.33\n"
+    result = run_mission(mission_text(
+        config=config, people=person("customer", -1.6, 3.4, ORDER_7), script=_steps(WALK_IN),
+        success='time_limit_s = 120\nfinal_state = "mission.loading"\nno_estop = true'))
+    assert result.reasons == []
+    failed = kinds(result.events, "delivery.no_path")[0]
+    retried = kinds(result.events, "delivery.relaxed_plan")[0]
+    assert "collision" in failed["detail"] and failed["relaxed_clearance_m"] == 0.2
+    assert retried["reason"] == "reached"
+    assert retried["t"] - failed["t"] >= 2.0
+    assert ("mission.navigating_to_warehouse", "reached_warehouse",
+            "mission.loading") in moves(result.events)

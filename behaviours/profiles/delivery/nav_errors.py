@@ -77,7 +77,11 @@ class NavErrors:
         stuck_remaining = math.inf
         relaxed_tried = False
         while True:
-            outcome = await self._drive(ctx, x_m, y_m, cfg)
+            if relaxed_tried:  # planned with the relaxed constraint once: it stays relaxed
+                with self._planning_with(self._relaxed_planner(self._relaxed_m(cfg))):
+                    outcome = await self._drive(ctx, x_m, y_m, cfg)
+            else:
+                outcome = await self._drive(ctx, x_m, y_m, cfg)
             if outcome is None:
                 continue  # backed away from an obstacle: plan again
             if outcome.reason == "no_path" and not relaxed_tried:
@@ -209,7 +213,7 @@ class NavErrors:
     # -- planning failure: wait, relax, once ---------------------------------------------------
     async def _relaxed_retry(self, ctx: RobotContext, x_m: float, y_m: float,
                              cfg: DeliveryConfig, failed: NavOutcome) -> NavOutcome | None:
-        clearance = min(cfg.relaxed_clearance_m, self.nav.planner_config.clearance_m)
+        clearance = self._relaxed_m(cfg)
         log.error("delivery.no_path", detail=failed.detail, retry_in_s=cfg.plan_retry_s,
                   relaxed_clearance_m=clearance)
         ctx.emit("delivery.no_path", detail=failed.detail, retry_in_s=cfg.plan_retry_s,
@@ -220,6 +224,9 @@ class NavErrors:
         ctx.emit("delivery.relaxed_plan", reason="obstacle" if outcome is None
                  else outcome.reason)
         return outcome
+
+    def _relaxed_m(self, cfg: DeliveryConfig) -> float:
+        return min(cfg.relaxed_clearance_m, self.nav.planner_config.clearance_m)
 
     def _relaxed_planner(self, clearance_m: float) -> Planner:
         if self._relaxed is None or self._relaxed[0] != clearance_m:

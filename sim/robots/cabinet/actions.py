@@ -9,6 +9,7 @@ from __future__ import annotations
 from sim.actions.step import Action, Step
 from sim.robots.cabinet.site_world import KEY, close_door, door_segment, open_door, site_map_of
 from sim.scenario import ScenarioError, scenario_dir
+from sim.world.snag import snag_action
 
 
 def _door(step: Step, close: bool) -> None:
@@ -35,4 +36,5 @@ def _door(step: Step, close: bool) -> None:
 DOOR_ACTIONS: dict[str, Action] = {
     "door.close": lambda step: _door(step, True),
     "door.open": lambda step: _door(step, False),
+    "body.snag": snag_action,  # the drive controller's own "cannot reach the node"
 }

@@ -12,7 +12,7 @@ from sim.actions.people import _person
 from sim.actions.step import Action, Step
 from sim.devices.frame_source import FrameSource
 from sim.scenario import ScenarioError
-from sim.world.snag import Snag
+from sim.world.snag import snag_action
 
 log = structlog.get_logger(__name__)
 
@@ -125,20 +125,8 @@ def _step_in(step: Step) -> None:
         step.later(duration, lambda: setattr(person, "present", False), "person.stepped_out")
 
 
-def snag(step: Step) -> None:
-    """``body.snag``: the robot caught where it stands (``sim.world.snag``) for
-    ``duration_s`` (required), then ``body.released``."""
-    duration = step.duration_s()
-    if duration is None:
-        msg = "body.snag.duration_s: expected how long the robot stays caught (seconds)"
-        raise ScenarioError(msg)
-    held = Snag(step.rig.body)
-    held.hold()
-    step.later(duration, held.release, "body.released")
-
-
 DELIVERY_ACTIONS: dict[str, Action] = {
-    "body.snag": snag,
+    "body.snag": snag_action,
     "person.step_in": _step_in,
     "qr_camera.unplug": _qr_camera_unplug,
     "qr_camera.replug": _qr_camera_replug,

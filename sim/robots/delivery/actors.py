@@ -11,12 +11,14 @@ moved by the script's ``person.*`` actions; the warehouse staff is ``staff.confi
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from behaviours.profiles.delivery.orders import create_database
 from robotd.config.settings import Settings
 from sim.actors import ActorContext, ActorTask
 from sim.devices.audio_model import write_tone_wav
+from sim.devices.motor_board.fake_mcu import FakeMcu
 from sim.rig import SimRig
 
 SOUNDS = ("request_qr", "successScan", "failureScan", "order_accepted", "order_rejected",
@@ -39,6 +41,7 @@ class DeliveryActors:
         self.sound_s = float(table.get("sound_s", 1.5))
         self.database = ctx.workdir / "orders.db"
         self.audio_dir = ctx.workdir / "audio"
+        self.record = ctx.record
 
     @classmethod
     def for_scenario(cls, ctx: ActorContext) -> DeliveryActors | None:
@@ -58,7 +61,12 @@ class DeliveryActors:
         settings.set("audio.dir", str(self.audio_dir))
 
     def attach(self, rig: SimRig) -> None:
-        return None
+        """What the motor board is told to show, as it arrives on the wire: an ``mcu.led``
+        event per LED word the fake board acknowledges (property 19 is about these, not
+        about what the profile meant to send)."""
+        board = rig.mcu
+        if isinstance(board, FakeMcu):
+            board.leds = _HeardWords(board.leds, self.record)
 
     def people(self) -> list[ActorTask]:
         return []
@@ -90,3 +98,15 @@ def _order(row: Any, i: int) -> tuple[int, int]:
         msg = f"delivery.orders[{i}]: expected [id, customer_id] (integers)"
         raise ValueError(msg)
     return int(row[0]), int(row[1])
+
+
+class _HeardWords(list[str]):
+    """The fake board's list of LED words, each new one also an ``mcu.led`` event."""
+
+    def __init__(self, words: list[str], record: Callable[[dict[str, Any]], None]) -> None:
+        super().__init__(words)
+        self._record = record
+
+    def append(self, word: str) -> None:
+        super().append(word)
+        self._record({"kind": "mcu.led", "word": word})

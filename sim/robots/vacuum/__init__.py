@@ -1,9 +1,7 @@
 """The robot vacuum's simulator slice: docking scenarios, virtual walls, success conditions.
 
-Its scenarios may put a virtual wall in the world.
-
 The dock, its beams and the station are the world's, shared by every robot with dock IR
-receivers."""
+receivers; the virtual wall (``world.py``) is sent in the dock's cycle."""
 
 from __future__ import annotations
 

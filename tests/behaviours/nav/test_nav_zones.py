@@ -163,3 +163,22 @@ class TestFiles:
         assert zones.limit_at(19.15, 10.5, 0.2).limit == 75.0
         assert zones.limit_at(5.0, 5.0, 0.2) == NO_LIMIT
         assert math.isclose(keepout.resolution_m, 0.05)
+
+
+class TestCheckConfig:
+    def test_a_mask_that_does_not_parse_is_a_problem_on_its_line(self, tmp_path: Path) -> None:
+        """check-config reads the masks beside the map file: a missing one is a problem
+        naming map.keepout_file and its line; good ones are none."""
+        from behaviours.nav.zones import zone_file_problems
+
+        _write_pgm_yaml(tmp_path, "site", np.zeros(SIZE, dtype=np.int8), "trinary")
+        _write_pgm_yaml(tmp_path, "speed", _block(4.0, 0.0, 5.0, 4.0, 50), "scale")
+        config = str(tmp_path / "robotd.toml")
+        values: dict[str, dict[str, object]] = {"map": {
+            "file": "site.yaml", "keepout_file": "nowhere.yaml", "speed_file": "speed.yaml"}}
+        problems = zone_file_problems(values, config, {("map", "keepout_file"): 7})
+        assert len(problems) == 1
+        assert (problems[0].key, problems[0].line) == ("map.keepout_file", 7)
+        assert "nowhere.yaml" in problems[0].message
+        values["map"]["keepout_file"] = ""
+        assert zone_file_problems(values, config, {}) == []

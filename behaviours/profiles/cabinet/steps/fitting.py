@@ -8,7 +8,8 @@ every orientation add up), the local map fitted onto the global map anywhere at 
 ``change_orientation``: the desired heading is the current one plus
 ``cabinet.change_orientation_deg``. Case 3 ``drive``: turn (or drive) there on odometry.
 Case 4 ``go_room_middle``: the desired location is the middle of the room, estimated without
-a pose as the middle of what the local map sees; the local map starts again there.
+a pose as the middle of the extent the local map spans (half way there); the local map starts
+again there.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ _ON_WALL_M = 0.05
 _MIN_CONSTRAINT = 0.15
 """The smaller share of the walls' normals' spread a fit needs (0.5: as many in x as in y)."""
 _MAX_LOCAL_POINTS = 1600
+ROOM_EXTENT_PCT = (10.0, 90.0)
 
 
 def _odom_points(mission: Mission, robot_points: FloatArray) -> FloatArray:
@@ -164,8 +166,14 @@ class Fitting:
         local = np.concatenate(m.local_points) if m.local_points else np.zeros((0, 2))
         o = m.odom_pose()
         if local.shape[0]:
-            mx, my = float(np.median(local[:, 0])), float(np.median(local[:, 1]))
-            # Half way to the middle of what it sees: never into the furniture it sees.
+            # The room's middle, as far as it can be told without a pose: the middle of the
+            # extent the local map spans (its 10th to 90th percentile each way: a few far
+            # points through a door do not count). The points' median, tried first, stays
+            # with whatever is nearest (furniture round the robot, a wall close by).
+            lo = np.percentile(local, ROOM_EXTENT_PCT[0], axis=0)
+            hi = np.percentile(local, ROOM_EXTENT_PCT[1], axis=0)
+            mx, my = float(lo[0] + hi[0]) / 2, float(lo[1] + hi[1]) / 2
+            # Half way there: never into the furniture it sees.
             m.desired_point = ((o.x_m + mx) / 2, (o.y_m + my) / 2)
         else:
             m.desired_point = (o.x_m, o.y_m)

@@ -1,0 +1,65 @@
+"""Server-Sent Events: the notifications as they are created (issue 27)."""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import AsyncIterator
+from typing import Any
+
+from fastapi import APIRouter
+from fastapi import Request as HttpRequest
+from fastapi.responses import StreamingResponse
+
+from fleet.api.auth import CustomerOrAdmin
+from fleet.api.deps import AUTH_ERRORS, server_of
+from fleet.api.schemas import NotificationOut
+from fleet.push import Filter
+from fleet.tokens import Principal, Role
+
+router = APIRouter(prefix="/api", tags=["events"], responses=AUTH_ERRORS)
+
+KEEPALIVE_S = 15.0
+"""A comment line this often keeps proxies from closing a quiet stream."""
+
+_STREAM: dict[int | str, dict[str, Any]] = {200: {"description": (
+    "text/event-stream: one event per notification (`id`: its Id, `event`: its Kind, "
+    "`data`: the notification as JSON, as in GET /api/notifications); comment lines "
+    "(`: ...`) when subscribed and every 15 s"),
+    "content": {"text/event-stream": {"schema": {"type": "string"}}}}}
+
+
+@router.get("/events", response_class=StreamingResponse, responses=_STREAM)
+async def events(http: HttpRequest, caller: CustomerOrAdmin) -> StreamingResponse:
+    """Notifications pushed as they are created, from the subscription on: a customer gets
+    its own (those addressed to it), the staff all. Missed ones (a dropped connection) are
+    in GET /api/notifications (staff) and in the request itself (customers)."""
+    return StreamingResponse(
+        _stream(http, _filter(caller)), media_type="text/event-stream",
+        headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
+
+
+def _filter(caller: Principal) -> Filter:
+    if caller.role == Role.ADMIN:
+        return lambda _n: True
+    customer_id = caller.customer_id
+    return lambda n: n.Recipient == "customer" and n.CustomerId == customer_id
+
+
+async def _stream(http: HttpRequest, wants: Filter) -> AsyncIterator[bytes]:
+    async with server_of(http).events.subscribe(wants) as queue:
+        yield b": subscribed\n\n"
+        while True:
+            try:
+                item = await asyncio.wait_for(queue.get(), KEEPALIVE_S)
+            except TimeoutError:
+                yield b": keepalive\n\n"
+                continue
+            if item is None:
+                return
+            yield encode(item)
+
+
+def encode(item: NotificationOut) -> bytes:
+    """One SSE event (the JSON has no newline in it, so one ``data`` line)."""
+    return (f"id: {item.Id}\nevent: {item.Kind}\ndata: ".encode()
+            + item.model_dump_json().encode() + b"\n\n")

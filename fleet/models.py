@@ -84,6 +84,9 @@ class Robot(Base):
     """Since when its load cell has read below the minimum, while ``unload_pending``."""
     waiting_for_line: Mapped[str | None] = mapped_column(String(100), default=None)
     """Free, but the next request it would serve is on this line, in use by another robot."""
+    base_place: Mapped[int | None] = mapped_column(Integer, default=None)
+    """Its place in the base queue, where it stands (the lowest is at the front: back at base
+    first); None while it is away, on the line, until it reports being back at base."""
 
 
 class Request(Base):
@@ -100,6 +103,8 @@ class Request(Base):
     accepted_at: Mapped[datetime | None] = mapped_column(UtcDateTime(), default=None)
     arrived_at: Mapped[datetime | None] = mapped_column(UtcDateTime(), default=None)
     washing_started_at: Mapped[datetime | None] = mapped_column(UtcDateTime(), default=None)
+    washing_done_at: Mapped[datetime | None] = mapped_column(UtcDateTime(), default=None)
+    """When the staff marked it washed, while it waits (Washing) for a robot to deliver it."""
     finished_at: Mapped[datetime | None] = mapped_column(UtcDateTime(), default=None)
     weight_kg: Mapped[float | None] = mapped_column(Float, default=None)
     overweight: Mapped[bool] = mapped_column(Boolean, default=False)

@@ -95,6 +95,8 @@ class RequestFields(Weighed, Protocol):
     def overweight(self) -> bool: ...
     @property
     def admin_alert(self) -> str | None: ...
+    @property
+    def washing_done_at(self) -> datetime | None: ...
 
 
 def request_body(request: RequestFields, robot_name: str | None,
@@ -112,6 +114,7 @@ def request_body(request: RequestFields, robot_name: str | None,
         CanConfirmLoaded=can_confirm_loaded(request, cfg),
         CanConfirmUnloaded=can_confirm_unloaded(request, cfg),
         AdminAlert=request.admin_alert, Refund=refund,
+        DeliveryQueued=request.washing_done_at is not None,
     )
 
 

@@ -68,6 +68,8 @@ class RequestOut(BaseModel):
     CanConfirmLoaded: bool
     CanConfirmUnloaded: bool
     AdminAlert: str | None
+    DeliveryQueued: bool = False
+    """Washed (``washing-done``) and waiting for a robot that may go to deliver it."""
     Refund: RefundOut | None = None
     """The refund owed for a paid request that was cancelled."""
 

@@ -11,6 +11,7 @@ from sqlalchemy.ext.asyncio import AsyncSession
 from fleet.errors import Conflict, NotFound
 from fleet.models import Beacon, Customer, Robot, Room
 from fleet.services.assignment import process_queue
+from fleet.services.common import join_base_queue
 
 log = structlog.get_logger(__name__)
 
@@ -97,7 +98,8 @@ async def put_customer(
 
 async def add_robot(session: AsyncSession, now: datetime, name: str, *, exist_ok: bool) -> Robot:
     """Register a robot. It is offline until its first data exchange: online means reported
-    (a robot that was never heard from must not be sent to a customer)."""
+    (a robot that was never heard from must not be sent to a customer). It is taken to stand
+    at base, behind the robots registered before it."""
     robot = (await session.execute(select(Robot).where(Robot.name == name))).scalar_one_or_none()
     if robot is not None:
         if exist_ok:
@@ -106,6 +108,7 @@ async def add_robot(session: AsyncSession, now: datetime, name: str, *, exist_ok
         raise Conflict(msg)
     robot = Robot(name=name, is_active=True, is_offline=True, emergency_stop=False,
                   maintenance_mode=False, is_in_target=False, last_ping_at=None)
+    await join_base_queue(session, robot)
     session.add(robot)
     await session.flush()
     log.info("fleet.robot.added", robot=name)

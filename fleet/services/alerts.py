@@ -164,6 +164,7 @@ async def _laundry_moved(
         # washing-done sends it out with a free robot.
         set_status(request, Status.WASHING, now)
         request.weight_kg = None
+        request.washing_done_at = None
         if request.washing_started_at is None:
             request.washing_started_at = now
         notify(session, now, recipient="admin", kind="laundry.held_at_base", request=request,

@@ -14,7 +14,7 @@ from fleet.models import Robot
 from fleet.services import unload
 from fleet.services.alerts import LAUNDRY_KINDS, STUCK, close_alerts, open_alerts
 from fleet.services.assignment import process_queue
-from fleet.services.common import current_request, release, set_status
+from fleet.services.common import current_request, join_base_queue, release, set_status
 from fleet.services.navigation import target_beacons
 from fleet.services.notify import notify
 from fleet.settings import FleetSettings
@@ -48,7 +48,7 @@ async def handle_arrival(
     """Apply an IsInTarget=true report; returns what happened (for logs and tests)."""
     request = await current_request(session, robot)
     if request is None:
-        return "ignored"
+        return await _back_at_base(session, now, robot, sightings, site, cfg)
     status = Status(request.status)
     if status in (Status.ACCEPTED, Status.GOING_TO_ROOM):
         # A robot that names the beacons it hears must hear a target; one that names none is
@@ -99,9 +99,27 @@ async def handle_arrival(
                    request=request, robot_name=robot.name,
                    message=f"Clean laundry of cancelled request {request.id} is held at base.")
     release(robot)
+    await join_base_queue(session, robot)
     unload.hold(robot, now, cfg, laundry_aboard=status == Status.LAUNDRY_LOADED or (
         status == Status.CANCELLED and request.cancelled_from in HOLDS_LAUNDRY))
     await process_queue(session, now, cfg)
     log.info("fleet.robot.at_base", robot=robot.name, request_id=request.id,
              status=request.status)
+    return "at-base"
+
+
+async def _back_at_base(session: AsyncSession, now: datetime, robot: Robot,
+                        sightings: Sequence[Sighting], site: SiteView,
+                        cfg: FleetSettings) -> str:
+    """A robot with no request, sent to base (it was away), reports that it is there: it
+    joins the back of the base queue, and may be sent out again."""
+    if robot.base_place is not None:
+        return "ignored"
+    if sightings and not reached(target_beacons(site, None, away=True), sightings):
+        return "not-at-base"
+    await join_base_queue(session, robot)
+    robot.is_in_target = False
+    unload.hold(robot, now, cfg, laundry_aboard=False)
+    log.info("fleet.robot.back_at_base", robot=robot.name)
+    await process_queue(session, now, cfg)
     return "at-base"

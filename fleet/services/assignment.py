@@ -5,7 +5,7 @@ from __future__ import annotations
 from datetime import UTC, datetime
 
 import structlog
-from sqlalchemy import and_, select, update
+from sqlalchemy import and_, func, or_, select, update
 from sqlalchemy.ext.asyncio import AsyncSession
 
 from fleet.errors import NoRobotAvailable
@@ -39,6 +39,7 @@ def dispatch(
     robot.current_request_id = request.id
     robot.last_assigned_at = now
     robot.is_in_target = False
+    robot.base_place = None
     if robot.waiting_for_line is not None:
         robot.waiting_for_line = None
     log.info("fleet.robot.dispatched", robot=robot.name, request_id=request.id)
@@ -92,27 +93,30 @@ async def _name_least_recent(
 
 
 _QUEUED = and_(Request.status == Status.PENDING, Request.is_approved.is_(True))
+_DELIVERY = and_(Request.status == Status.WASHING, Request.washing_done_at.is_not(None))
+_WAITS = or_(_QUEUED, _DELIVERY)
 
 
 async def process_queue(
     session: AsyncSession, now: datetime, cfg: FleetSettings | None = None
 ) -> list[Request]:
-    """Dispatch approved Pending requests, oldest first, while robots are available; a
-    request for a room on a painted line another robot is on waits (``fleet.services.lines``)
-    and the next one that can go goes."""
+    """Dispatch approved Pending requests and washed laundry waiting for delivery, in the
+    order they became ready, while robots are available; one for a room on a painted line
+    another robot is on waits (``fleet.services.lines``) and the next one that can go goes."""
     # Usually nothing waits: then no need to load every robot (a robot's reconnect, a cancel
     # and a timeout all run this).
-    if (await session.execute(select(Request.id).where(_QUEUED).limit(1))).first() is None:
+    if (await session.execute(select(Request.id).where(_WAITS).limit(1))).first() is None:
         await _clear_line_waits(session)
         return []
     if cfg is None:
         cfg = await load_settings(session)
-    robots = [r for r in await serving_robots(session, now, cfg) if is_available(r, now, cfg)]
     lines = await line_map(session)
+    robots = await base_queue(session, now, cfg, on_a_line=lines is not None)
     if not robots:
         await _clear_line_waits(session)
         return []
-    query = select(Request).where(_QUEUED).order_by(Request.created_at, Request.id)
+    query = select(Request).where(_WAITS).order_by(
+        func.coalesce(Request.washing_done_at, Request.created_at), Request.id)
     pending = (await session.execute(
         query if lines is not None else query.limit(len(robots)))).scalars().all()
     on_line = await occupied(session, lines) if lines is not None else {}
@@ -125,19 +129,57 @@ async def process_queue(
         if line is not None:
             _wait_for_line(request, robots, waiting, line, on_line[line])
             continue
-        robot = next((r for r in robots if r.id == request.assigned_robot_id), robots[0])
+        robot = robots[0] if lines is not None else next(
+            (r for r in robots if r.id == request.assigned_robot_id), robots[0])
         robots.remove(robot)
         waiting.pop(robot.id, None)
-        dispatch(request, robot, now)
+        if request.status == Status.WASHING:
+            start_delivery(session, request, robot, now)
+        else:
+            dispatch(request, robot, now)
+            notify(session, now, recipient="customer", kind="request.accepted",
+                   request=request, robot_name=robot.name,
+                   message=f"Robot {robot.name} is on its way.")
         if lines is not None:
             on_line.update(dict.fromkeys(lines.lines_of(request.customer_id), robot.name))
-        notify(session, now, recipient="customer", kind="request.accepted", request=request,
-               robot_name=robot.name, message=f"Robot {robot.name} is on its way.")
         dispatched.append(request)
     for robot in robots:
         if robot.waiting_for_line != waiting.get(robot.id):
             robot.waiting_for_line = waiting.get(robot.id)
     return dispatched
+
+
+def start_delivery(session: AsyncSession, request: Request, robot: Robot,
+                   now: datetime) -> None:
+    """The robot takes the washed laundry to the customer (seed: "Start Delivery")."""
+    dispatch(request, robot, now, Status.GOING_TO_ROOM)
+    request.weight_kg = None
+    request.washing_done_at = None
+    notify(session, now, recipient="customer", kind="laundry.delivering", request=request,
+           robot_name=robot.name,
+           message=f"Your clean laundry is on its way with robot {robot.name}.")
+
+
+async def base_queue(session: AsyncSession, now: datetime, cfg: FleetSettings, *,
+                     on_a_line: bool) -> list[Robot]:
+    """The robots that may be sent out now, in the order they go.
+
+    Only a robot standing at base goes (one away with nothing to do is sent back first, seed
+    flowchart 10). Where the base is on a painted line (the site declares lines), the robots
+    there queue on it and cannot pass each other: the one back at base longest, at the front,
+    goes first, and one waiting to be unloaded holds those behind it. Elsewhere any free
+    robot goes, the first available (lowest id) first.
+    """
+    at_base = [r for r in await serving_robots(session, now, cfg)
+               if r.base_place is not None and r.current_request_id is None]
+    if not on_a_line:
+        return [r for r in at_base if is_available(r, now, cfg)]
+    queue: list[Robot] = []
+    for robot in sorted(at_base, key=lambda r: (r.base_place or 0, r.id)):
+        if not is_available(robot, now, cfg):
+            break
+        queue.append(robot)
+    return queue
 
 
 def _wait_for_line(request: Request, robots: list[Robot], waiting: dict[int, str], line: str,
@@ -156,14 +198,3 @@ def _wait_for_line(request: Request, robots: list[Robot], waiting: dict[int, str
 async def _clear_line_waits(session: AsyncSession) -> None:
     await session.execute(update(Robot).where(Robot.waiting_for_line.is_not(None))
                           .values(waiting_for_line=None))
-
-
-async def pick_delivery_robot(
-    session: AsyncSession, now: datetime, cfg: FleetSettings, request: Request
-) -> Robot:
-    """An available robot for delivering clean laundry (the original one if it is free)."""
-    robots = [r for r in await serving_robots(session, now, cfg) if is_available(r, now, cfg)]
-    if not robots:
-        msg = f"no robot available to deliver request {request.id}; try again later"
-        raise NoRobotAvailable(msg)
-    return next((r for r in robots if r.id == request.assigned_robot_id), robots[0])

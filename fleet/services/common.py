@@ -6,7 +6,7 @@ from datetime import datetime, timedelta
 from typing import Literal
 
 import structlog
-from sqlalchemy import select
+from sqlalchemy import func, select
 from sqlalchemy.ext.asyncio import AsyncSession
 
 from fleet.models import Request, Robot
@@ -42,9 +42,10 @@ def can_serve(robot: Robot, now: datetime, cfg: FleetSettings) -> bool:
 
 
 def is_available(robot: Robot, now: datetime, cfg: FleetSettings) -> bool:
-    """Can serve, serves nothing, and carries nothing (not waiting to be unloaded)."""
+    """Can serve, serves nothing, stands at base, and carries nothing (not waiting to be
+    unloaded)."""
     return (can_serve(robot, now, cfg) and robot.current_request_id is None
-            and not robot.unload_pending)
+            and robot.base_place is not None and not robot.unload_pending)
 
 
 def waiting_for(unload_pending: bool, line: str | None) -> Literal["unload", "line"] | None:
@@ -69,6 +70,13 @@ async def current_request(session: AsyncSession, robot: Robot) -> Request | None
     if robot.current_request_id is None:
         return None
     return await session.get(Request, robot.current_request_id)
+
+
+async def join_base_queue(session: AsyncSession, robot: Robot) -> None:
+    """The robot stands at base now, behind every robot already there. (A counter, not a
+    time: robots back in the same instant, or servers whose clocks differ, keep an order.)"""
+    last = (await session.execute(select(func.max(Robot.base_place)))).scalar()
+    robot.base_place = (last or 0) + 1
 
 
 def release(robot: Robot) -> None:

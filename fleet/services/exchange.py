@@ -80,6 +80,8 @@ class _Light:
     unload_pending: bool
     unload_clear_since: datetime | None
     waiting_for_line: str | None
+    away: bool
+    """Not known to stand at base (None ``base_place``)."""
 
     @property
     def waiting_for(self) -> str | None:
@@ -90,7 +92,7 @@ _LIGHT_QUERY = (
     select(Robot.name, Robot.id, Robot.is_offline, Robot.emergency_stop, Robot.maintenance_mode,
            Request.id, Request.status, Request.customer_id, Request.robot_returned,
            Robot.last_ping_at, Robot.estop_active, Robot.fault_code, Robot.unload_pending,
-           Robot.unload_clear_since, Robot.waiting_for_line)
+           Robot.unload_clear_since, Robot.waiting_for_line, Robot.base_place)
     .select_from(Robot)
     .outerjoin(Request, Request.id == Robot.current_request_id)
 )
@@ -102,10 +104,11 @@ def _read_lights(conn: Connection) -> dict[str, _Light]:
 
 def _light(row: Any) -> _Light:
     (rid, offline, estop, maintenance, req_id, status, customer, returned, ping, estop_active,
-     fault_code, unload_pending, unload_clear_since, line) = row
+     fault_code, unload_pending, unload_clear_since, line, base_place) = row
     return _Light(rid, offline, estop or maintenance, estop, maintenance,
                   req_id, status or "", customer or 0, bool(returned), ping, estop_active,
-                  fault_code, bool(unload_pending), unload_clear_since, line)
+                  fault_code, bool(unload_pending), unload_clear_since, line,
+                  base_place is None)
 
 
 class RobotViews:
@@ -194,7 +197,7 @@ def _may_change(light: _Light, report: Report, now: datetime, cfg: FleetSettings
                    cfg) is not None:
         return True
     if light.request_id is None:
-        return False
+        return light.away and report.is_in_target  # sent back to base, and there
     return report.is_in_target or light.status in (
         Status.ARRIVED_AT_ROOM, Status.ARRIVED_FOR_DELIVERY)
 
@@ -237,7 +240,8 @@ async def exchange(
         if current is not None:
             weight.evaluate(session, now, cfg, current, report.weight_kg)
         nav = navigation(site, cfg, current,
-                         stopped=robot.emergency_stop or robot.maintenance_mode)
+                         stopped=robot.emergency_stop or robot.maintenance_mode,
+                         away=robot.base_place is None)
         return Reply(nav, robot.emergency_stop, robot.maintenance_mode,
                      current.id if current is not None else None,
                      str(current.status) if current is not None else None,
@@ -246,7 +250,7 @@ async def exchange(
 
 def _light_reply(light: _Light, site: SiteView, cfg: FleetSettings) -> Reply:
     request = light if light.request_id is not None else None
-    nav = navigation(site, cfg, request, stopped=light.stopped)
+    nav = navigation(site, cfg, request, stopped=light.stopped, away=light.away)
     return Reply(nav, light.emergency_stop, light.maintenance_mode,
                  light.request_id, light.status or None, light.waiting_for)
 

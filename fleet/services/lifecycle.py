@@ -8,12 +8,11 @@ import structlog
 from sqlalchemy import select
 from sqlalchemy.ext.asyncio import AsyncSession
 
-from fleet.errors import Conflict, NotFound
+from fleet.errors import Conflict, NoRobotAvailable, NotFound
 from fleet.models import Customer, Request
-from fleet.services.assignment import assign_new, dispatch, pick_delivery_robot, process_queue
+from fleet.services.assignment import assign_new, process_queue, serving_robots
 from fleet.services.cancellation import cancel
 from fleet.services.common import set_status
-from fleet.services.lines import blocking, line_map, occupied
 from fleet.services.notify import notify
 from fleet.services.weight import can_confirm_loaded, can_confirm_unloaded
 from fleet.settings import FleetSettings
@@ -102,15 +101,7 @@ async def apply_action(
                 raise Conflict(msg)
             request.washing_started_at = now
         case Action.WASHING_DONE:
-            robot = await pick_delivery_robot(session, now, cfg, request)
-            await _check_line_free(session, request, robot.name)
-            if request.washing_started_at is None:
-                request.washing_started_at = now
-            dispatch(request, robot, now, Status.GOING_TO_ROOM)
-            request.weight_kg = None
-            notify(session, now, recipient="customer", kind="laundry.delivering",
-                   request=request, robot_name=robot.name,
-                   message=f"Your clean laundry is on its way with robot {robot.name}.")
+            await _mark_washed(session, now, cfg, request)
         case Action.PAY:
             if request.is_paid:
                 msg = f"request {request_id} is already paid"
@@ -121,17 +112,26 @@ async def apply_action(
     return request
 
 
-async def _check_line_free(session: AsyncSession, request: Request, robot_name: str) -> None:
-    """Conflict when the customer's room is on a painted line another robot is on."""
-    lines = await line_map(session)
-    if lines is None:
-        return
-    on_line = await occupied(session, lines)
-    line = blocking(lines, on_line, request.customer_id, robot_name)
-    if line is not None:
-        msg = (f"cannot deliver request {request.id} now: line {line!r} is in use by robot "
-               f"{on_line[line]}; try again when it is back at base")
+async def _mark_washed(session: AsyncSession, now: datetime, cfg: FleetSettings,
+                       request: Request) -> None:
+    """Washing done: delivered now by the robot that may go, or queued until one may (the
+    robots are out, the one at the front of the base queue still loaded, or the customer's
+    line in use). NoRobotAvailable when no active online robot exists at all."""
+    if request.washing_done_at is not None:
+        msg = f"request {request.id} is already washed; its delivery waits for a robot"
         raise Conflict(msg)
+    if not await serving_robots(session, now, cfg):
+        msg = f"no robot available to deliver request {request.id}: no active online robot"
+        raise NoRobotAvailable(msg)
+    if request.washing_started_at is None:
+        request.washing_started_at = now
+    request.washing_done_at = now
+    await process_queue(session, now, cfg)
+    if request.status == Status.WASHING:
+        log.info("fleet.delivery.queued", request_id=request.id)
+        notify(session, now, recipient="admin", kind="delivery.queued", request=request,
+               message=(f"Clean laundry of request {request.id} waits for a robot that may "
+                        f"go; it is sent with the first one."))
 
 
 def _kg(weight_kg: float | None) -> str:

@@ -1,11 +1,14 @@
 """Painted lines that several rooms share (issue 27).
 
 Robots on one painted line cannot pass each other, so at most one robot travels a shared line
-at a time: a robot is *on* the line of its current request's room from dispatch until it is
-back at base (standing at the room included, and bringing a cancelled request back). A
-request for a room on a line another robot is on waits Pending. A site that declares no lines
-keeps the behaviour before them; the seed's "any robot busy -> Pending" (flowchart 1) is the
-site whose rooms are all on one line.
+at a time: a robot is *on* the line of its current request's room from dispatch until it
+reports being back at base (standing at the room included, bringing a cancelled request back,
+and lying dead on it: an offline robot is where it was last heard of). A robot away from base
+with no request (its request resolved by the staff while it was away, or just restarted) is on
+every line until it is back, since the server cannot know which it is on; staff who carry a
+robot off the line deactivate it. A request for a room on a line another robot is on waits
+Pending. A site that declares no lines keeps the behaviour before them; the seed's "any robot
+busy -> Pending" (flowchart 1) is the site whose rooms are all on one line.
 """
 
 from __future__ import annotations
@@ -54,10 +57,15 @@ async def occupied(session: AsyncSession, lines: LineMap) -> dict[str, str]:
     """Each line some robot is on, with that robot's name."""
     rows = (await session.execute(
         select(Robot.name, Request.customer_id)
-        .join(Request, Request.id == Robot.current_request_id))).all()
+        .outerjoin(Request, Request.id == Robot.current_request_id)
+        .where(Robot.is_active.is_(True),
+               Robot.base_place.is_(None) | Robot.current_request_id.is_not(None))
+        .order_by(Robot.id))).all()
+    every_line = sorted({line for room in lines.room_lines.values() for line in room})
     found: dict[str, str] = {}
     for name, customer_id in rows:
-        for line in lines.lines_of(customer_id):
+        on = lines.lines_of(customer_id) if customer_id is not None else every_line
+        for line in on:
             found.setdefault(line, name)
     return found
 

@@ -53,10 +53,13 @@ def heads_to_base(request: RequestLike) -> bool:
     return request.status in HEADS_TO_BASE
 
 
-def target_beacons(site: SiteView, request: RequestLike | None) -> list[BeaconRow]:
-    """Customer-room beacons, base beacons, or none, by the request's status."""
+def target_beacons(site: SiteView, request: RequestLike | None, *,
+                   away: bool = False) -> list[BeaconRow]:
+    """Customer-room beacons, base beacons, or none, by the request's status; with no
+    request, the base beacons for a robot ``away`` from base (seed flowchart 10, "Send Robot
+    to Base": back from a restart, or its request resolved by the staff while it was away)."""
     if request is None:
-        return []
+        return [b for b in site.beacons if b.is_base] if away else []
     if request.status in HEADS_TO_CUSTOMER:
         room_id = site.customer_rooms.get(request.customer_id)
         if room_id is None:
@@ -68,14 +71,16 @@ def target_beacons(site: SiteView, request: RequestLike | None) -> list[BeaconRo
 
 
 def navigation(
-    site: SiteView, cfg: FleetSettings, request: RequestLike | None, *, stopped: bool
+    site: SiteView, cfg: FleetSettings, request: RequestLike | None, *, stopped: bool,
+    away: bool = False,
 ) -> Navigation:
     """The beacon configuration, targets and line-following order for a robot.
 
     Args:
         stopped: the robot is in emergency stop or maintenance mode.
+        away: the robot is not known to stand at base.
     """
-    targets = target_beacons(site, request)
+    targets = target_beacons(site, request, away=away)
     follow_color = targets[0].floor_color if targets and cfg.use_floor_color else None
     return Navigation(site, frozenset(b.id for b in targets),
                       bool(targets) and not stopped, follow_color)

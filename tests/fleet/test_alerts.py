@@ -4,50 +4,17 @@ laundry is, which moves the request and its robot to a consistent state."""
 
 from __future__ import annotations
 
-from typing import Any
-
 import pytest
-from fleet_harness import Fleet, bearer, targets, token_for
-
-
-async def loaded(fleet: Fleet, customer: int = 1, robot: str = "robot-1") -> int:
-    """A request whose robot holds the customer's dirty laundry (LaundryLoaded)."""
-    request = await fleet.request(customer)
-    assert request["AssignedRobotName"] == robot
-    await fleet.arrive_at_room(robot, customer, weight_kg=3.0)
-    await fleet.do(request["Id"], "confirm-loaded")
-    return int(request["Id"])
-
-
-async def delivering(fleet: Fleet, customer: int = 1) -> int:
-    """A request whose robot-1 carries the clean laundry back (FinishedWashingGoingToRoom)."""
-    request_id = await loaded(fleet, customer)
-    await fleet.arrive_at_base("robot-1", weight_kg=3.0)
-    await fleet.unloaded("robot-1")
-    await fleet.do(request_id, "washing-done")
-    assert (await fleet.get(request_id))["AssignedRobotName"] == "robot-1"
-    return request_id
-
-
-async def offline(fleet: Fleet, robot: str = "robot-1") -> None:
-    """``robot`` falls silent; the other one keeps reporting."""
-    fleet.clock.advance(31)
-    for other in ("robot-1", "robot-2"):
-        if other != robot:
-            await fleet.exchange(other)
-    assert await fleet.server.check_offline() == [robot]
-
-
-async def alerts(fleet: Fleet, **params: Any) -> list[dict[str, Any]]:
-    response = await fleet.http.get("/api/alerts", params=params)
-    assert response.status_code == 200, response.text
-    body: list[dict[str, Any]] = response.json()
-    return body
-
-
-async def resolve(fleet: Fleet, alert_id: int, laundry_at: str | None = None) -> Any:
-    body = {"LaundryAt": laundry_at} if laundry_at is not None else None
-    return await fleet.http.post(f"/api/alerts/{alert_id}/resolve", json=body)
+from fleet_harness import (
+    alerts,
+    bearer,
+    delivering,
+    loaded,
+    offline,
+    resolve,
+    targets,
+    token_for,
+)
 
 
 class TestOfflineWithLaundry:

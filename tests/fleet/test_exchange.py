@@ -106,17 +106,26 @@ class TestArrival:
         assert await fleet.status(request["Id"]) == "Completed"
         assert (await fleet.robots())[ROBOT]["CurrentRequestId"] is None
 
-    async def test_washing_done_with_no_free_robot_is_503_and_keeps_washing(self, fleet):
+    async def test_washing_done_with_no_free_robot_queues_the_delivery(self, fleet):
+        """Seed: "Admin Marks Done + Start Delivery"; with every robot out the delivery
+        waits in the queue (in the order it became ready) and goes with the first robot
+        back; a second washing-done meanwhile is 409."""
         request = await fleet.request(1)
         await fleet.arrive_at_room(ROBOT, 1, weight_kg=2.0)
         await fleet.do(request["Id"], "confirm-loaded")
         await fleet.arrive_at_base(ROBOT)
+        await fleet.unloaded(ROBOT)
         await fleet.settings(PreemptBusyRobot=False)
-        await fleet.request(2)
-        await fleet.request(3)
-        response = await fleet.act(request["Id"], "washing-done")
-        assert response.status_code == 503
-        assert await fleet.status(request["Id"]) == "Washing"
+        busy = [await fleet.request(2), await fleet.request(3)]
+        body = await fleet.do(request["Id"], "washing-done")
+        assert (body["Status"], body["DeliveryQueued"]) == ("Washing", True)
+        assert (await fleet.act(request["Id"], "washing-done")).status_code == 409
+        first = next(b for b in busy if b["AssignedRobotName"])
+        await fleet.do(first["Id"], "cancel")
+        await fleet.arrive_at_base(first["AssignedRobotName"])
+        body = await fleet.get(request["Id"])
+        assert (body["Status"], body["AssignedRobotName"]) == (
+            "FinishedWashingGoingToRoom", first["AssignedRobotName"])
 
 
 class TestWeightValidation:

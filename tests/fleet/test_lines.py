@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections.abc import AsyncIterator
 
 import pytest
-from fleet_harness import SITE_TOML, Fleet, targets
+from fleet_harness import SITE_TOML, Fleet, alerts, loaded, offline, resolve, targets
 
 from fleet.site import SiteError, parse_site
 
@@ -70,15 +70,36 @@ class TestOneRobotOnALine:
         reply = await lined.exchange("robot-2")
         assert reply["WaitingFor"] is None
 
-    async def test_delivery_on_a_busy_line_is_refused_until_it_is_free(self, lined):
+    async def test_delivery_on_a_busy_line_waits_until_it_is_free(self, lined):
         first = await lined.request(1)
         await back_at_base(lined, "robot-1", first["Id"])
         second = await lined.request(2)
-        assert (await lined.get(second["Id"]))["AssignedRobotName"] == "robot-1"
-        response = await lined.act(first["Id"], "washing-done")
-        assert response.status_code == 409
-        assert "east" in response.json()["detail"]
-        assert await lined.status(first["Id"]) == "Washing"
+        assert (await lined.get(second["Id"]))["AssignedRobotName"] == "robot-2"
+        body = await lined.do(first["Id"], "washing-done")
+        assert (body["Status"], body["DeliveryQueued"]) == ("Washing", True)
+        await back_at_base(lined, "robot-2", second["Id"])
+        body = await lined.get(first["Id"])
+        assert (body["Status"], body["AssignedRobotName"]) == (
+            "FinishedWashingGoingToRoom", "robot-1")
+
+    async def test_the_front_of_the_base_queue_goes_first(self, lined):
+        """Robots at base queue on the line: the one back first is sent first, and one
+        waiting to be unloaded holds those behind it."""
+        first = await lined.request(1)
+        assert first["AssignedRobotName"] == "robot-1"
+        await lined.arrive_at_room("robot-1", 1, weight_kg=3.0)
+        await lined.do(first["Id"], "confirm-loaded")
+        await lined.arrive_at_base("robot-1", weight_kg=3.0)  # behind robot-2, still loaded
+        second = await lined.request(3)  # room 201: on no shared line
+        assert (second["Status"], second["AssignedRobotName"]) == ("Accepted", "robot-2")
+        await lined.arrive_at_room("robot-2", 3, weight_kg=2.0)
+        await lined.do(second["Id"], "confirm-loaded")
+        await lined.arrive_at_base("robot-2", weight_kg=2.0)  # behind robot-1
+        await lined.unloaded("robot-2")
+        third = await lined.request(4)
+        assert third["Status"] == "Pending"  # robot-2 is free, but robot-1 is in its way
+        await lined.unloaded("robot-1")
+        assert (await lined.get(third["Id"]))["AssignedRobotName"] == "robot-1"
 
     async def test_all_rooms_on_one_line_is_the_seeds_any_robot_busy_case(self, db_url):
         """Flowchart 1: "any robot busy -> Pending"."""
@@ -138,3 +159,28 @@ class TestDeclaringLines:
             await fleet.server.start(monitors=False)
         await fleet.http.aclose()
         await fleet.server.db.dispose()
+
+
+class TestWhereARobotIs:
+    async def test_a_robot_released_away_from_base_holds_the_line_and_is_sent_back(
+            self, lined):
+        """Seed flowchart 10, "Send Robot to Base": a robot that died on the line holding
+        laundry, whose alert the staff resolved (the laundry fetched to base), is still on
+        the line, dead or alive, until it reports being back at base; back online it is sent
+        there, and then joins the back of the base queue."""
+        first = await loaded(lined)
+        await offline(lined)
+        [alert] = await alerts(lined, open="true")
+        assert (await resolve(lined, alert["Id"], "base")).status_code == 200
+        second = await lined.request(2)  # the east line: robot-1 lies on it
+        assert (second["Status"], second["AssignedRobotName"]) == ("Pending", "robot-2")
+        reply = await lined.exchange("robot-1")  # back from its restart, no request
+        assert (reply["RequestId"], reply["IsLineFollowing"]) == (None, True)
+        assert targets(reply) == {"base-1"}
+        assert await lined.status(second["Id"]) == "Pending"
+        await lined.arrive_at_base("robot-1")
+        body = await lined.get(second["Id"])
+        assert (body["Status"], body["AssignedRobotName"]) == ("Accepted", "robot-2")
+        reply = await lined.exchange("robot-1")
+        assert (reply["IsLineFollowing"], targets(reply)) == (False, set())
+        assert await lined.status(first) == "Washing"

@@ -84,11 +84,15 @@ class TestHeldUntilUnloaded:
         assert (await fleet.http.post("/api/robots/nobody/unloaded")).status_code == 404
 
     async def test_washing_done_does_not_take_a_robot_still_loaded(self, fleet):
+        """The delivery waits for the robot to be unloaded, then goes with it."""
         await one_robot(fleet)
         request_id, _ = await back_with_laundry(fleet)
-        assert (await fleet.act(request_id, "washing-done")).status_code == 503
+        body = await fleet.do(request_id, "washing-done")
+        assert (body["Status"], body["DeliveryQueued"]) == ("Washing", True)
         await fleet.unloaded(ROBOT)
-        assert (await fleet.do(request_id, "washing-done"))["AssignedRobotName"] == ROBOT
+        body = await fleet.get(request_id)
+        assert (body["Status"], body["AssignedRobotName"], body["DeliveryQueued"]) == (
+            "FinishedWashingGoingToRoom", ROBOT, False)
 
 
 class TestWhenItIsHeld:

@@ -252,6 +252,8 @@ class Staff:
         self.slow_unload_s = slow_unload_s
         self.unloads = 0
         self._washing_since: dict[int, float] = {}
+        self._clean: dict[int, float] = {}
+        """Washed requests (kg of clean laundry) not yet put on the robot that delivers."""
         self._seen_at_base: dict[str, float] = {}
         self._alerts_seen: dict[int, float] = {}
         self._at_base: dict[str, bool] = {}
@@ -279,13 +281,21 @@ class Staff:
                     if not self.robots:  # a site whose robots the staff cannot see
                         self.set_payload(robot, 0.0)
                         self.record({"kind": "staff.unloaded", "request": rid, "robot": robot})
-                elif r["Status"] == "Washing" and \
+                elif r["Status"] == "Washing" and rid not in self._clean and \
                         loop.time() - self._washing_since[rid] >= self.washing_s:
                     response = await self.client.post(f"/api/requests/{rid}/washing-done")
                     if response.status_code == 200:
-                        robot = str(response.json()["AssignedRobotName"])
-                        self.set_payload(robot, float(r.get("WeightKg") or 4.0))
+                        self._clean[rid] = float(r.get("WeightKg") or 4.0)
                         self.record({"kind": "staff.washing_done", "request": rid,
+                                     "queued": response.json()["DeliveryQueued"]})
+                        r = response.json()
+                if rid in self._clean and r["Status"] != "Washing":
+                    # Its robot is leaving base with it (or it was cancelled meanwhile).
+                    kg = self._clean.pop(rid)
+                    if r["Status"] == "FinishedWashingGoingToRoom":
+                        robot = str(r["AssignedRobotName"])
+                        self.set_payload(robot, kg)
+                        self.record({"kind": "staff.loaded_clean", "request": rid,
                                      "robot": robot})
             await asyncio.sleep(1.0)
 

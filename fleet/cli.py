@@ -1,13 +1,16 @@
-"""``robotd-fleet serve [--db URL] [--site FILE] [--host H] [--port P]`` and
-``robotd-fleet token create|list|revoke`` (``fleet.cli_token``)."""
+"""``robotd-fleet serve [--db URL] [--site FILE] [--host H] [--port P] [--tls-cert F
+--tls-key F]`` and ``robotd-fleet token create|list|revoke`` (``fleet.cli_token``)."""
 
 from __future__ import annotations
 
 import argparse
+import ipaddress
 import os
+import ssl
 import sys
 from pathlib import Path
 
+import structlog
 import uvicorn
 from sqlalchemy.engine import make_url
 from sqlalchemy.exc import ArgumentError
@@ -17,6 +20,8 @@ from fleet.app import create_app
 from fleet.http_protocol import CoalescingHttpToolsProtocol
 from fleet.logsetup import configure_logging
 from fleet.site import SiteError, load_site
+
+log = structlog.get_logger(__name__)
 
 DEFAULT_DB = "sqlite:////var/lib/robotd-fleet/fleet.db"
 SHUTDOWN_GRACE_S = 3
@@ -37,6 +42,14 @@ def _parser() -> argparse.ArgumentParser:
                             "0.0.0.0 for the site network)")
     serve.add_argument("--port", type=_port, default=8080,
                        help="TCP port, 1-65535 (default: %(default)s)")
+    serve.add_argument("--tls-cert", metavar="FILE",
+                       default=os.environ.get("ROBOTD_FLEET_TLS_CERT"),
+                       help="serve HTTPS with this certificate (PEM, the chain after it); with "
+                            "--tls-key. On a site network robots' tokens must not travel in "
+                            "clear text: use these, or a TLS proxy (docs/fleet.md)")
+    serve.add_argument("--tls-key", metavar="FILE",
+                       default=os.environ.get("ROBOTD_FLEET_TLS_KEY"),
+                       help="the certificate's private key (PEM)")
     serve.add_argument("--sqlite-inline", action="store_true",
                        help="run SQLite calls on the event loop's thread instead of aiosqlite's "
                             "worker threads (one server process only)")
@@ -82,6 +95,24 @@ def sqlite_dir_problem(db_url: str) -> str | None:
     return None
 
 
+def tls_problem(cert: str | None, key: str | None) -> str | None:
+    """Why the TLS files cannot be served (None: they can, or neither is given): both or
+    neither, each a readable regular file holding what it should."""
+    if cert is None and key is None:
+        return None
+    if cert is None or key is None:
+        return "--tls-cert and --tls-key go together: give both, or neither"
+    try:
+        context = ssl.SSLContext(ssl.PROTOCOL_TLS_SERVER)
+        context.load_cert_chain(cert, key)
+    except ssl.SSLError as exc:  # (an OSError too)
+        return (f"TLS files {cert}, {key}: not a PEM certificate and its private key "
+                f"({exc.reason or exc})")
+    except OSError as exc:
+        return f"TLS files {cert}, {key}: {exc.strerror or exc}"
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     if args.command == "token":
@@ -92,10 +123,14 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         return cli_token.run(args)
     configure_logging(args.log_level)
-    problem = sqlite_dir_problem(args.db)
+    problem = sqlite_dir_problem(args.db) or tls_problem(args.tls_cert, args.tls_key)
     if problem is not None:
         print(f"robotd-fleet: {problem}", file=sys.stderr)
         return 2
+    if args.tls_cert is None and not _loopback(args.host):
+        log.warning("fleet.cleartext", host=args.host, port=args.port,
+                    note="bearer tokens cross the network in clear text: serve with "
+                         "--tls-cert/--tls-key or behind a TLS proxy")
     try:
         site = load_site(args.site) if args.site else None
         app = create_app(args.db, site=site, inline_sqlite=args.sqlite_inline,
@@ -108,6 +143,7 @@ def main(argv: list[str] | None = None) -> int:
     config = uvicorn.Config(app, host=args.host, port=args.port, log_config=None,
                             access_log=args.access_log, lifespan="on", loop="auto",
                             http=CoalescingHttpToolsProtocol,
+                            ssl_certfile=args.tls_cert, ssl_keyfile=args.tls_key,
                             # open event streams (GET /api/events) never end on their own
                             timeout_graceful_shutdown=SHUTDOWN_GRACE_S)
     server = uvicorn.Server(config)
@@ -116,3 +152,12 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         return 0
     return 0 if server.started else 1
+
+
+def _loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False

@@ -108,6 +108,9 @@ _CORE: tuple[Section, ...] = (
             "File holding the robot's bearer token (robotd-fleet token create --robot); "
             "empty: none. Relative or empty with $CREDENTIALS_DIRECTORY set (systemd "
             "LoadCredential=): the credential of that name, fleet-token when empty."),
+        opt("ca_file", "str", "",
+            "CA certificate (PEM) an https fleet.url's certificate is checked against (a "
+            "site's own CA or self-signed certificate); empty: the system's CAs."),
     )),
     Section("safety", "Stopping for what is in front of the robot.", (
         opt("stop_distance_cm", "float", 30.0,

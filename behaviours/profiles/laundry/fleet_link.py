@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import http.cookiejar
+import ssl
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -102,11 +103,23 @@ class FleetClient(httpx.AsyncClient):
         raise TypeError(msg)
 
 
-def fleet_client(url: str, transport: httpx.AsyncBaseTransport | None = None
-                 ) -> httpx.AsyncClient:
+def fleet_client(url: str, transport: httpx.AsyncBaseTransport | None = None,
+                 ca_file: str = "") -> httpx.AsyncClient:
     """The robot's client of the fleet server at ``url`` (``fleet.url``): keeps no cookies.
-    ``transport`` is None on the robot (TCP); the simulator gives its in-process one."""
-    return FleetClient(base_url=url, transport=transport)
+    ``transport`` is None on the robot (TCP); the simulator gives its in-process one.
+    ``ca_file`` (``fleet.ca_file``): the CA an https server's certificate is checked against
+    instead of the system's."""
+    if not ca_file:
+        return FleetClient(base_url=url, transport=transport)
+    try:
+        context = ssl.create_default_context(cafile=ca_file)
+    except ssl.SSLError as exc:  # (an OSError too)
+        msg = f"fleet.ca_file: {ca_file} holds no PEM certificate ({exc.reason or exc})"
+        raise ValueError(msg) from exc
+    except OSError as exc:
+        msg = f"fleet.ca_file: cannot read {ca_file}: {exc.strerror or exc}"
+        raise ValueError(msg) from exc
+    return FleetClient(base_url=url, transport=transport, verify=context)
 
 
 class FleetLink:

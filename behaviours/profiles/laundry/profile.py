@@ -98,7 +98,7 @@ class LaundryProfile(BaseProfile):
             report = RobotReport(ctx.settings.get("robot.name"), ctx.wall_clock, tracker,
                                  arrival, load, d.front_range, holding=memory.report,
                                  ctx=ctx, guard=guard)
-            client = fleet_client(url, d.network)
+            client = fleet_client(url, d.network, str(ctx.settings.get("fleet.ca_file")))
 
             async def follow(directive: Directive) -> None:
                 # What the answer means the robot holds is on disk before the robot acts on it.

@@ -9,6 +9,8 @@ processes on one database never assign a robot twice.
 from __future__ import annotations
 
 import asyncio
+import contextlib
+import os
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from typing import Any, TypeVar
@@ -46,6 +48,34 @@ def normalize_url(url: str) -> str:
         return parsed.set(drivername="postgresql+asyncpg").render_as_string(hide_password=False)
     msg = f"unsupported database URL {url!r}: use sqlite:///PATH or postgresql://..."
     raise ValueError(msg)
+
+
+DB_FILE_MODE = 0o600
+"""The database holds token hashes and customers' data: its owner's only, whatever the umask
+(SQLite gives its -wal and -shm files the database file's mode)."""
+
+
+def restrict_sqlite_file(path: str) -> None:
+    """Create the database file with ``DB_FILE_MODE`` if missing, tighten it if it is looser
+    (made by an older version, or by hand), and refuse a symbolic link there (ValueError)."""
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, DB_FILE_MODE)
+    except OSError as exc:
+        reason = ("is a symbolic link: not opened through it" if os.path.islink(path)
+                  else exc.strerror or str(exc))
+        msg = f"database {path}: {reason}"
+        raise ValueError(msg) from exc
+    try:
+        os.fchmod(fd, DB_FILE_MODE)
+    finally:
+        os.close(fd)
+    for side in ("-wal", "-shm"):
+        with contextlib.suppress(FileNotFoundError):
+            fd = os.open(path + side, os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC)
+            try:
+                os.fchmod(fd, DB_FILE_MODE)
+            finally:
+                os.close(fd)
 
 
 def _sqlite_engine(url: str, begin: str | None, *, inline: bool = False) -> AsyncEngine:
@@ -135,6 +165,7 @@ class Database:
                 self.read_engine = self.write_engine = _sqlite_engine(
                     self.url, "BEGIN", inline=inline_sqlite)
             else:
+                restrict_sqlite_file(str(make_url(self.url).database))
                 self.read_engine = _sqlite_engine(self.url, None, inline=inline_sqlite)
                 self.write_engine = _sqlite_engine(self.url, "BEGIN IMMEDIATE",
                                                    inline=inline_sqlite)

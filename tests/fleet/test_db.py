@@ -4,6 +4,8 @@ write what the async engines do, and let the other tasks run as the async engine
 from __future__ import annotations
 
 import asyncio
+import os
+import stat
 from collections.abc import AsyncIterator, Callable
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
@@ -12,9 +14,9 @@ from typing import Any
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from sqlalchemy import Connection, delete, insert, select
+from sqlalchemy import Connection, delete, insert, select, text
 
-from fleet.db import Database
+from fleet.db import Database, restrict_sqlite_file
 from fleet.models import Robot
 
 ORIGIN = datetime(2026, 1, 5, 8, 0, tzinfo=UTC)
@@ -185,3 +187,36 @@ class TestRunWrite:
         expected = await callbacks_during(through_session)
         assert await callbacks_during(
             lambda: inline.run_write(read_robots, serial=False)) == expected
+
+
+class TestTheDatabaseFile:
+    """Issue 28: fleet.db holds token hashes and customers' data; it was 0644 outside
+    systemd (the umask's doing)."""
+
+    async def test_it_is_its_owners_only_whatever_the_umask(self, tmp_path: Path) -> None:
+        path = tmp_path / "fleet.db"
+        old = os.umask(0o000)
+        try:
+            db = Database(f"sqlite:///{path}")
+            await db.migrate()
+            async with db.write() as session:
+                await session.execute(text("SELECT 1"))
+            await db.dispose()
+        finally:
+            os.umask(old)
+        modes = {name: stat.S_IMODE(os.stat(tmp_path / name).st_mode)
+                 for name in os.listdir(tmp_path)}
+        assert "fleet.db" in modes
+        assert modes == dict.fromkeys(modes, 0o600)
+
+    def test_a_looser_file_is_tightened_and_a_link_refused(self, tmp_path: Path) -> None:
+        path = tmp_path / "fleet.db"
+        path.touch(mode=0o666)
+        os.chmod(path, 0o666)
+        restrict_sqlite_file(str(path))
+        assert stat.S_IMODE(path.stat().st_mode) == 0o600
+        link = tmp_path / "link.db"
+        link.symlink_to(tmp_path / "elsewhere.db")
+        with pytest.raises(ValueError, match=f"database {link}: is a symbolic link"):
+            Database(f"sqlite:///{link}")
+        assert not (tmp_path / "elsewhere.db").exists()

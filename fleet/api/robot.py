@@ -23,6 +23,10 @@ router = APIRouter(prefix="/api/Robot", tags=["robot"], responses=AUTH_ERRORS)
 RobotName = Annotated[str, Path(min_length=1, max_length=100, pattern=r"^[^\x00-\x1f\x7f]+$")]
 
 
+_NAME_MISMATCH: dict[int | str, dict[str, object]] = {422: {**errors(422)[422], "description": (
+    "Bad input (the body, a path parameter), or a body whose RobotName is not the path's")}}
+
+
 async def own_robot(RobotName: RobotName, caller: Caller) -> Principal:  # noqa: N803
     """403 unless the token is the robot named in the path."""
     if not caller.is_robot(RobotName):
@@ -33,12 +37,13 @@ async def own_robot(RobotName: RobotName, caller: Caller) -> Principal:  # noqa:
 
 
 @router.post("/{RobotName}/data-exchange", response_model=DataExchangeOut,
-             responses=errors(404, 413), dependencies=[Depends(own_robot)])
+             responses={**errors(404, 413), **_NAME_MISMATCH}, dependencies=[Depends(own_robot)])
 async def data_exchange(
     RobotName: RobotName, body: DataExchangeIn, http: HttpRequest  # noqa: N803
 ) -> Response:
     """The robot reports beacons, arrival, weight and distance; the server answers with the
-    beacon configuration, navigation targets and orders."""
+    beacon configuration, navigation targets and orders. The path names the robot (its token
+    must be that robot's); a ``RobotName`` in the body, if any, must be the same name."""
     reply = await answer(server_of(http), RobotName, body)
     return Response(content=reply, media_type="application/json")
 

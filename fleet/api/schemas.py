@@ -98,7 +98,9 @@ class FaultIn(BaseModel):
 class DataExchangeIn(BaseModel):
     model_config = ConfigDict(extra="ignore")
 
-    RobotName: Text | None = None
+    RobotName: Annotated[Text | None, Field(description=(
+        "The robot's name, as in the URL. Optional; when given it must equal the path's "
+        "RobotName: a body that names another robot is refused with 422."))] = None
     Timestamp: datetime | None = None
     DetectedBeacons: Annotated[list[DetectedBeacon], Field(max_length=512)] = []
     IsInTarget: Flag = False

@@ -62,3 +62,26 @@ class TestWholeNumbers:
         response = await fleet.http.post("/api/requests", content=b'{"CustomerId": ' + value
                                          + b"}", headers={"content-type": "application/json"})
         assert response.status_code == 422
+
+
+class TestTheRobotsName:
+    """Schemathesis (ST202) found that the document did not say a data exchange body's
+    RobotName must be the URL's (issue 28): it says so now, and the answer is as said."""
+
+    async def test_the_document_says_the_body_names_the_robot_of_the_url(self, fleet):
+        document = (await fleet.http.get("/openapi.json")).json()
+        operation = document["paths"]["/api/Robot/{RobotName}/data-exchange"]["post"]
+        assert "must be the same name" in operation["description"]
+        assert "RobotName is not the path's" in operation["responses"]["422"]["description"]
+        field = document["components"]["schemas"]["DataExchangeIn"]["properties"]["RobotName"]
+        assert "must equal the path's RobotName" in field["description"]
+
+    async def test_a_body_naming_another_robot_is_422_and_says_which(self, fleet):
+        response = await fleet.http.post("/api/Robot/robot-1/data-exchange",
+                                         json={"RobotName": "robot-2"})
+        assert response.status_code == 422
+        assert ErrorOut.model_validate(response.json()).detail == (
+            "RobotName 'robot-2' in the body does not match 'robot-1' in the URL")
+        ok = await fleet.http.post("/api/Robot/robot-1/data-exchange",
+                                   json={"RobotName": "robot-1"})
+        assert ok.status_code == 200

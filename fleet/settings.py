@@ -43,6 +43,9 @@ class FleetSettings(BaseModel):
     # A robot back at base with a load is dispatched again once its load cell has read below
     # MinWeightKg this long (or the staff say it is unloaded).
     unload_settled_s: float = Field(5.0, alias="UnloadSettledS", ge=0, le=3600)
+    # A robot heading to base that stops behind the robots queued there reports IsInTarget
+    # while it hears a base beacon at most this far below its threshold: it is at base.
+    base_queue_margin_db: float = Field(10.0, alias="BaseQueueMarginDb", ge=0, le=60)
     use_floor_color: bool = Field(False, alias="UseFloorColor")
     # Every notification is POSTed as JSON to each of these URLs (fleet.push.Webhooks).
     webhook_urls: tuple[WebhookUrl, ...] = Field((), alias="WebhookUrls", max_length=10)
@@ -79,6 +82,7 @@ class SettingsUpdate(BaseModel):
     MaxWeightKg: float | None = Field(None, gt=0, le=1000)
     RequireWeightCheck: bool | None = None
     UnloadSettledS: float | None = Field(None, ge=0, le=3600)
+    BaseQueueMarginDb: float | None = Field(None, ge=0, le=60)
     UseFloorColor: bool | None = None
     WebhookUrls: Annotated[list[WebhookUrl], Field(max_length=10)] | None = None
     WebhookRetries: int | None = Field(None, ge=0, le=10)

@@ -41,7 +41,7 @@ def finished(scenario: Scenario, robots: dict[str, RobotRecord]) -> bool:
     if success.final_state is None:
         return False
     return all(
-        r.state == success.final_state and all(r.saw(s) for s in success.states_reached)
+        r.state in success.final_states and all(r.saw(s) for s in success.states_reached)
         for r in robots.values()
     )
 
@@ -59,8 +59,9 @@ def failures(scenario: Scenario, robots: dict[str, RobotRecord], elapsed_s: floa
         for state in success.states_reached:
             if not r.saw(state):
                 reasons.append(f"{who}never reached state {state}")
-        if success.final_state is not None and r.state != success.final_state:
-            reasons.append(f"{who}ended in state {r.state}, expected {success.final_state}")
+        if success.final_state is not None and r.state not in success.final_states:
+            reasons.append(f"{who}ended in state {r.state}, expected "
+                           f"{' or '.join(success.final_states)}")
         if success.no_estop and r.estops:
             reasons.append(f"{who}went to estop {r.estops} time(s)")
         if success.no_collisions and r.body.collisions:

@@ -60,6 +60,9 @@ class Success:
     time_limit_s: float
     states_reached: tuple[str, ...] = ()
     final_state: str | None = None
+    final_states: tuple[str, ...] = ()
+    """Every state a robot may end in (``final_state`` as a list: e.g. the front robot of the
+    queue at base idle, those behind it ``mission.queued``); ``(final_state,)`` otherwise."""
     final_poses: tuple[FinalPose, ...] = ()
     no_estop: bool = True
     no_collisions: bool = True
@@ -292,10 +295,14 @@ def _success(t: dict[str, Any], robots: tuple[RobotSpec, ...]) -> Success:
         poses.append(FinalPose(x, y, _num(p, "tolerance_m", where, 0.05), robot))
     known = {"time_limit_s", "states_reached", "final_state", "final_poses", "no_estop",
              "no_collisions", "max_cross_track_m"}
+    final = t.get("final_state")
+    finals = tuple(str(s) for s in final) if isinstance(final, list) else (
+        () if final is None else (str(final),))
     return Success(
         time_limit_s=_num(t, "time_limit_s", "success", 600.0),
         states_reached=tuple(t.get("states_reached", ())),
-        final_state=t.get("final_state"),
+        final_state=finals[0] if finals else None,
+        final_states=finals,
         final_poses=tuple(poses),
         no_estop=bool(t.get("no_estop", True)),
         no_collisions=bool(t.get("no_collisions", True)),

@@ -113,6 +113,9 @@ class DataExchangeIn(BaseModel):
     Fault: FaultIn | None = None
     BatteryPct: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0, le=100)] | None \
         = None
+    Queued: Flag = False
+    """At base, queued behind the robot ahead on the line (``IsInTarget`` is true too): it
+    pulls up to the base beacon as the queue moves, so the base beacons stay its targets."""
 
 
 class ActiveBeacon(BaseModel):

@@ -31,12 +31,13 @@ class Sighting:
     rssi_dbm: int
 
 
-def reached(targets: Sequence[BeaconRow], sightings: Sequence[Sighting]) -> bool:
-    """A target beacon heard at or above its RSSI threshold."""
+def reached(targets: Sequence[BeaconRow], sightings: Sequence[Sighting],
+            margin_db: float = 0.0) -> bool:
+    """A target beacon heard at or above its RSSI threshold (less ``margin_db``)."""
     by_mac = {b.mac_address.upper(): b for b in targets}
     for seen in sightings:
         beacon = by_mac.get(seen.mac_address.upper())
-        if beacon is not None and seen.rssi_dbm >= beacon.rssi_threshold_dbm:
+        if beacon is not None and seen.rssi_dbm >= beacon.rssi_threshold_dbm - margin_db:
             return True
     return False
 
@@ -66,7 +67,8 @@ async def handle_arrival(
         return str(arrived)
     if status not in (Status.LAUNDRY_LOADED, Status.GOING_TO_BASE, Status.CANCELLED):
         return "ignored"
-    if not reached(target_beacons(site, request), sightings):
+    # At base: at the base beacon, or queued behind the robots there (BaseQueueMarginDb).
+    if not reached(target_beacons(site, request), sightings, cfg.base_queue_margin_db):
         return "not-at-base"
     if status in (Status.LAUNDRY_LOADED, Status.GOING_TO_BASE):
         await close_alerts(session, now, kinds=[STUCK], request_id=request.id,
@@ -115,7 +117,8 @@ async def _back_at_base(session: AsyncSession, now: datetime, robot: Robot,
     joins the back of the base queue, and may be sent out again."""
     if robot.base_place is not None:
         return "ignored"
-    if sightings and not reached(target_beacons(site, None, away=True), sightings):
+    if sightings and not reached(target_beacons(site, None, away=True), sightings,
+                                 cfg.base_queue_margin_db):
         return "not-at-base"
     await join_base_queue(session, robot)
     robot.is_in_target = False

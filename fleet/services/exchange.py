@@ -47,6 +47,9 @@ class Report:
     fault_code: str | None = None
     fault_message: str | None = None
     battery_pct: float | None = None
+    queued: bool = False
+    """Queued at base behind the robot ahead, pulling up to the base beacon as it can: it keeps
+    the base beacons as its targets (``laundry.base_queue``)."""
 
 
 @dataclass(frozen=True)
@@ -213,14 +216,14 @@ async def exchange(
     stale = not light.is_offline and _stale(light, now, cfg)
     if not _may_change(light, report, now, cfg, stale):
         views.note_ping(light.robot_id, now, report)
-        return _light_reply(light, site, cfg)
+        return _light_reply(light, site, cfg, report.queued)
     if light.is_offline:
         # Back online: restored in a batch with the others coming back now (a reconnect
         # storm), then this report is handled as any other.
         await views.reconnects.restore(report.robot_name, report)
         light = await views.get(report.robot_name)
         if not _may_change(light, report, clock(), cfg):
-            return _light_reply(light, site, cfg)
+            return _light_reply(light, site, cfg, report.queued)
     async with db.write() as session:
         now = clock()
         robot = await robot_by_name(session, report.robot_name)
@@ -241,16 +244,19 @@ async def exchange(
             weight.evaluate(session, now, cfg, current, report.weight_kg)
         nav = navigation(site, cfg, current,
                          stopped=robot.emergency_stop or robot.maintenance_mode,
-                         away=robot.base_place is None)
+                         away=robot.base_place is None or (
+                             current is None and report.queued))
         return Reply(nav, robot.emergency_stop, robot.maintenance_mode,
                      current.id if current is not None else None,
                      str(current.status) if current is not None else None,
                      waiting_for(robot.unload_pending, robot.waiting_for_line))
 
 
-def _light_reply(light: _Light, site: SiteView, cfg: FleetSettings) -> Reply:
+def _light_reply(light: _Light, site: SiteView, cfg: FleetSettings,
+                 queued: bool = False) -> Reply:
     request = light if light.request_id is not None else None
-    nav = navigation(site, cfg, request, stopped=light.stopped, away=light.away)
+    away = light.away or (request is None and queued)
+    nav = navigation(site, cfg, request, stopped=light.stopped, away=away)
     return Reply(nav, light.emergency_stop, light.maintenance_mode,
                  light.request_id, light.status or None, light.waiting_for)
 

@@ -213,11 +213,12 @@ class Fleet:
         return body
 
     async def exchange(self, robot: str, *, beacons: list[dict[str, Any]] | None = None,
-                       in_target: bool = False, weight_kg: float | None = 0.0) -> dict[str, Any]:
+                       in_target: bool = False, weight_kg: float | None = 0.0,
+                       **extra: Any) -> dict[str, Any]:
         response = await self.http.post(f"/api/Robot/{robot}/data-exchange", json={
             "RobotName": robot, "Timestamp": self.clock().isoformat(),
             "DetectedBeacons": beacons or [], "IsInTarget": in_target, "WeightKg": weight_kg,
-            "UltrasonicDistance": 80.0})
+            "UltrasonicDistance": 80.0, **extra})
         assert response.status_code == 200, response.text
         body: dict[str, Any] = response.json()
         return body

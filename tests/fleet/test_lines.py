@@ -7,7 +7,17 @@ from __future__ import annotations
 from collections.abc import AsyncIterator
 
 import pytest
-from fleet_harness import SITE_TOML, Fleet, alerts, loaded, offline, resolve, targets
+from fleet_harness import (
+    BASE_MAC,
+    SITE_TOML,
+    Fleet,
+    alerts,
+    beacon,
+    loaded,
+    offline,
+    resolve,
+    targets,
+)
 
 from fleet.site import SiteError, parse_site
 
@@ -184,3 +194,27 @@ class TestWhereARobotIs:
         reply = await lined.exchange("robot-1")
         assert (reply["IsLineFollowing"], targets(reply)) == (False, set())
         assert await lined.status(first) == "Washing"
+
+
+class TestTheQueueAtBase:
+    """A robot back at base behind another stops short of the base beacon: it reports
+    IsInTarget and Queued with the beacon below its threshold (-65 dBm here) but within
+    BaseQueueMarginDb (10 dB), and is at base; while it reports Queued the base beacon stays
+    its target, so that it pulls up as the queue moves."""
+
+    async def test_a_queued_robot_is_back_at_base_and_keeps_pulling_up(self, lined):
+        request_id = await loaded(lined)
+        queued = [beacon(BASE_MAC, -72)]
+        reply = await lined.exchange("robot-1", beacons=queued, in_target=True,
+                                     weight_kg=3.0, Queued=True)
+        assert await lined.status(request_id) == "Washing"
+        assert (reply["IsLineFollowing"], targets(reply)) == (True, {"base-1"})
+        reply = await lined.exchange("robot-1", beacons=[beacon(BASE_MAC, -60)],
+                                     in_target=True, weight_kg=3.0)  # at the beacon now
+        assert (reply["IsLineFollowing"], targets(reply)) == (False, set())
+
+    async def test_too_far_from_the_base_beacon_is_not_at_base(self, lined):
+        request_id = await loaded(lined)
+        await lined.exchange("robot-1", beacons=[beacon(BASE_MAC, -76)], in_target=True,
+                             weight_kg=3.0, Queued=True)
+        assert await lined.status(request_id) == "LaundryLoaded"

@@ -10,6 +10,17 @@ LAUNDRY = Section(
     (
         Option("base_room", "str", "base", "Room name of the base (laundry room) beacons."),
         Option(
+            "base_queue_db",
+            "float",
+            10.0,
+            "Heading to base and held by the robot ahead, the robot is queued at base (no "
+            "'blocked' fault; IsInTarget) while it hears a base beacon at most this far "
+            "below its threshold. The fleet server's BaseQueueMarginDb must be as large.",
+            min=0,
+            max=60,
+            tunable=True,
+        ),
+        Option(
             "server_grace_s",
             "float",
             5.0,

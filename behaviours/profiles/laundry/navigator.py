@@ -24,7 +24,9 @@ log = structlog.get_logger(__name__)
 
 TO_ROOM, AT_ROOM = "mission.to_room", "mission.at_room"
 TO_BASE, AT_BASE = "mission.to_base", "mission.at_base"
-FOLLOWING = (TO_ROOM, TO_BASE)
+QUEUED = "mission.queued"
+"""At base behind the robot ahead, pulling up as the queue moves (``base_queue``)."""
+FOLLOWING = (TO_ROOM, TO_BASE, QUEUED)
 MAX_LINE_RETRIES = 2
 LINE_RETRY_PAUSE_S = 5.0
 
@@ -100,7 +102,7 @@ class Navigator:
             self.target_room = room
             if self.memory is not None:
                 self.memory.heading(room)
-            if state != want:
+            if state != want and not (want == TO_BASE and state == QUEUED):
                 self.arrived_room = None
                 self._arrival_fired = False
                 self._leg = want
@@ -114,7 +116,7 @@ class Navigator:
         if state in FOLLOWING:
             if self.arrived_room is not None:
                 # Arrived a moment ago; its trigger may still be on its way.
-                await self._fire_arrival(state)
+                await self._fire_arrival(_leg(state))
             else:
                 await self.ctx.trigger("mission_done")
         elif state == AT_BASE or (state == AT_ROOM and room is None
@@ -126,7 +128,7 @@ class Navigator:
         # moment: the machine takes it once. An arrival seen on one leg (to_room) means
         # nothing once the server has sent the robot on another (to_base), even while that
         # order still waits in the machine's queue.
-        if (self.ctx.state == leg and self._leg in (None, leg)
+        if (_leg(self.ctx.state) == leg and self._leg in (None, leg)
                 and not self._arrival_fired):
             self._arrival_fired = True
             await self.ctx.trigger("arrived_base" if leg == TO_BASE else "arrived_room")
@@ -158,7 +160,7 @@ class Navigator:
         self.line_losses = 0
         self.ctx.emit("arrival", room=room, beacons=self.arrival.reached)
         log.info("laundry.arrived", room=room)
-        self._schedule(state)
+        self._schedule(_leg(state))
 
     def _schedule(self, leg: str) -> None:
         task = asyncio.get_running_loop().create_task(self._fire_arrival(leg))
@@ -169,3 +171,8 @@ class Navigator:
                 "line_losses": self.line_losses,
                 "line_following": self.directive.line_following,
                 "follow_color": self.directive.follow_color, "problems": self.problems}
+
+
+def _leg(state: str) -> str:
+    """The leg a following state is on: queued at base is still the way to base."""
+    return TO_BASE if state == QUEUED else state

@@ -21,12 +21,20 @@ from behaviours.line.follow import LineFollower, LineLostError
 from behaviours.motion.obstacle_guard import ObstacleGuard
 from behaviours.persistence import MissionRecord
 from behaviours.profile import BaseProfile, StateTask
+from behaviours.profiles.laundry.base_queue import BaseQueue
 from behaviours.profiles.laundry.directive import Directive
 from behaviours.profiles.laundry.fleet_link import FleetLink, fleet_client, read_token, token_path
 from behaviours.profiles.laundry.load_check import LoadCheck
 from behaviours.profiles.laundry.local_route import LocalRoute
 from behaviours.profiles.laundry.memory import LAUNDRY_MISSION, LaundryMemory
-from behaviours.profiles.laundry.navigator import AT_BASE, AT_ROOM, TO_BASE, TO_ROOM, Navigator
+from behaviours.profiles.laundry.navigator import (
+    AT_BASE,
+    AT_ROOM,
+    QUEUED,
+    TO_BASE,
+    TO_ROOM,
+    Navigator,
+)
 from behaviours.profiles.laundry.report import RobotReport
 from behaviours.service import Service, TaskService
 from hal.devices import Motors
@@ -52,17 +60,18 @@ class LaundryProfile(BaseProfile):
         return (LAUNDRY_MISSION,)
 
     def mission_states(self) -> list[str | dict[str, Any]]:
-        return ["to_room", "at_room", "to_base", "at_base"]
+        return ["to_room", "at_room", "to_base", "queued", "at_base"]
 
     def mission_transitions(self) -> list[dict[str, Any]]:
-        anywhere = ["idle", AT_ROOM, AT_BASE, TO_ROOM, TO_BASE]
+        anywhere = ["idle", AT_ROOM, AT_BASE, TO_ROOM, TO_BASE, QUEUED]
         return [
             {"trigger": "go_room", "source": [s for s in anywhere if s != TO_ROOM],
              "dest": TO_ROOM},
-            {"trigger": "go_base", "source": [s for s in anywhere if s != TO_BASE],
+            {"trigger": "go_base", "source": [s for s in anywhere if s not in (TO_BASE, QUEUED)],
              "dest": TO_BASE},
             {"trigger": "arrived_room", "source": TO_ROOM, "dest": AT_ROOM},
-            {"trigger": "arrived_base", "source": TO_BASE, "dest": AT_BASE},
+            {"trigger": "queued", "source": TO_BASE, "dest": QUEUED},
+            {"trigger": "arrived_base", "source": [TO_BASE, QUEUED], "dest": AT_BASE},
         ]
 
     def services(self, ctx: RobotContext) -> list[Service]:
@@ -93,11 +102,13 @@ class LaundryProfile(BaseProfile):
                     group.create_task(run())
 
         services: list[Service] = [TaskService("laundry.sensing", run_sensing, critical=True)]
+        queue = BaseQueue(ctx, tracker, guard)
+        services.append(TaskService("laundry.base_queue", queue.run))
         url = str(ctx.settings.get("fleet.url"))
         if url:
             report = RobotReport(ctx.settings.get("robot.name"), ctx.wall_clock, tracker,
                                  arrival, load, d.front_range, holding=memory.report,
-                                 ctx=ctx, guard=guard)
+                                 ctx=ctx, guard=guard, queue=queue)
             client = fleet_client(url, d.network, str(ctx.settings.get("fleet.ca_file")))
 
             async def follow(directive: Directive) -> None:
@@ -132,7 +143,7 @@ class LaundryProfile(BaseProfile):
             self.route.arrived(self.navigator.arrived_room)
 
     def state_tasks(self) -> dict[str, StateTask]:
-        return {TO_ROOM: self._follow, TO_BASE: self._follow}
+        return {TO_ROOM: self._follow, TO_BASE: self._follow, QUEUED: self._follow}
 
     async def _follow(self, ctx: RobotContext) -> None:
         assert self.follower is not None

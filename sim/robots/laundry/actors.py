@@ -288,16 +288,21 @@ class Staff:
                         self._clean[rid] = float(r.get("WeightKg") or 4.0)
                         self.record({"kind": "staff.washing_done", "request": rid,
                                      "queued": response.json()["DeliveryQueued"]})
-                        r = response.json()
-                if rid in self._clean and r["Status"] != "Washing":
-                    # Its robot is leaving base with it (or it was cancelled meanwhile).
-                    kg = self._clean.pop(rid)
-                    if r["Status"] == "FinishedWashingGoingToRoom":
-                        robot = str(r["AssignedRobotName"])
-                        self.set_payload(robot, kg)
-                        self.record({"kind": "staff.loaded_clean", "request": rid,
-                                     "robot": robot})
+                        self._load_clean(response.json())
+                        continue
+                self._load_clean(r)
             await asyncio.sleep(1.0)
+
+    def _load_clean(self, request: dict[str, Any]) -> None:
+        """Put the washed laundry on the robot that leaves with it (the request has left
+        Washing: it is being delivered, or was cancelled meanwhile)."""
+        rid = int(request["Id"])
+        if rid in self._clean and request["Status"] != "Washing":
+            kg = self._clean.pop(rid)
+            if request["Status"] == "FinishedWashingGoingToRoom":
+                robot = str(request["AssignedRobotName"])
+                self.set_payload(robot, kg)
+                self.record({"kind": "staff.loaded_clean", "request": rid, "robot": robot})
 
     def _watch_the_line(self, requests: list[dict[str, Any]]) -> None:
         """What the site's rules are judged by (sim/robots/laundry/checks.py): each robot that

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from datetime import datetime
 
-from sqlalchemy import Boolean, Float, ForeignKey, Integer, String, Text, false
+from sqlalchemy import Boolean, Float, ForeignKey, Integer, String, Text, false, true
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
 from fleet.clock import UtcDateTime
@@ -85,8 +85,13 @@ class Robot(Base):
     waiting_for_line: Mapped[str | None] = mapped_column(String(100), default=None)
     """Free, but the next request it would serve is on this line, in use by another robot."""
     base_place: Mapped[int | None] = mapped_column(Integer, default=None)
-    """Its place in the base queue, where it stands (the lowest is at the front: back at base
-    first); None while it is away, on the line, until it reports being back at base."""
+    """Its place in the base queue (the lowest is at the front: back at base first), kept
+    while it serves a request in case it never leaves base; None when it is away with no
+    request (sent back to base), until it reports being there."""
+    has_left_base: Mapped[bool] = mapped_column(Boolean, default=True, server_default=true())
+    """Since its dispatch it has reported a place out of the base beacons' hearing (or it
+    names no beacons): back, it joins the back of the queue; one that never left (cancelled
+    before it went) keeps its place at the front."""
 
 
 class Request(Base):

@@ -180,6 +180,7 @@ async def _laundry_moved(
         request.robot_returned = True
     if robot is not None:
         release(robot)
+        robot.base_place = None  # wherever it is, it is not at base: it is sent there
     log.info("fleet.alert.laundry_moved", request_id=request.id, where=str(where),
              status=request.status, robot=robot.name if robot is not None else None)
 

@@ -42,6 +42,11 @@ def reached(targets: Sequence[BeaconRow], sightings: Sequence[Sighting],
     return False
 
 
+def base_heard(site: SiteView, sightings: Sequence[Sighting], margin_db: float) -> bool:
+    """A base beacon heard at its threshold less ``margin_db`` (at base, or queued there)."""
+    return reached([b for b in site.beacons if b.is_base], sightings, margin_db)
+
+
 async def handle_arrival(
     session: AsyncSession, now: datetime, robot: Robot, sightings: Sequence[Sighting],
     site: SiteView, cfg: FleetSettings,
@@ -101,7 +106,10 @@ async def handle_arrival(
                    request=request, robot_name=robot.name,
                    message=f"Clean laundry of cancelled request {request.id} is held at base.")
     release(robot)
-    await join_base_queue(session, robot)
+    if robot.has_left_base or robot.base_place is None:
+        await join_base_queue(session, robot)
+    else:  # sent back before it left the base: it stands where it stood
+        log.info("fleet.robot.kept_place", robot=robot.name, place=robot.base_place)
     unload.hold(robot, now, cfg, laundry_aboard=status == Status.LAUNDRY_LOADED or (
         status == Status.CANCELLED and request.cancelled_from in HOLDS_LAUNDRY))
     await process_queue(session, now, cfg)

@@ -39,7 +39,7 @@ def dispatch(
     robot.current_request_id = request.id
     robot.last_assigned_at = now
     robot.is_in_target = False
-    robot.base_place = None
+    robot.has_left_base = False
     if robot.waiting_for_line is not None:
         robot.waiting_for_line = None
     log.info("fleet.robot.dispatched", robot=robot.name, request_id=request.id)

@@ -22,7 +22,7 @@ from fleet.db import Database
 from fleet.errors import NotFound
 from fleet.models import Request, Robot
 from fleet.services import unload, weight
-from fleet.services.arrival import Sighting, handle_arrival
+from fleet.services.arrival import Sighting, base_heard, handle_arrival
 from fleet.services.assignment import process_queue
 from fleet.services.common import current_request, robot_by_name, waiting_for
 from fleet.services.condition import apply_condition
@@ -83,6 +83,7 @@ class _Light:
     unload_pending: bool
     unload_clear_since: datetime | None
     waiting_for_line: str | None
+    has_left_base: bool
     away: bool
     """Not known to stand at base (None ``base_place``)."""
 
@@ -95,7 +96,8 @@ _LIGHT_QUERY = (
     select(Robot.name, Robot.id, Robot.is_offline, Robot.emergency_stop, Robot.maintenance_mode,
            Request.id, Request.status, Request.customer_id, Request.robot_returned,
            Robot.last_ping_at, Robot.estop_active, Robot.fault_code, Robot.unload_pending,
-           Robot.unload_clear_since, Robot.waiting_for_line, Robot.base_place)
+           Robot.unload_clear_since, Robot.waiting_for_line, Robot.has_left_base,
+           Robot.base_place)
     .select_from(Robot)
     .outerjoin(Request, Request.id == Robot.current_request_id)
 )
@@ -107,10 +109,10 @@ def _read_lights(conn: Connection) -> dict[str, _Light]:
 
 def _light(row: Any) -> _Light:
     (rid, offline, estop, maintenance, req_id, status, customer, returned, ping, estop_active,
-     fault_code, unload_pending, unload_clear_since, line, base_place) = row
+     fault_code, unload_pending, unload_clear_since, line, left, base_place) = row
     return _Light(rid, offline, estop or maintenance, estop, maintenance,
                   req_id, status or "", customer or 0, bool(returned), ping, estop_active,
-                  fault_code, bool(unload_pending), unload_clear_since, line,
+                  fault_code, bool(unload_pending), unload_clear_since, line, bool(left),
                   base_place is None)
 
 
@@ -191,8 +193,11 @@ def _stale(light: _Light, now: datetime, cfg: FleetSettings) -> bool:
 
 
 def _may_change(light: _Light, report: Report, now: datetime, cfg: FleetSettings,
-                stale: bool = False) -> bool:
+                site: SiteView, stale: bool = False) -> bool:
     if light.is_offline or stale:
+        return True
+    if light.request_id is not None and not light.has_left_base \
+            and _out_of_base(site, report, cfg):
         return True
     if light.fault_code != report.fault_code or light.estop_active != report.estop_active:
         return True
@@ -214,7 +219,7 @@ async def exchange(
     site = await cache.site()
     now = clock()
     stale = not light.is_offline and _stale(light, now, cfg)
-    if not _may_change(light, report, now, cfg, stale):
+    if not _may_change(light, report, now, cfg, site, stale):
         views.note_ping(light.robot_id, now, report)
         return _light_reply(light, site, cfg, report.queued)
     if light.is_offline:
@@ -222,7 +227,7 @@ async def exchange(
         # storm), then this report is handled as any other.
         await views.reconnects.restore(report.robot_name, report)
         light = await views.get(report.robot_name)
-        if not _may_change(light, report, clock(), cfg):
+        if not _may_change(light, report, clock(), cfg, site):
             return _light_reply(light, site, cfg, report.queued)
     async with db.write() as session:
         now = clock()
@@ -232,6 +237,9 @@ async def exchange(
             raise NotFound(msg)
         views.drop_ping(robot.id)
         _apply_report(robot, now, report)
+        if robot.current_request_id is not None and not robot.has_left_base \
+                and _out_of_base(site, report, cfg):
+            robot.has_left_base = True
         await apply_condition(session, now, robot, report.estop_active, report.fault_code,
                               report.fault_message)
         if stale:
@@ -250,6 +258,12 @@ async def exchange(
                      current.id if current is not None else None,
                      str(current.status) if current is not None else None,
                      waiting_for(robot.unload_pending, robot.waiting_for_line))
+
+
+def _out_of_base(site: SiteView, report: Report, cfg: FleetSettings) -> bool:
+    """The report places the robot out of the base (its queue included): no base beacon
+    heard within BaseQueueMarginDb of its threshold, or no beacon named at all."""
+    return not base_heard(site, report.sightings, cfg.base_queue_margin_db)
 
 
 def _light_reply(light: _Light, site: SiteView, cfg: FleetSettings,

@@ -218,3 +218,21 @@ class TestTheQueueAtBase:
         await lined.exchange("robot-1", beacons=[beacon(BASE_MAC, -76)], in_target=True,
                              weight_kg=3.0, Queued=True)
         assert await lined.status(request_id) == "LaundryLoaded"
+
+    async def test_a_robot_sent_back_before_it_left_keeps_its_place_at_the_front(self, lined):
+        """Dispatched, then cancelled while it still stood at base (every report heard the
+        base beacon): it never left, so the robots behind it are still behind it and it is
+        sent first again. One that went out joins the back."""
+        first = await lined.request(1)
+        assert first["AssignedRobotName"] == "robot-1"
+        await lined.exchange("robot-1", beacons=[beacon(BASE_MAC, -55)])
+        await lined.do(first["Id"], "cancel")
+        await lined.arrive_at_base("robot-1")
+        assert (await lined.request(2))["AssignedRobotName"] == "robot-1"
+
+    async def test_a_robot_that_went_out_joins_the_back(self, lined):
+        first = await lined.request(1)
+        await lined.exchange("robot-1", beacons=[beacon(BASE_MAC, -90)])  # far from base
+        await lined.do(first["Id"], "cancel")
+        await lined.arrive_at_base("robot-1")
+        assert (await lined.request(2))["AssignedRobotName"] == "robot-2"

@@ -22,6 +22,8 @@ depends_on = None
 def upgrade() -> None:
     with op.batch_alter_table("robots") as batch:
         batch.add_column(sa.Column("base_place", sa.Integer(), nullable=True))
+        batch.add_column(sa.Column("has_left_base", sa.Boolean(), nullable=False,
+                                   server_default=sa.true()))
     # A robot serving nothing when the server is upgraded is taken to stand at base, in the
     # order it was registered (robots serving a request are away until they are back).
     robots = sa.table("robots", sa.column("id", sa.Integer()),
@@ -37,4 +39,5 @@ def downgrade() -> None:
     with op.batch_alter_table("requests") as batch:
         batch.drop_column("washing_done_at")
     with op.batch_alter_table("robots") as batch:
+        batch.drop_column("has_left_base")
         batch.drop_column("base_place")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from robotd.profiles import PROFILES
@@ -38,7 +40,12 @@ class TestBuiltinScenarios:
         assert {"laundry", "laundry-loop", "square", "docking", "docking-rear", "nav",
                 "nav-map", "nav-kidnap", "cabinet", "cabinet-sealed", "delivery",
                 "delivery-faults", "depot-square", "nav-depot", "delivery-warehouse",
-                "delivery-warehouse-kidnap"} <= set(builtin_names())
+                "delivery-warehouse-kidnap", "laundry-busy"} <= set(builtin_names())
+
+    def test_the_readme_lists_every_built_in(self) -> None:
+        """A new user finds each built-in scenario in the README's table (issue 31)."""
+        readme = (Path(__file__).parents[2] / "README.md").read_text()
+        assert [n for n in builtin_names() if f"`{n}`" not in readme] == []
 
     def test_success_keys_are_the_common_and_each_slices_own(self) -> None:
         keys = success_keys()

@@ -111,8 +111,11 @@ def summary_figures(robots: dict[str, RobotRecord], scenario: Scenario | None = 
             "distance_m": round(r.body.distance_m, 3),
             "final_x_m": round(pose.x_m, 4), "final_y_m": round(pose.y_m, 4),
             "battery_pct": round(r.body.charge_pct, 2),
-            "collisions": len(r.body.collisions),
         }
+        # Where the scenario allows contact (a vacuum cleans by bumping into things) it is a
+        # bump by design, not a collision.
+        designed = scenario is not None and not scenario.success.no_collisions
+        fig["bumps" if designed else "collisions"] = len(r.body.collisions)
         if r.mean_cross_track_m is not None:
             fig["mean_cross_track_cm"] = round(r.mean_cross_track_m * 100, 2)
         if scenario is not None and scenario.world.dock is not None:

@@ -98,5 +98,7 @@ class SimConsole:
             parts = ", ".join(f"{k} {v}" for k, v in fig.items())
             print(f"  {robot}: {parts}", file=out)
         if report_dir:
-            print(f"  report: {report_dir}/events.jsonl, {report_dir}/trajectory.png", file=out)
+            mcap = Path(report_dir) / "run.mcap"
+            files = ["events.jsonl", "trajectory.png"] + (["run.mcap"] if mcap.exists() else [])
+            print("  report: " + ", ".join(f"{report_dir}/{f}" for f in files), file=out)
         out.flush()

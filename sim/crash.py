@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import contextvars
 from collections.abc import Callable
 from typing import Any
 
@@ -49,6 +50,14 @@ class DaemonKeeper:
     def is_down(self, name: str) -> bool:
         return self.tasks[name].get_name().endswith(".down")
 
+    def context_of(self, name: str) -> contextvars.Context:
+        """The context a robot's tasks run in: with several robots every log line they write
+        names the robot (``robot=...``), so that a warning says whose it is."""
+        context = contextvars.copy_context()
+        if len(self.robots) > 1:
+            context.run(structlog.contextvars.bind_contextvars, robot=name)
+        return context
+
     async def kill(self, name: str, restart_after_s: float | None = None) -> None:
         robot = self.robots[name]
         if self.is_down(name):
@@ -56,7 +65,7 @@ class DaemonKeeper:
         daemon = robot.daemon
         state = daemon.state
         robot.rig.unplug_mcu()  # the process's port closes with it; the board runs on
-        daemon.crash()
+        self.context_of(name).run(daemon.crash)  # what it logs as it dies names the robot
         task = self.tasks[name]
         self.tasks[name] = asyncio.create_task(asyncio.Event().wait(), name=f"daemon.{name}.down")
         task.cancel()
@@ -82,7 +91,8 @@ class DaemonKeeper:
         daemon = self.build(name)
         robot.daemon = daemon
         down = self.tasks[name]
-        self.tasks[name] = asyncio.create_task(daemon.run(), name=f"daemon.{name}")
+        self.tasks[name] = asyncio.create_task(daemon.run(), name=f"daemon.{name}",
+                                               context=self.context_of(name))
         down.cancel()
         with contextlib.suppress(asyncio.CancelledError):
             await down

@@ -273,8 +273,10 @@ async def _simulate(args: argparse.Namespace, scenario: Scenario, console: SimCo
         loop.add_signal_handler(signal.SIGINT, interrupted.set)
         loop.add_signal_handler(signal.SIGTERM, interrupted.set)
 
-    tasks = [asyncio.create_task(r.rig.run(), name=f"rig.{n}") for n, r in robots.items()]
-    daemon_tasks.update({n: asyncio.create_task(r.daemon.run(), name=f"daemon.{n}")
+    tasks = [asyncio.create_task(r.rig.run(), name=f"rig.{n}", context=keeper.context_of(n))
+             for n, r in robots.items()]
+    daemon_tasks.update({n: asyncio.create_task(r.daemon.run(), name=f"daemon.{n}",
+                                                context=keeper.context_of(n))
                          for n, r in robots.items()})
     tasks.append(asyncio.create_task(player.run(), name="script"))
     people = [asyncio.create_task(coro, name=name) for a in actors for name, coro in a.people()]

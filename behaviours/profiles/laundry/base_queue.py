@@ -13,6 +13,7 @@ a base beacon no more than ``laundry.base_queue_db`` below that beacon's thresho
 from __future__ import annotations
 
 import asyncio
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import structlog
@@ -33,10 +34,13 @@ CHECK_EVERY_S = 0.5
 
 class BaseQueue:
     def __init__(self, ctx: RobotContext, tracker: BeaconTracker,
-                 guard: ObstacleGuard | None) -> None:
+                 guard: ObstacleGuard | None,
+                 on_queued: Callable[[], None] = lambda: None) -> None:
         self.ctx = ctx
         self.tracker = tracker
         self.guard = guard
+        self.on_queued = on_queued
+        """Called as it joins the queue (it is at base: what it holds is handed over)."""
 
     @property
     def queued(self) -> bool:
@@ -51,7 +55,8 @@ class BaseQueue:
                 rssi_dbm = self.held_near_base_dbm()
                 if rssi_dbm is not None:
                     log.info("laundry.queued", base_rssi_dbm=round(rssi_dbm, 1))
-                    await self.ctx.trigger("queued")
+                    if await self.ctx.trigger("queued"):
+                        self.on_queued()
 
     def held_near_base_dbm(self) -> float | None:
         """The base beacon's RSSI if the guard has held the robot ``SETTLE_S`` within

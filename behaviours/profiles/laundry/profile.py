@@ -102,7 +102,8 @@ class LaundryProfile(BaseProfile):
                     group.create_task(run())
 
         services: list[Service] = [TaskService("laundry.sensing", run_sensing, critical=True)]
-        queue = BaseQueue(ctx, tracker, guard)
+        base_room = str(ctx.settings.get("laundry.base_room"))
+        queue = BaseQueue(ctx, tracker, guard, on_queued=lambda: memory.arrived(base_room))
         services.append(TaskService("laundry.base_queue", queue.run))
         url = str(ctx.settings.get("fleet.url"))
         if url:

@@ -26,6 +26,11 @@ from fleet.api.exchange_fast import ExchangeFastPath
 from fleet.api.methods import AllowedMethods
 from fleet.api.requests_fast import RequestsFastPath
 from fleet.clock import Clock
+from fleet.console import assets as console_assets
+from fleet.console import customer as console_customer
+from fleet.console import login as console_login
+from fleet.console import staff as console_staff
+from fleet.console.web import cookie_caller, is_console_path
 from fleet.server import FleetServer
 from fleet.settings import FleetSettings
 from fleet.site import Site
@@ -42,7 +47,8 @@ class FleetApp(FastAPI):
         super().__init__(**kwargs)
         self._front = BodyLimit(AllowedMethods(
             Authenticate(ExchangeFastPath(RequestsFastPath(super().__call__, server), server),
-                         server.auth),
+                         server.auth, own_auth=is_console_path,
+                         cookie_caller=cookie_caller(server)),
             lambda: self.routes))
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
@@ -99,6 +105,8 @@ def create_app(
     app.include_router(tokens.router)
     app.include_router(alerts.router)
     app.include_router(events.router)
+    for console in (console_login, console_staff, console_customer, console_assets):
+        app.include_router(console.router)
     add_error_handlers(app)
     add_offline_docs(app)
 

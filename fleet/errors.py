@@ -39,3 +39,10 @@ class Forbidden(FleetError):
     """A valid token of the wrong role or owner."""
 
     status_code = 403
+
+
+class TooManyFailures(FleetError):
+    """A client address that failed to authenticate too often (the console's login form;
+    the API's own 429 is answered by its middleware)."""
+
+    status_code = 429

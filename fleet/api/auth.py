@@ -11,6 +11,7 @@ before a route does any work, so a refused call never changes anything.
 from __future__ import annotations
 
 import json
+from collections.abc import Awaitable, Callable
 from typing import Annotated
 
 import structlog
@@ -36,16 +37,36 @@ bearer = HTTPBearer(
     description="A token from `robotd-fleet token create` (robot, customer or admin).")
 
 
-class Authenticate:
-    """ASGI middleware: 401/429 for callers without a valid token; sets ``scope[SCOPE_KEY]``."""
+# Called with a request's scope: the caller its session cookie speaks for, or None.
+CookieCaller = Callable[[Scope], Awaitable[Principal | None]]
+# The API paths a browser's session cookie may authenticate (issue 29): the event stream
+# only, which changes nothing; every call that changes something needs the bearer token.
+COOKIE_PATHS = frozenset({"/api/events"})
 
-    def __init__(self, app: ASGIApp, authenticator: Authenticator) -> None:
+
+class Authenticate:
+    """ASGI middleware: 401/429 for callers without a valid token; sets ``scope[SCOPE_KEY]``.
+
+    Args:
+        app: the application behind.
+        authenticator: the bearer tokens.
+        own_auth: paths that authenticate on their own (the console's pages, which answer a
+            browser without a session with the login page).
+        cookie_caller: the caller of a session cookie, for ``COOKIE_PATHS`` called without
+            an Authorization header.
+    """
+
+    def __init__(self, app: ASGIApp, authenticator: Authenticator, *,
+                 own_auth: Callable[[str], bool] = lambda _path: False,
+                 cookie_caller: CookieCaller | None = None) -> None:
         self.app = app
         self.auth = authenticator
+        self.own_auth = own_auth
+        self.cookie_caller = cookie_caller
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http" or scope["path"] in PUBLIC_PATHS \
-                or scope["path"].startswith(ASSETS_URL + "/"):
+                or scope["path"].startswith(ASSETS_URL + "/") or self.own_auth(scope["path"]):
             await self.app(scope, receive, send)
             return
         client = scope.get("client")
@@ -60,6 +81,11 @@ class Authenticate:
         principal = None
         if token is not None:
             principal = await self.auth.principal(token)
+        elif self.cookie_caller is not None and scope["path"] in COOKIE_PATHS \
+                and _has_header(scope, b"cookie"):
+            principal = await self.cookie_caller(scope)
+            problem = None if principal is not None else "the console session is unknown " \
+                "or expired (log in again), and there is no bearer token"
         if principal is None:
             self.auth.limiter.failed(address)
             problem = problem or "the bearer token is unknown or revoked"
@@ -68,6 +94,10 @@ class Authenticate:
             return
         scope[SCOPE_KEY] = principal
         await self.app(scope, receive, send)
+
+
+def _has_header(scope: Scope, name: bytes) -> bool:
+    return any(k == name for k, _v in scope["headers"])
 
 
 def _bearer_token(scope: Scope) -> tuple[str | None, str | None]:

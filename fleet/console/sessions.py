@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from datetime import datetime, timedelta
 
 import structlog
-from sqlalchemy import select, update
+from sqlalchemy import delete, select, update
 from sqlalchemy.ext.asyncio import AsyncSession
 
 from fleet.models import ConsoleSession, Token
@@ -40,6 +40,8 @@ async def open_session(session: AsyncSession, now: datetime,
                        principal: Principal) -> tuple[str, Login]:
     """A new session for ``principal``; returns the id (for the cookie, never stored) and
     the login."""
+    # Sessions past their end are of no use to anyone: each login sweeps them away.
+    await session.execute(delete(ConsoleSession).where(ConsoleSession.expires_at <= now))
     session_id = secrets.token_urlsafe(32)
     csrf = secrets.token_urlsafe(32)
     session.add(ConsoleSession(

@@ -6,13 +6,19 @@ refused and changes nothing; logging out (or revoking the token) ends the sessio
 from __future__ import annotations
 
 import contextlib
+import itertools
 import re
 from collections.abc import AsyncIterator
 
 import httpx
 import pytest
 from conftest import MakeFleet
-from fleet_harness import Fleet, token_for
+from fleet_harness import Fleet, alerts, loaded, offline, token_for
+
+from fleet.api.schemas import RequestOut
+from fleet.console.customer import customer_actions
+from fleet.console.staff_pages import staff_actions
+from fleet.status import ALLOWED, Action, Status
 
 CSRF = re.compile(r'name="csrf" value="([^"]+)"')
 
@@ -202,3 +208,70 @@ class TestLogout:
                             and t["Subject"] == "1")
             assert (await fleet.http.delete(f"/api/tokens/{token_id}")).status_code == 200
             assert (await client.get("/me/status")).status_code == 401
+
+
+class TestAlertForms:
+    async def test_staff_acknowledge_and_resolve_a_laundry_alert_saying_where_it_is(
+            self, make_fleet: MakeFleet) -> None:
+        """A robot offline with laundry: acknowledged from the console, refused without
+        LaundryAt (422, the reason on the page), resolved with the laundry at base."""
+        fleet = await make_fleet()
+        request_id = await loaded(fleet)
+        await offline(fleet)
+        [alert] = await alerts(fleet, open="true")
+        async with logged_in(fleet, "admin", "staff") as (client, csrf):
+            shown = (await client.get("/console/alerts")).text
+            assert f'id="alert-{alert["Id"]}"' in shown
+            assert 'name="LaundryAt"' in shown
+            base = f"/console/alerts/{alert['Id']}"
+            assert (await client.post(f"{base}/acknowledge", data={"csrf": csrf})
+                    ).status_code == 303
+            assert "seen by staff" in (await client.get("/console/alerts")).text
+            refused = await client.post(f"{base}/resolve", data={"csrf": csrf})
+            assert refused.status_code == 422
+            assert "LaundryAt" in refused.text
+            resolved = await client.post(f"{base}/resolve",
+                                         data={"csrf": csrf, "LaundryAt": "base"})
+            assert resolved.status_code == 303
+            assert "No open alerts" in (await client.get("/console/alerts")).text
+        assert await fleet.status(request_id) == "Washing"
+
+    async def test_a_fault_alert_is_resolved_without_laundry(self, make_fleet: MakeFleet
+                                                             ) -> None:
+        fleet = await make_fleet()
+        await fleet.exchange("robot-2", Fault={"Code": "bumper", "Message": "pressed"})
+        [alert] = await alerts(fleet, open="true")
+        async with logged_in(fleet, "admin", "staff") as (client, csrf):
+            robots = (await client.get("/console/robots")).text
+            assert "bumper: pressed" in robots
+            assert 'name="LaundryAt"' not in (await client.get("/console/alerts")).text
+            assert (await client.post(f"/console/alerts/{alert['Id']}/resolve",
+                                      data={"csrf": csrf})).status_code == 303
+        assert await alerts(fleet, open="true") == []
+
+
+class TestButtons:
+    def test_every_button_shown_is_an_action_the_status_allows(self) -> None:
+        """For every status and flag, the board's and the phone page's buttons are a subset
+        of fleet.status.ALLOWED (a button never leads to a 409 by itself)."""
+        for status in Status:
+            for approved, paid, queued, loadable, unloadable in itertools.product(
+                    (False, True), repeat=5):
+                request = RequestOut.model_validate(_request(
+                    status, IsApproved=approved, IsPaid=paid, DeliveryQueued=queued,
+                    CanConfirmLoaded=loadable and status == Status.ARRIVED_AT_ROOM,
+                    CanConfirmUnloaded=unloadable and status == Status.ARRIVED_FOR_DELIVERY))
+                for action in [*staff_actions(request), *customer_actions(request)]:
+                    assert status in ALLOWED[action], (status, action)
+                if status == Status.PENDING and not approved:
+                    assert Action.ACCEPT in staff_actions(request)
+                if paid:
+                    assert Action.PAY not in customer_actions(request)
+
+
+def _request(status: Status, **fields: object) -> dict[str, object]:
+    return {"Id": 1, "CustomerId": 1, "Status": str(status), "AssignedRobotName": None,
+            "CreatedAt": "2026-01-05T08:00:00Z", "StatusChangedAt": "2026-01-05T08:00:00Z",
+            "RefundDue": False, "CancelReason": None, "CancelledFrom": None,
+            "LaundryDisposition": "None", "RobotReturned": False, "WeightKg": None,
+            "Overweight": False, "AdminAlert": None, "Refund": None, **fields}

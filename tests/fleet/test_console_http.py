@@ -275,3 +275,20 @@ def _request(status: Status, **fields: object) -> dict[str, object]:
             "RefundDue": False, "CancelReason": None, "CancelledFrom": None,
             "LaundryDisposition": "None", "RobotReturned": False, "WeightKg": None,
             "Overweight": False, "AdminAlert": None, "Refund": None, **fields}
+
+
+class TestSeveralProcesses:
+    async def test_a_session_opened_on_one_server_works_on_another(
+            self, make_fleet: MakeFleet) -> None:
+        """Two servers on one database (as behind a load balancer): a session opened on one
+        is known to the other, and logging out on the other ends it on both."""
+        first, second = await make_fleet(), await make_fleet()
+        async with logged_in(first, "admin", "staff") as (client, csrf):
+            cookie = client.cookies["fleet_session"]
+        async with browser(second) as other:
+            other.cookies.set("fleet_session", cookie)
+            assert (await other.get("/")).status_code == 200
+            assert (await other.post("/logout", data={"csrf": csrf})).status_code == 303
+        async with browser(first) as again:
+            again.cookies.set("fleet_session", cookie)
+            assert (await again.get("/console/board")).status_code == 401

@@ -292,3 +292,17 @@ class TestSeveralProcesses:
         async with browser(first) as again:
             again.cookies.set("fleet_session", cookie)
             assert (await again.get("/console/board")).status_code == 401
+
+
+class TestLoginLimit:
+    async def test_an_address_that_failed_too_often_gets_429_even_with_a_good_token(
+            self, db_url: str) -> None:
+        """The API's failure limit holds for the login form too (a guess that hits must not
+        be told apart)."""
+        async with Fleet(db_url, auth_failures_per_min=2) as fleet, browser(fleet) as client:
+            for _ in range(2):
+                form = await client.get("/login")
+                response = await client.post("/login", data={"csrf": csrf_of(form.text),
+                                                              "token": "y" * 40})
+                assert response.status_code == 401
+            assert (await log_in(client, "admin", "staff")).status_code == 429

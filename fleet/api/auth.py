@@ -5,7 +5,9 @@ a body) answers 401 for a missing, malformed, unknown or revoked bearer token an
 client that failed too often, and puts the caller's ``Principal`` in the scope. The routes
 declare ``Security(bearer)`` (so the scheme is in the OpenAPI document) through the
 dependencies below, which answer 403 for a caller of the wrong role or owner. Both happen
-before a route does any work, so a refused call never changes anything.
+before a route does any work, so a refused call never changes anything. The console's pages
+(``fleet.console``) check their own session cookie; of the API, only the event stream also
+takes that cookie, so that a console page can follow it.
 """
 
 from __future__ import annotations

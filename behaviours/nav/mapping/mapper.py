@@ -20,6 +20,7 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 import numpy.typing as npt
 import structlog
@@ -44,7 +45,8 @@ class MappingConfig:
     submap_scans: int = 6
     wall_scans: int = 3
     """Of the submap's key scans, the newest this many give ICP its wall segments."""
-    wall_spacing_m: float = 0.10
+    wall_tolerance_m: float = 0.02
+    """ICP's walls: each scan's polyline simplified to within this."""
     wall_break_m: float = 0.25
     match_points: int = 180
     match_window_m: float = 0.15
@@ -206,7 +208,7 @@ class Mapper:
         chosen = walls_from if walls_from is not None else refs[-c.wall_scans:]
         walls = np.vstack([_polyline(transform(self.key_scans[k].points(),
                                                self.graph.poses[k]),
-                                     c.wall_spacing_m, c.wall_break_m) for k in chosen])
+                                     c.wall_tolerance_m, c.wall_break_m) for k in chosen])
         return ScanMatcher(field, walls, MatchConfig(sigma_m=0.05, min_score=0.5, margin=0.02))
 
     def finish(self, render_config: RenderConfig | None = None) -> MappingResult:
@@ -235,17 +237,22 @@ def build_map(scans: Sequence[Scan], config: MappingConfig | None = None) -> Map
     return mapper.finish()
 
 
-def _polyline(points: FloatArray, spacing_m: float, break_m: float) -> FloatArray:
-    """Segments through a scan's points in beam order, every ``spacing_m`` or so, not across
-    a gap wider than ``break_m`` (a depth jump: no wall there)."""
+def _polyline(points: FloatArray, tolerance_m: float, break_m: float) -> FloatArray:
+    """Segments through a scan's points in beam order, not across a gap wider than
+    ``break_m`` (a depth jump: no wall there), each unbroken run simplified (Douglas-Peucker,
+    ``cv2.approxPolyDP``) to within ``tolerance_m``: a straight wall is one segment, so ICP's
+    nearest-wall search, points x walls, stays small."""
     if points.shape[0] < 2:
         return np.zeros((0, 4))
-    kept = [0]
-    for k in range(1, points.shape[0]):
-        a = points[kept[-1]]
-        if math.hypot(points[k, 0] - a[0], points[k, 1] - a[1]) >= spacing_m:
-            kept.append(k)
-    p = points[kept]
-    seg = np.hstack((p[:-1], p[1:]))
-    length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
-    return seg[length <= break_m]
+    gaps = np.hypot(*(np.diff(points, axis=0).T)) > break_m
+    starts = np.concatenate(([0], np.nonzero(gaps)[0] + 1))
+    ends = np.concatenate((starts[1:], [points.shape[0]]))
+    parts = []
+    for a, b in zip(starts.tolist(), ends.tolist(), strict=True):
+        if b - a < 2:
+            continue
+        run = points[a:b].astype(np.float32).reshape(-1, 1, 2)
+        corners = cv2.approxPolyDP(run, tolerance_m, False).reshape(-1, 2).astype(np.float64)
+        if corners.shape[0] >= 2:
+            parts.append(np.hstack((corners[:-1], corners[1:])))
+    return np.vstack(parts) if parts else np.zeros((0, 4))

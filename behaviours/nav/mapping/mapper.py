@@ -7,9 +7,10 @@ submap of the previous ``submap_scans`` key scans at their current estimates, st
 the odometry's guess; the fit, or the odometry when the fit is refused, is the edge to the
 previous key scan. Every ``loop_every`` key scans, the nearest older key scan (at least
 ``loop_min_separation`` key scans back and within ``loop_search_m``) and its neighbours are a
-submap the new scan is fitted to with a wider window; a fit that is accepted, scores at least
-``loop_min_score`` and moves the estimate by less than the window is a loop-closure edge, and
-the graph is solved again. At the end the graph is solved, every scan's pose is its key scan's
+submap the new scan is fitted to with a wider window (1 m, 15 deg); a fit that is accepted
+(clear of any rival pose by ``loop_margin``), scores at least ``loop_min_score`` and does not
+lie at the window's edge (the truth could be beyond it) is a loop-closure edge, and the graph
+is solved again. At the end the graph is solved, every scan's pose is its key scan's
 plus the odometry since, and the grid is rendered from the key scans (``log_odds``).
 """
 
@@ -30,7 +31,7 @@ from behaviours.nav.grid import Grid
 from behaviours.nav.icp import Pose, transform
 from behaviours.nav.mapping.log_odds import RenderConfig, render
 from behaviours.nav.mapping.pose_graph import Edge, PoseGraph
-from behaviours.nav.mapping.scan import Scan, between, compose
+from behaviours.nav.mapping.scan import Scan, between, compose, wrap_rad
 from behaviours.nav.scan_match import MatchConfig, ScanMatcher
 from hal.occupancy_map import OccupancyMap
 
@@ -60,9 +61,14 @@ class MappingConfig:
     loop_min_separation: int = 40
     loop_search_m: float = 2.5
     loop_neighbours: int = 3
-    loop_window_m: float = 0.5
-    loop_window_rad: float = math.radians(12)
+    loop_window_m: float = 1.0
+    loop_window_rad: float = math.radians(15)
+    loop_edge_m: float = 0.1
+    loop_edge_rad: float = math.radians(2)
+    """A loop fit this near the window's edge is refused: the truth may lie outside it."""
     loop_min_score: float = 0.7
+    loop_margin: float = 0.05
+    """A loop fit must beat a clearly different pose by this (sequential fits: 0.02)."""
     loop_sigma_m: float = 0.03
     loop_sigma_rad: float = math.radians(0.8)
     resolution_m: float = 0.05
@@ -163,11 +169,15 @@ class Mapper:
         self.loops_tried += 1
         refs = list(range(max(0, best - c.loop_neighbours),
                           min(older, best + c.loop_neighbours + 1)))
-        fit = self._matcher(refs, walls_from=refs).fit_local(
+        fit = self._matcher(refs, walls_from=refs, margin=c.loop_margin).fit_local(
             self._points(self.key_scans[node]), here, window_m=c.loop_window_m,
             window_rad=c.loop_window_rad, distinct_m=0.3, distinct_rad=math.radians(8))
-        moved = math.hypot(fit.pose[0] - here[0], fit.pose[1] - here[1]) if fit.accepted else 0.0
-        if fit.accepted and fit.score >= c.loop_min_score and moved < c.loop_window_m:
+        inside = (fit.accepted
+                  and abs(fit.pose[0] - here[0]) < c.loop_window_m - c.loop_edge_m
+                  and abs(fit.pose[1] - here[1]) < c.loop_window_m - c.loop_edge_m
+                  and abs(wrap_rad(fit.pose[2] - here[2])) < c.loop_window_rad - c.loop_edge_rad)
+        moved = math.hypot(fit.pose[0] - here[0], fit.pose[1] - here[1])
+        if fit.accepted and fit.score >= c.loop_min_score and inside:
             measured = between(self.graph.poses[best], fit.pose)
             self.graph.add_edge(Edge(best, node, measured, c.loop_sigma_m, c.loop_sigma_rad,
                                      "loop"))
@@ -175,8 +185,9 @@ class Mapper:
             log.info("mapping.loop_closed", node=node, to=best, score=round(fit.score, 3),
                      moved_m=round(moved, 3))
         else:
-            log.debug("mapping.loop_refused", node=node, to=best, reason=fit.reason,
-                      score=round(fit.score, 3))
+            log.debug("mapping.loop_refused", node=node, to=best, score=round(fit.score, 3),
+                      reason=fit.reason or ("low score" if fit.score < c.loop_min_score
+                                            else "at the window's edge"))
         elapsed = time.perf_counter() - started
         self.loop_s += elapsed
         self.loop_fits_s.append(elapsed)
@@ -188,8 +199,8 @@ class Mapper:
             pts = pts[np.linspace(0, pts.shape[0] - 1, n).astype(np.intp)]
         return pts
 
-    def _matcher(self, refs: Sequence[int], walls_from: Sequence[int] | None = None
-                 ) -> ScanMatcher:
+    def _matcher(self, refs: Sequence[int], walls_from: Sequence[int] | None = None,
+                 margin: float = 0.02) -> ScanMatcher:
         """A matcher over the key scans ``refs`` at their current estimates: their points as
         the grid, and polylines through the newest ``wall_scans`` of them as ICP's walls."""
         c = self.config
@@ -209,7 +220,7 @@ class Mapper:
         walls = np.vstack([_polyline(transform(self.key_scans[k].points(),
                                                self.graph.poses[k]),
                                      c.wall_tolerance_m, c.wall_break_m) for k in chosen])
-        return ScanMatcher(field, walls, MatchConfig(sigma_m=0.05, min_score=0.5, margin=0.02))
+        return ScanMatcher(field, walls, MatchConfig(sigma_m=0.05, min_score=0.5, margin=margin))
 
     def finish(self, render_config: RenderConfig | None = None) -> MappingResult:
         started = time.perf_counter()

@@ -1,4 +1,5 @@
-"""``robotd``: run the service, run the simulator, check a config file, probe a device."""
+"""``robotd``: run the service, run the simulator, check a config file, map a log, probe a
+device."""
 
 from __future__ import annotations
 
@@ -43,6 +44,10 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     update.add_arguments(sub.add_parser("update", help=update.HELP))
     bundle.add_arguments(sub.add_parser("bundle", help=bundle.HELP))
 
+    from robotd.mapping import command as map_command
+
+    map_command.add_arguments(sub.add_parser("map", help=map_command.HELP))
+
     probe = sub.add_parser("probe", help="check one real device through its driver",
                            description="Devices: " + "; ".join(
                                f"{name}: {what}" for name, (_, what) in PROBES.items()))
@@ -74,6 +79,10 @@ def _main(argv: list[str] | None) -> int:
         return cmd_check_config(args)
     if args.command in ("update", "bundle"):
         return int(update.run(args) if args.command == "update" else bundle.run(args))
+    if args.command == "map":
+        from robotd.mapping import command as map_command
+
+        return map_command.run(args)
     if args.command == "example-config":
         from robotd.config.example import render_example
 

@@ -1,0 +1,1 @@
+"""``robotd map``: recorded logs in, map_server maps and trajectories out."""

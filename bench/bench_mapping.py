@@ -9,6 +9,11 @@ key-scan pairs) and map quality against the truth. The baseline, measured in the
 odometry alone: the same key scans at their odometry poses, rendered the same way.
 
     .venv/bin/python bench/bench_mapping.py [--slip-std 0.01] [--seed 1] [--json]
+        [--images DIR]
+
+``--images DIR`` also writes ``mapping-depot.png`` (the map made, with the true, mapped and
+odometry trajectories) and ``mapping-depot-error.png`` (each cell of the map made against the
+depot's true cells: occupied near a true wall, occupied away from one, free but truly a wall).
 """
 
 from __future__ import annotations
@@ -40,6 +45,7 @@ def main() -> None:
     parser.add_argument("--slip-std", type=float, default=0.01)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--json", action="store_true")
+    parser.add_argument("--images", metavar="DIR", help="write the map and its error image")
     args = parser.parse_args()
     started = time.perf_counter()
     recording = record_run(seed=args.seed, slip_std=args.slip_std)
@@ -78,6 +84,11 @@ def main() -> None:
         q = map_quality(grid, true_map)
         figures[f"{name}_map"] = {"occupied_near_wall_pct": round(q.occupied_near_wall_pct, 2),
                                   "free_truly_free_pct": round(q.free_truly_free_pct, 2)}
+    if args.images:
+        from mapping_images import write_images  # matplotlib only when asked (bench/)
+
+        write_images(args.images, result.grid, true_map, truth, result.key_poses, odometry,
+                     figures)
     if args.json:
         print(json.dumps(figures))
         return

@@ -20,8 +20,9 @@ from pathlib import Path
 import numpy as np
 import structlog
 
+from behaviours.motion.moves import wrap
 from behaviours.nav.icp import Pose as PoseTuple
-from behaviours.nav.mapping.scan import Scan, wrap_rad
+from behaviours.nav.mapping.scan import Scan
 from robotd.mapping.clf import write_clf
 from sim.world.body import BodyParams, DiffDriveBody
 from sim.world.floor_plan import World
@@ -85,7 +86,7 @@ def record_run(route: tuple[tuple[float, float], ...] = DEPOT_LOOP, *,
         if dist < 0.05:
             target += 1
             continue
-        error = wrap_rad(math.atan2(gy - pose.y_m, gx - pose.x_m) - pose.heading_rad)
+        error = wrap(math.atan2(gy - pose.y_m, gx - pose.x_m) - pose.heading_rad)
         if abs(error) > 0.2:
             v, w = 0.0, math.copysign(turn_rad_s, error)
         else:
@@ -117,7 +118,7 @@ def _odometry(odom: PoseTuple, left_m: float, right_m: float, wheel_base_m: floa
     d = (left_m + right_m) / 2
     dtheta = (right_m - left_m) / wheel_base_m
     mid = odom[2] + dtheta / 2
-    return (odom[0] + d * math.cos(mid), odom[1] + d * math.sin(mid), wrap_rad(odom[2] + dtheta))
+    return (odom[0] + d * math.cos(mid), odom[1] + d * math.sin(mid), wrap(odom[2] + dtheta))
 
 
 def write_recording(recording: Recording, path: Path) -> Path:

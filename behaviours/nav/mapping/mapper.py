@@ -26,12 +26,13 @@ import numpy as np
 import numpy.typing as npt
 import structlog
 
+from behaviours.motion.moves import wrap
 from behaviours.nav.distance_field import DistanceField
 from behaviours.nav.grid import Grid
 from behaviours.nav.icp import Pose, transform
 from behaviours.nav.mapping.log_odds import RenderConfig, render
 from behaviours.nav.mapping.pose_graph import Edge, PoseGraph
-from behaviours.nav.mapping.scan import Scan, between, compose, wrap_rad
+from behaviours.nav.mapping.scan import Scan, between, compose
 from behaviours.nav.scan_match import MatchConfig, ScanMatcher
 from hal.occupancy_map import OccupancyMap
 
@@ -175,7 +176,7 @@ class Mapper:
         inside = (fit.accepted
                   and abs(fit.pose[0] - here[0]) < c.loop_window_m - c.loop_edge_m
                   and abs(fit.pose[1] - here[1]) < c.loop_window_m - c.loop_edge_m
-                  and abs(wrap_rad(fit.pose[2] - here[2])) < c.loop_window_rad - c.loop_edge_rad)
+                  and abs(wrap(fit.pose[2] - here[2])) < c.loop_window_rad - c.loop_edge_rad)
         moved = math.hypot(fit.pose[0] - here[0], fit.pose[1] - here[1])
         if fit.accepted and fit.score >= c.loop_min_score and inside:
             measured = between(self.graph.poses[best], fit.pose)

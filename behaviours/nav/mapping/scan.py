@@ -13,24 +13,21 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from behaviours.motion.moves import wrap
 from behaviours.nav.icp import Pose
 
 FloatArray = npt.NDArray[np.float64]
 
 
-def wrap_rad(angle: float) -> float:
-    return math.atan2(math.sin(angle), math.cos(angle))
-
-
 def compose(a: Pose, b: Pose) -> Pose:
     c, s = math.cos(a[2]), math.sin(a[2])
-    return (a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], wrap_rad(a[2] + b[2]))
+    return (a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], wrap(a[2] + b[2]))
 
 
 def between(a: Pose, b: Pose) -> Pose:
     c, s = math.cos(a[2]), math.sin(a[2])
     dx, dy = b[0] - a[0], b[1] - a[1]
-    return (c * dx + s * dy, -s * dx + c * dy, wrap_rad(b[2] - a[2]))
+    return (c * dx + s * dy, -s * dx + c * dy, wrap(b[2] - a[2]))
 
 
 @dataclass(frozen=True, slots=True)

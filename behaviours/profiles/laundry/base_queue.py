@@ -20,7 +20,7 @@ import structlog
 
 from behaviours.beacons.tracker import BeaconTracker
 from behaviours.motion.obstacle_guard import ObstacleGuard
-from behaviours.profiles.laundry.navigator import QUEUED, TO_BASE
+from behaviours.profiles.laundry.states import LaundryState, LaundryTrigger
 
 if TYPE_CHECKING:
     from behaviours.context import RobotContext
@@ -45,17 +45,17 @@ class BaseQueue:
     @property
     def queued(self) -> bool:
         """Whether the robot stands (or pulls up) in the queue at base now."""
-        return self.ctx.state == QUEUED
+        return self.ctx.state == LaundryState.QUEUED
 
     async def run(self) -> None:
         """Watch a robot heading to base: held near it, it joins the queue."""
         while True:
             await asyncio.sleep(CHECK_EVERY_S)
-            if self.ctx.state == TO_BASE:
+            if self.ctx.state == LaundryState.TO_BASE:
                 rssi_dbm = self.held_near_base_dbm()
                 if rssi_dbm is not None:
                     log.info("laundry.queued", base_rssi_dbm=round(rssi_dbm, 1))
-                    if await self.ctx.trigger("queued"):
+                    if await self.ctx.trigger(LaundryTrigger.QUEUED):
                         self.on_queued()
 
     def held_near_base_dbm(self) -> float | None:

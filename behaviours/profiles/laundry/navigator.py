@@ -17,16 +17,14 @@ import structlog
 from behaviours.beacons.arrival import Arrival
 from behaviours.beacons.tracker import BeaconTracker
 from behaviours.context import RobotContext
+from behaviours.machine_tables import CoreTrigger, RootState
 from behaviours.profiles.laundry.directive import Directive
 from behaviours.profiles.laundry.memory import LaundryMemory
+from behaviours.profiles.laundry.states import FOLLOWING, LaundryState, LaundryTrigger
 
 log = structlog.get_logger(__name__)
 
-TO_ROOM, AT_ROOM = "mission.to_room", "mission.at_room"
-TO_BASE, AT_BASE = "mission.to_base", "mission.at_base"
-QUEUED = "mission.queued"
-"""At base behind the robot ahead, pulling up as the queue moves (``base_queue``)."""
-FOLLOWING = (TO_ROOM, TO_BASE, QUEUED)
+S, T = LaundryState, LaundryTrigger
 MAX_LINE_RETRIES = 2
 LINE_RETRY_PAUSE_S = 5.0
 
@@ -64,25 +62,25 @@ class Navigator:
         self.arrival.update()
         state = self.ctx.state
         if directive.emergency_stop:
-            if state != "estop":
+            if state != RootState.ESTOP:
                 self._server_estop = True
                 log.warning("laundry.server_estop")
-                await self.ctx.trigger("estop", source="fleet",
+                await self.ctx.trigger(CoreTrigger.ESTOP, source="fleet",
                                        reason="the fleet server's EmergencyStop")
             return
-        if state == "estop":
+        if state == RootState.ESTOP:
             if self._server_estop:
                 self._server_estop = False
-                await self.ctx.trigger("resume", source="fleet")
+                await self.ctx.trigger(CoreTrigger.RESUME, source="fleet")
             return
         if directive.maintenance:
-            if state != "maintenance":
-                self._server_maintenance = await self.ctx.trigger("maintenance")
+            if state != RootState.MAINTENANCE:
+                self._server_maintenance = await self.ctx.trigger(CoreTrigger.MAINTENANCE)
             return
-        if state == "maintenance":
+        if state == RootState.MAINTENANCE:
             if self._server_maintenance:
                 self._server_maintenance = False
-                await self.ctx.trigger("end_maintenance")
+                await self.ctx.trigger(CoreTrigger.END_MAINTENANCE)
             return
         await self._navigate(directive, self.ctx.state)
 
@@ -90,24 +88,24 @@ class Navigator:
         rooms = directive.target_rooms()
         room = rooms[0] if rooms else None
         if directive.line_following:
-            if state == "recovery":
+            if state == RootState.RECOVERY:
                 if not self._may_retry():
                     return
-                await self.ctx.trigger("recovered")
+                await self.ctx.trigger(CoreTrigger.RECOVERED)
                 state = self.ctx.state
-            if room is not None and room == self.arrived_room and state in (AT_ROOM, AT_BASE):
+            if room is not None and room == self.arrived_room and state in (S.AT_ROOM, S.AT_BASE):
                 return  # already there; the server has not caught up yet
             to_base = room is not None and room == self.base_room
-            want = TO_BASE if to_base else TO_ROOM
+            want = S.TO_BASE if to_base else S.TO_ROOM
             self.target_room = room
             if self.memory is not None:
                 self.memory.heading(room)
-            if state != want and not (want == TO_BASE and state == QUEUED):
+            if state != want and not (want == S.TO_BASE and state == S.QUEUED):
                 self.arrived_room = None
                 self._arrival_fired = False
                 self._leg = want
                 self.ctx.emit("laundry.go", room=room, follow_color=directive.follow_color)
-                await self.ctx.trigger("go_base" if to_base else "go_room")
+                await self.ctx.trigger(T.GO_BASE if to_base else T.GO_ROOM)
                 if self.arrival.is_in_target:
                     # Already at the new target (sent back to base while still beside it):
                     # no change of the arrival will come, so take it now.
@@ -118,10 +116,10 @@ class Navigator:
                 # Arrived a moment ago; its trigger may still be on its way.
                 await self._fire_arrival(_leg(state))
             else:
-                await self.ctx.trigger("mission_done")
-        elif state == AT_BASE or (state == AT_ROOM and room is None
+                await self.ctx.trigger(CoreTrigger.MISSION_DONE)
+        elif state == S.AT_BASE or (state == S.AT_ROOM and room is None
                                   and self.arrived_room is None):
-            await self.ctx.trigger("mission_done")
+            await self.ctx.trigger(CoreTrigger.MISSION_DONE)
 
     async def _fire_arrival(self, leg: str) -> None:
         # The beacon and the server's directive may both report one arrival in the same
@@ -131,7 +129,7 @@ class Navigator:
         if (_leg(self.ctx.state) == leg and self._leg in (None, leg)
                 and not self._arrival_fired):
             self._arrival_fired = True
-            await self.ctx.trigger("arrived_base" if leg == TO_BASE else "arrived_room")
+            await self.ctx.trigger(T.ARRIVED_BASE if leg == S.TO_BASE else T.ARRIVED_ROOM)
 
     def line_lost(self) -> None:
         """The line follower gave up; the robot is stopped in ``recovery``."""
@@ -175,4 +173,4 @@ class Navigator:
 
 def _leg(state: str) -> str:
     """The leg a following state is on: queued at base is still the way to base."""
-    return TO_BASE if state == QUEUED else state
+    return S.TO_BASE if state == S.QUEUED else state

@@ -18,6 +18,7 @@ import structlog
 from behaviours.beacons.arrival import Arrival
 from behaviours.beacons.tracker import BeaconTracker
 from behaviours.line.follow import LineFollower, LineLostError
+from behaviours.machine_tables import CoreTrigger
 from behaviours.motion.obstacle_guard import ObstacleGuard
 from behaviours.persistence import MissionRecord
 from behaviours.profile import BaseProfile, StateTask
@@ -27,15 +28,13 @@ from behaviours.profiles.laundry.fleet_link import FleetLink, fleet_client, read
 from behaviours.profiles.laundry.load_check import LoadCheck
 from behaviours.profiles.laundry.local_route import LocalRoute
 from behaviours.profiles.laundry.memory import LAUNDRY_MISSION, LaundryMemory
-from behaviours.profiles.laundry.navigator import (
-    AT_BASE,
-    AT_ROOM,
-    QUEUED,
-    TO_BASE,
-    TO_ROOM,
-    Navigator,
-)
+from behaviours.profiles.laundry.navigator import Navigator
 from behaviours.profiles.laundry.report import RobotReport
+from behaviours.profiles.laundry.states import (
+    FOLLOWING,
+    MISSION_STATES,
+    MISSION_TRANSITIONS,
+)
 from behaviours.service import Service, TaskService
 from hal.devices import Motors
 
@@ -60,19 +59,10 @@ class LaundryProfile(BaseProfile):
         return (LAUNDRY_MISSION,)
 
     def mission_states(self) -> list[str | dict[str, Any]]:
-        return ["to_room", "at_room", "to_base", "queued", "at_base"]
+        return list(MISSION_STATES)
 
     def mission_transitions(self) -> list[dict[str, Any]]:
-        anywhere = ["idle", AT_ROOM, AT_BASE, TO_ROOM, TO_BASE, QUEUED]
-        return [
-            {"trigger": "go_room", "source": [s for s in anywhere if s != TO_ROOM],
-             "dest": TO_ROOM},
-            {"trigger": "go_base", "source": [s for s in anywhere if s not in (TO_BASE, QUEUED)],
-             "dest": TO_BASE},
-            {"trigger": "arrived_room", "source": TO_ROOM, "dest": AT_ROOM},
-            {"trigger": "queued", "source": TO_BASE, "dest": QUEUED},
-            {"trigger": "arrived_base", "source": [TO_BASE, QUEUED], "dest": AT_BASE},
-        ]
+        return [dict(t) for t in MISSION_TRANSITIONS]
 
     def services(self, ctx: RobotContext) -> list[Service]:
         d = ctx.devices
@@ -144,7 +134,7 @@ class LaundryProfile(BaseProfile):
             self.route.arrived(self.navigator.arrived_room)
 
     def state_tasks(self) -> dict[str, StateTask]:
-        return {TO_ROOM: self._follow, TO_BASE: self._follow, QUEUED: self._follow}
+        return dict.fromkeys(FOLLOWING, self._follow)
 
     async def _follow(self, ctx: RobotContext) -> None:
         assert self.follower is not None
@@ -155,4 +145,4 @@ class LaundryProfile(BaseProfile):
             log.error("laundry.line_lost", error=str(exc))
             if self.navigator is not None:
                 self.navigator.line_lost()
-            await ctx.trigger("fault", code="line_lost", reason=str(exc))
+            await ctx.trigger(CoreTrigger.FAULT, code="line_lost", reason=str(exc))

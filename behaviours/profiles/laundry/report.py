@@ -12,7 +12,7 @@ from behaviours.context import RobotContext
 from behaviours.motion.obstacle_guard import ObstacleGuard
 from behaviours.profiles.laundry.base_queue import BaseQueue
 from behaviours.profiles.laundry.load_check import LoadCheck
-from behaviours.profiles.laundry.navigator import FOLLOWING
+from behaviours.profiles.laundry.states import FOLLOWING
 from hal.devices import RangeSensor
 from hal.ports import WallClock
 

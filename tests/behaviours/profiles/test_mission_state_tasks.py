@@ -8,6 +8,8 @@ from state_tasks_check import state_task_problems
 
 from behaviours.machine_tables import mission_children
 from behaviours.profile import BaseProfile
+from behaviours.profiles.laundry.profile import LaundryProfile
+from behaviours.profiles.laundry.states import WAITING, LaundryState, LaundryTrigger
 from behaviours.profiles.patrol.profile import PatrolProfile, PatrolState, PatrolTrigger
 from behaviours.profiles.square.profile import SQUARE, SquareProfile
 from behaviours.profiles.vacuum.profile import VacuumProfile, VacuumState, VacuumTrigger
@@ -35,6 +37,24 @@ def test_the_constants_are_the_tables(profile_cls: type[BaseProfile], states: se
     profile = profile_cls()
     assert {f"mission.{s}" for s in profile.mission_states()} == states
     assert {t["trigger"] for t in profile.mission_transitions()} == triggers
+
+
+def test_laundry_follows_the_line_in_each_moving_state_and_waits_in_the_others() -> None:
+    profile = LaundryProfile()
+    assert state_task_problems(profile.mission_states(), profile.state_tasks(),
+                               waiting=WAITING) == []
+
+
+def test_laundrys_constants_are_its_tables() -> None:
+    profile = LaundryProfile()
+    assert ({f"mission.{s}" for s in profile.mission_states()}
+            == _constants(LaundryState))
+    transitions = profile.mission_transitions()
+    assert {t["trigger"] for t in transitions} == _constants(LaundryTrigger)
+    named = {t["dest"] for t in transitions}
+    for t in transitions:
+        named |= set(t["source"]) if isinstance(t["source"], list) else {t["source"]}
+    assert named - {"idle"} == _constants(LaundryState)
 
 
 def test_a_mission_state_the_tasks_miss_is_reported() -> None:

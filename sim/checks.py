@@ -105,6 +105,7 @@ def summary_figures(robots: dict[str, RobotRecord], scenario: Scenario | None = 
     """Each robot's figures; ``arrival_<room>_m``: how far from that room's beacon it was
     when it first reported arriving there."""
     out: dict[str, Any] = {}
+    checks = robot_checks(scenario) if scenario is not None and events else []
     for name, r in robots.items():
         pose = r.body.pose
         fig: dict[str, Any] = {
@@ -126,7 +127,7 @@ def summary_figures(robots: dict[str, RobotRecord], scenario: Scenario | None = 
             mine = [e for e in events if e.get("robot", name) == name] if len(robots) > 1 \
                 else events
             fig.update(_arrival_figures(scenario, mine))
-            for check in robot_checks(scenario):
+            for check in checks:
                 fig.update(check.figures(mine))
         out[name] = fig
     return out

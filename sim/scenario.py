@@ -17,7 +17,7 @@ from typing import Any
 
 from hal.files import FileRefused, read_bounded_text
 from robotd.profiles import DEFAULT_SIM_PROFILE
-from sim.registry import scenario_folders, slices
+from sim.registry import distinct, scenario_folders, slices
 from sim.world.body import BodyParams
 from sim.world.floor_plan import World, WorldError
 
@@ -207,7 +207,7 @@ def _build(raw: dict[str, Any], source: str) -> Scenario:
     profile = str(meta.get("profile", DEFAULT_SIM_PROFILE))
     base_dir = scenario_dir(source)
     world_table = _table(raw, "world")
-    for part in dict.fromkeys(p for sim in slices() for p in sim.world_parts):
+    for part in distinct(p for sim in slices() for p in sim.world_parts):
         world_table = part(world_table, base_dir)
     world = World.from_table(world_table, base_dir=base_dir)
     config = _table(raw, "config", required=False)

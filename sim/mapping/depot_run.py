@@ -50,13 +50,14 @@ class Recording:
 
 
 def record_run(route: tuple[tuple[float, float], ...] = DEPOT_LOOP, *,
-               map_yaml: Path = MAPS_DIR / "depot.yaml", seed: int = 1,
+               map_yaml: Path = MAPS_DIR / "depot.yaml", world: World | None = None,
+               seed: int = 1,
                speed_mps: float = 0.4, turn_rad_s: float = 0.6, scan_hz: float = 5.0,
                beams: int = 360, slip_std: float = 0.01, dt_s: float = 0.01,
                max_duration_s: float = 600.0) -> Recording:
-    """Drive ``route`` on the map's world and record it (start at the first waypoint facing
-    the second)."""
-    world = World.from_table({"map": str(map_yaml)})
+    """Drive ``route`` on the map's world (or ``world``) and record it (start at the first
+    waypoint facing the second)."""
+    world = world if world is not None else World.from_table({"map": str(map_yaml)})
     x, y = route[0]
     heading = math.atan2(route[1][1] - y, route[1][0] - x)
     params = BodyParams(slip_std=slip_std)

@@ -110,3 +110,19 @@ def test_robotctl_status_shows_the_mission_rows() -> None:
                                                         "broken_links": [["a", "c"]]}})
     assert 'mission.path          ["a", "b"]' in text
     assert "mission.broken_links" in text
+
+
+@pytest.mark.slow
+def test_the_mission_runs_on_a_map_the_robot_made(tmp_path: Path) -> None:
+    """cabinet-made: the map is robotd map's PGM (no wall list); the fit finds the pose on it
+    and the four cabinets are reached in order, each within 10 cm."""
+    code = run_sim(argparse.Namespace(scenario="cabinet-made", seed=1, report=str(tmp_path),
+                                      quiet=True))
+    assert code == 0
+    events = _events(tmp_path)
+    perceived = next(e for e in events if e["kind"] == "init.perceptor")
+    assert isinstance(perceived["walls"], int) and perceived["walls"] > 50  # outlines, not 18
+    assert [e["cabinet"] for e in events if e["kind"] == "cabinet.arrived"] == [
+        "c2", "c4", "c3", "c1"]
+    result = events[-1]
+    assert result["kind"] == "result" and result["ok"] is True

@@ -36,8 +36,9 @@ def cabinet_file_problems(values: dict[str, dict[str, Any]], path: str,
     config = CabinetConfig(**{k: section[k] for k in CABINET.by_key if k in section})
     base_dir = Path(path).parent
     try:
-        site_map = parse_site_map(read_json(resolve(config.map_file, base_dir), config.map_file),
-                                  config.map_file)
+        map_path = resolve(config.map_file, base_dir)
+        site_map = parse_site_map(read_json(map_path, config.map_file), config.map_file,
+                                  map_path.parent)
         tasks = parse_task_list(read_json(resolve(config.task_file, base_dir), config.task_file),
                                 config.task_file, site_map)
     except SiteFileError as exc:

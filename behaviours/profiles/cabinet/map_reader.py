@@ -13,6 +13,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from behaviours.profiles.cabinet.made_map import DOOR_JAMB_TOLERANCE_M, MadeMap, read_made_map
+from behaviours.profiles.cabinet.made_map import KEY as OCCUPANCY
 from behaviours.profiles.cabinet.site_map import (
     FRONTS,
     Cabinet,
@@ -154,11 +156,13 @@ def unknown_keys(item: dict[str, Any], where: str, known: tuple[str, ...],
                          f"unknown key (known: {', '.join(known)})")
 
 
-MAP_KEYS = ("resolution_m", "zero", "walls", "doors", "rooms", "cabinets")
+MAP_KEYS = ("resolution_m", "zero", "walls", "occupancy", "doors", "rooms", "cabinets")
 
 
-def parse_site_map(doc: Any, shown: str) -> SiteMap:
-    """A SiteMap from a parsed JSON document, or SiteFileError naming every problem."""
+def parse_site_map(doc: Any, shown: str, base_dir: Path | None = None) -> SiteMap:
+    """A SiteMap from a parsed JSON document, or SiteFileError naming every problem;
+    ``base_dir``: where a made map's ``occupancy`` file is looked for (the site file's
+    folder)."""
     problems = Problems(shown)
     if not isinstance(doc, dict):
         problems.add("file", f"expected a JSON object, got {show(doc)}")
@@ -174,12 +178,23 @@ def parse_site_map(doc: Any, shown: str) -> SiteMap:
     zero = numbers(doc.get("zero", [0, 0]), 2, "zero", problems) or [0.0, 0.0]
     shift: Callable[[float, float], Point] = lambda x, y: (x - zero[0], y - zero[1])  # noqa: E731
 
-    walls = _walls(doc, problems, shift)
-    doors = _doors(doc, problems, shift, walls)
+    made = None
+    if OCCUPANCY in doc:
+        if "walls" in doc:
+            problems.add("walls", f"give walls or {OCCUPANCY}, not both")
+        made, problem = read_made_map(doc[OCCUPANCY], base_dir, (zero[0], zero[1]))
+        if problem is not None:
+            problems.add(OCCUPANCY, problem)
+        walls = made.walls() if made is not None else []
+        resolution_m = made.occupied.resolution_m if made is not None else resolution_m
+    else:
+        walls = _walls(doc, problems, shift)
+    doors = _doors(doc, problems, shift, walls, made)
     rooms = _rooms(doc, problems, shift)
     cabinets = _cabinets(doc, problems, shift, rooms)
     problems.raise_any()
-    return SiteMap(tuple(walls), tuple(doors), tuple(rooms), tuple(cabinets), resolution_m)
+    return SiteMap(tuple(walls), tuple(doors), tuple(rooms), tuple(cabinets), resolution_m,
+                   made)
 
 
 def _segment(value: Any, where: str, problems: Problems,
@@ -209,7 +224,7 @@ def _walls(doc: dict[str, Any], problems: Problems,
 
 
 def _doors(doc: dict[str, Any], problems: Problems, shift: Callable[[float, float], Point],
-           walls: list[Segment]) -> list[Door]:
+           walls: list[Segment], made: MadeMap | None) -> list[Door]:
     seen: set[str] = set()
     out = []
     for where, item in items(doc, "doors", problems, required=False):
@@ -218,7 +233,14 @@ def _doors(doc: dict[str, Any], problems: Problems, shift: Callable[[float, floa
         seg = _segment(item.get("segment"), f"{where}.segment", problems, shift)
         if name is None or seg is None:
             continue
-        if walls and not any(door_on_wall(seg, wall) for wall in walls):
+        if made is not None:
+            gaps_m = [made.jamb_gap_m(seg[0], seg[1]), made.jamb_gap_m(seg[2], seg[3])]
+            if max(gaps_m) > DOOR_JAMB_TOLERANCE_M:
+                problems.add(f"{where}.segment",
+                             f"an end is {max(gaps_m):.2f} m from the map's nearest wall cell "
+                             f"(a door stands in a wall: within {DOOR_JAMB_TOLERANCE_M} m)")
+                continue
+        elif walls and not any(door_on_wall(seg, wall) for wall in walls):
             problems.add(f"{where}.segment", "not along any wall (a door is a stretch of a wall)")
             continue
         out.append(Door(name, seg))

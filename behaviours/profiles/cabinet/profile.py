@@ -132,8 +132,9 @@ class CabinetProfile(BaseProfile):
         assert m is not None and self._ctx is not None
         c = m.config
         try:
-            site_map = parse_site_map(read_json(resolve(c.map_file, m.base_dir), c.map_file),
-                                      c.map_file)
+            map_path = resolve(c.map_file, m.base_dir)
+            site_map = parse_site_map(read_json(map_path, c.map_file), c.map_file,
+                                      map_path.parent)
             m.tasks = parse_task_list(m.task_doc, c.task_file, site_map)
             site = build_site(site_map, m.tasks, c, c.map_file)
         except SiteFileError as exc:

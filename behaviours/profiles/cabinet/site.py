@@ -52,7 +52,8 @@ def build_site(site_map: SiteMap, tasks: TaskList, config: CabinetConfig, shown:
 def load_site(config: CabinetConfig, base_dir: str | Path | None = None) -> Site:
     """Read both files and build the site, or SiteFileError with every problem found."""
     map_path = resolve(config.map_file, base_dir)
-    site_map = parse_site_map(read_json(map_path, config.map_file), config.map_file)
+    site_map = parse_site_map(read_json(map_path, config.map_file), config.map_file,
+                              map_path.parent)
     task_path = resolve(config.task_file, base_dir)
     tasks = parse_task_list(read_json(task_path, config.task_file), config.task_file, site_map)
     return build_site(site_map, tasks, config, config.map_file)

@@ -10,12 +10,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
 from behaviours.nav.grid import Grid
+
+if TYPE_CHECKING:
+    from behaviours.profiles.cabinet.made_map import MadeMap
 
 Point = tuple[float, float]
 Segment = tuple[float, float, float, float]
@@ -100,13 +104,15 @@ class Cabinet:
 
 @dataclass(frozen=True, slots=True)
 class SiteMap:
-    """A site as its JSON map describes it (see ``docs/cabinet.md`` for the format)."""
+    """A site as its JSON map describes it (see ``docs/cabinet.md`` for the format); on a
+    made map (``made``) the walls are the outlines of the map's occupied cells."""
 
     walls: tuple[Segment, ...]
     doors: tuple[Door, ...]
     rooms: tuple[Room, ...]
     cabinets: tuple[Cabinet, ...]
     resolution_m: float = 0.05
+    made: MadeMap | None = field(default=None, compare=False)
 
     def cabinet(self, name: str) -> Cabinet:
         for cabinet in self.cabinets:
@@ -132,7 +138,10 @@ class SiteMap:
         return tuple(out)
 
     def grid(self, resolution_m: float | None = None) -> Grid:
-        """The nav grid (``behaviours.nav.grid``): solid walls rasterised, doors open."""
+        """The nav grid (``behaviours.nav.grid``): solid walls rasterised (a made map's own
+        cells, unknown ones blocked), doors open."""
+        if self.made is not None:
+            return self.made.with_doors_open([door.segment for door in self.doors])
         return Grid.from_segments(self.solid_walls(), resolution_m or self.resolution_m)
 
     def wall_array(self) -> FloatArray:

@@ -27,7 +27,7 @@ def site_map_of(name: str, base_dir: Path | None) -> SiteMap:
     if not path.is_absolute() and base_dir is not None:
         path = base_dir / path
     try:
-        return parse_site_map(read_json(path, name), name)
+        return parse_site_map(read_json(path, name), name, path.parent)
     except SiteFileError as exc:
         msg = f"world.{KEY}: {'; '.join(exc.problems)}"
         raise WorldError(msg) from None

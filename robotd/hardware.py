@@ -78,6 +78,22 @@ def _qr_camera_check(settings: Settings) -> str | None:
     return None
 
 
+def _dock_ir_check(settings: Settings) -> str | None:
+    if settings.get("docking.ir_source") != "stream":
+        return _any_path("/dev/gpiochip*", "GPIO chip")(settings)
+    stream = str(settings.get("docking.ir_stream"))
+    if not Path(stream).exists():
+        return f"IR edge pipe {stream} does not exist (check docking.ir_stream; mkfifo it)"
+    return None
+
+
+def _audio_check(settings: Settings) -> str | None:
+    # ALSA's null device plays into nothing: a robot without a speaker, or a bench.
+    if settings.get("audio.device") == "null":
+        return None
+    return _any_path("/dev/snd/pcm*", "sound card")(settings)
+
+
 def _any_path(pattern: str, what: str) -> Check:
     def check(_settings: Settings) -> str | None:
         return None if glob.glob(pattern) else f"no {what} found ({pattern})"
@@ -93,10 +109,10 @@ HARDWARE: dict[str, Hardware] = {
                     "drivers.ble_scanner:from_settings"),
     "hx711": Hardware(("load_cell",), _any_path("/dev/gpiochip*", "GPIO chip"),
                       "drivers.hx711:from_settings"),
-    "dock_ir": Hardware(("dock_ir",), _any_path("/dev/gpiochip*", "GPIO chip"),
+    "dock_ir": Hardware(("dock_ir",), _dock_ir_check,
                         "drivers.dock_ir:from_settings"),
     "lidar": Hardware(("lidar",), _lidar_check, "drivers.lidar:from_settings"),
-    "audio": Hardware(("audio",), _any_path("/dev/snd/pcm*", "sound card"),
+    "audio": Hardware(("audio",), _audio_check,
                       "drivers.audio:from_settings"),
     "qr_camera": Hardware(("qr",), _qr_camera_check, "drivers.camera.qr_reader:from_settings"),
 }

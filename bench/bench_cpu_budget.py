@@ -20,7 +20,8 @@ at home, a vacuum on its dock) or ``mission`` (anything else: moving, docking, r
 answers is not counted. Once a robot has been ``--seconds`` mid-mission and has had no idle
 time yet, the bench ends its mission as a technician would (``trigger mission_done``) and
 measures it idle. Laundry's robot needs a BLE adapter and an HX711 on GPIO that the feeder
-cannot serve yet: its row says so.
+cannot serve yet: its row says so, and its ``robotd sim --realtime`` figure (an upper bound,
+below) is measured in its place.
 
 The reference is a plain asyncio process running only robotd's loop monitor (same timer
 chain, same 0.25 s period): the floor of CPU and lag on this machine at this moment (the
@@ -381,7 +382,9 @@ def main() -> int:
             phases, _status, figures = measure_fed(profile, args.seconds, notes)
         except NoDaemon as exc:
             print(f"{what}: not measured: {exc}")
-            verdicts.append(f"{profile}: not measured")
+            verdicts.append(f"{profile}: robotd run not measured")
+            if not args.upper_bound:  # its simulation's figure, an upper bound, instead
+                upper_bound_rows([profile], args.seconds, row, daemon_alone=False)
             continue
         for state in ("boot", "idle", "mission"):
             if state not in phases:
@@ -405,9 +408,10 @@ def main() -> int:
 
 
 def upper_bound_rows(profiles: list[str], seconds: float,
-                     row: Callable[[str, str, Phase], None]) -> None:
+                     row: Callable[[str, str, Phase], None], *, daemon_alone: bool = True
+                     ) -> None:
     """The simulated world in the daemon's process, and the daemon with only its motor board."""
-    for profile in ("idle", "square"):  # the daemon alone: no simulated world in it
+    for profile in ("idle", "square") if daemon_alone else ():  # no simulated world in it
         try:
             phases, _status = measure_run(profile, seconds)
         except NoDaemon as exc:

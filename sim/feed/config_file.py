@@ -12,7 +12,7 @@ from robotd.config.settings import Settings
 
 
 def hardware_keys(settings: Settings, work: Path, *, mcu_port: Path, lidar_port: Path | None,
-                  ir_pipe: Path | None, qr_video: Path | None) -> dict[str, Any]:
+                  qr_video: Path | None) -> dict[str, Any]:
     """The keys that send each driver to the feeder's device (dotted key -> value)."""
     keys: dict[str, Any] = {
         "hal.backend": "real", "control.socket": str(work / "control.sock"),
@@ -21,9 +21,6 @@ def hardware_keys(settings: Settings, work: Path, *, mcu_port: Path, lidar_port:
     }
     if lidar_port is not None:
         keys["lidar.port"] = str(lidar_port)
-    if ir_pipe is not None:
-        keys["docking.ir_source"] = "stream"
-        keys["docking.ir_stream"] = str(ir_pipe)
     if qr_video is not None:
         keys.update({"qr_camera.source": "file", "qr_camera.file": str(qr_video),
                      "qr_camera.loop": True})

@@ -12,15 +12,17 @@ from typing import Any, TextIO
 
 import structlog
 
+from drivers.hx711 import Gain
 from robotd.profiles import PROFILES
 from sim.actors import ActorContext, SimActors, actors_factory
 from sim.config import robot_settings
 from sim.console import SimConsole
+from sim.devices.camera_model import SimCamera
 from sim.devices.motor_board.pty_mcu import PtyMcu
 from sim.feed.config_file import hardware_keys, write_config
-from sim.feed.ports import EdgePipe, PtyLine
+from sim.feed.ports import LinePipe, PtyLine, advert_writer, pipe_conversions, pipe_edges
 from sim.feed.state_watch import StateWatch
-from sim.feed.videos import first_qr_payload, write_qr_video
+from sim.feed.videos import first_qr_payload, write_qr_video, write_still_video
 from sim.registry import slice_of
 from sim.rig import SimRig, open_sim_rig
 from sim.scenario import Scenario, load_scenario
@@ -45,7 +47,9 @@ class Feeder:
     actors: SimActors | None = None
     mcu: PtyMcu | None = None
     lidar: PtyLine | None = None
-    ir: EdgePipe | None = None
+    pipes: dict[str, LinePipe] = field(default_factory=dict)
+    """The named pipes served: ``ir`` (dock IR edges), ``ble`` (adverts), ``hx711``."""
+    scanners: list[Any] = field(default_factory=list)
     tasks: list[asyncio.Task[Any]] = field(default_factory=list)
 
     @property
@@ -89,17 +93,35 @@ class Feeder:
             self.lidar = PtyLine(work / "ttyLIDAR")
             await self.lidar.open()
             rig.ld19.connect_pipe(self.lidar)
+        keys: dict[str, Any] = {}
         if rig.dock_ir is not None:
-            self.ir = EdgePipe(work / "dock-ir.fifo", rig.dock_ir)
+            self.pipes["ir"] = LinePipe(work / "dock-ir.fifo")
+            keys.update({"docking.ir_source": "stream",
+                         "docking.ir_stream": str(self.pipes["ir"].path)})
+        if rig.air is not None:  # a scanner on the simulated air, its adverts into the pipe
+            self.pipes["ble"] = LinePipe(work / "ble.fifo")
+            scanner = rig.air.scanner_factory()(advert_writer(self.pipes["ble"]))
+            await scanner.start()
+            self.scanners.append(scanner)
+            keys.update({"ble.source": "stream", "ble.stream": str(self.pipes["ble"].path)})
+        if rig.hx711_lines is not None:
+            self.pipes["hx711"] = LinePipe(work / "hx711.fifo")
+            keys.update({"hx711.source": "stream",
+                         "hx711.stream": str(self.pipes["hx711"].path)})
+        if isinstance(rig.devices.camera, SimCamera):  # what the camera sees at the start
+            video = write_still_video(work / "camera.avi", rig.devices.camera.render(body.pose),
+                                      fps=settings.get("camera.fps"))
+            keys.update({"camera.source": "file", "camera.file": str(video),
+                         "camera.loop": True})
         qr_video = None
         payload = first_qr_payload(scenario.world)
         if "qr" in devices and payload is not None:
             qr_video = write_qr_video(
                 work / "qr.avi", payload, width_px=settings.get("qr_camera.width"),
                 height_px=settings.get("qr_camera.height"), fps=settings.get("qr_camera.fps"))
-        keys = hardware_keys(settings, work, mcu_port=work / "ttyMCU",
-                             lidar_port=self.lidar.link if self.lidar else None,
-                             ir_pipe=self.ir.path if self.ir else None, qr_video=qr_video)
+        keys.update(hardware_keys(settings, work, mcu_port=work / "ttyMCU",
+                                  lidar_port=self.lidar.link if self.lidar else None,
+                                  qr_video=qr_video))
         write_config(self.config_path, settings, keys)
         return self.config_path
 
@@ -129,8 +151,11 @@ class Feeder:
             await player.run()
 
         coros: list[Any] = [self.rig.run(), script(player), watch.run()]
-        if self.ir is not None:
-            coros.append(self.ir.run())
+        if "ir" in self.pipes and self.rig.dock_ir is not None:
+            coros.append(pipe_edges(self.rig.dock_ir, self.pipes["ir"]))
+        if "hx711" in self.pipes and self.rig.hx711_lines is not None:
+            gain = Gain[self.rig.settings.get("hx711.gain")]
+            coros.append(pipe_conversions(self.rig.hx711_lines, self.pipes["hx711"], gain))
         if self.actors is not None:
             coros += [coro for _, coro in (*self.actors.people(), *self.actors.background())]
         self.tasks = [asyncio.create_task(c) for c in coros]
@@ -144,8 +169,10 @@ class Feeder:
         figures: dict[str, Any] = {}
         if self.rig is not None and self.rig.ld19 is not None:
             figures["ld19_bytes"] = self.rig.ld19.bytes_sent
-        if self.ir is not None:
-            figures.update(ir_edges_written=self.ir.written, ir_edges_dropped=self.ir.dropped)
+        for scanner in self.scanners:
+            await scanner.stop()
+        for name, pipe in self.pipes.items():
+            figures.update({f"{name}_written": pipe.written, f"{name}_dropped": pipe.dropped})
         if self.mcu is not None:
             figures["mcu_commands"] = len(self.mcu.mcu.executed)
             await self.mcu.close()

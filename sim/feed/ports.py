@@ -7,15 +7,16 @@ import contextlib
 import errno
 import os
 import tty
+from collections.abc import Callable
 from pathlib import Path
 
-import structlog
+from bleak.backends.device import BLEDevice
+from bleak.backends.scanner import AdvertisementData
 
-from hal.ports import IrEdgeSource, StreamPair
-
-log = structlog.get_logger(__name__)
-
-REOPEN_S = 0.25
+from drivers.ble_stream import advert_line
+from drivers.hx711 import Gain, ReadDiscarded, clock_out
+from drivers.hx711_ready import wait_dout_low
+from hal.ports import Hx711Lines, IrEdgeSource, StreamPair
 
 
 async def pty_streams(master: int) -> StreamPair:
@@ -70,41 +71,32 @@ class PtyLine:
             self.link.unlink()
 
 
-class EdgePipe:
-    """Writes a ``hal.ports.IrEdgeSource``'s edges to a named pipe as ``T_US NAME LEVEL`` lines
-    (what ``drivers.dock_ir.edge_stream`` reads). Edges while no reader has the pipe open are
-    dropped, as a receiver's output is lost while nobody listens; ``dropped`` counts them."""
+class LinePipe:
+    """Lines written to a named pipe that the daemon's driver reads. Lines while no reader has
+    the pipe open, or while it is full, are dropped, as a signal is lost while nobody listens;
+    ``written`` and ``dropped`` count them."""
 
-    def __init__(self, path: Path, source: IrEdgeSource) -> None:
+    def __init__(self, path: Path) -> None:
         self.path = path
-        self.source = source
         self.written = 0
         self.dropped = 0
+        self._fd = -1
         os.mkfifo(path)
 
-    async def run(self) -> None:
-        fd = -1
+    def write(self, lines: list[str]) -> None:
+        if self._fd < 0:
+            self._fd = self._open()
+        if self._fd < 0:
+            self.dropped += len(lines)
+            return
         try:
-            while True:
-                edges = await self.source.next_edges()
-                if fd < 0:
-                    fd = self._open()
-                if fd < 0:
-                    self.dropped += len(edges)
-                    continue
-                data = "".join(f"{e.t_us} {e.receiver} {int(e.level)}\n" for e in edges)
-                try:
-                    os.write(fd, data.encode("ascii"))
-                    self.written += len(edges)
-                except BlockingIOError:
-                    self.dropped += len(edges)
-                except BrokenPipeError:  # the reader went: open again when it is back
-                    os.close(fd)
-                    fd = -1
-                    self.dropped += len(edges)
-        finally:
-            if fd >= 0:
-                os.close(fd)
+            os.write(self._fd, "".join(lines).encode("ascii"))
+            self.written += len(lines)
+        except BlockingIOError:
+            self.dropped += len(lines)
+        except BrokenPipeError:  # the reader went: open again when it is back
+            self.close()
+            self.dropped += len(lines)
 
     def _open(self) -> int:
         try:
@@ -113,3 +105,45 @@ class EdgePipe:
             if exc.errno != errno.ENXIO:  # ENXIO: no reader yet
                 raise
             return -1
+
+    def close(self) -> None:
+        fd, self._fd = self._fd, -1
+        if fd >= 0:
+            os.close(fd)
+
+
+async def pipe_edges(source: IrEdgeSource, pipe: LinePipe) -> None:
+    """A ``hal.ports.IrEdgeSource``'s edges as ``T_US NAME LEVEL`` lines (what
+    ``drivers.dock_ir.edge_stream`` reads), until cancelled."""
+    try:
+        while True:
+            edges = await source.next_edges()
+            pipe.write([f"{e.t_us} {e.receiver} {int(e.level)}\n" for e in edges])
+    finally:
+        pipe.close()
+
+
+async def pipe_conversions(lines: Hx711Lines, pipe: LinePipe, gain: Gain,
+                           timeout_s: float = 1.0) -> None:
+    """An HX711's conversions, clocked out of its lines by the real driver's ``clock_out``,
+    one code a line (what ``drivers.hx711_stream`` reads), until cancelled."""
+    lines.set_sck(False)  # power up
+    try:
+        while True:
+            if not await wait_dout_low(lines, timeout_s):
+                continue
+            try:
+                pipe.write([f"{clock_out(lines, gain)}\n"])
+            except ReadDiscarded:
+                continue
+    finally:
+        pipe.close()
+
+
+def advert_writer(pipe: LinePipe) -> Callable[[BLEDevice, AdvertisementData], None]:
+    """A bleak detection callback that writes each advert as a JSON line (what
+    ``drivers.ble_stream`` reads)."""
+    def write(device: BLEDevice, adv: AdvertisementData) -> None:
+        pipe.write([advert_line(device.address, adv)])
+
+    return write

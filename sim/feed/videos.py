@@ -6,6 +6,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import numpy.typing as npt
 
 from sim.devices.qr_camera_model import qr_image
 from sim.world.floor_plan import World
@@ -28,6 +29,15 @@ def write_qr_video(path: Path, payload: str, *, width_px: int, height_px: int, f
     frame = np.full((height_px, width_px, 3), 170, np.uint8)  # a grey shop behind the card
     top, left = (height_px - side) // 2, (width_px - side) // 2
     frame[top:top + side, left:left + side] = card[:, :, None]
+    return write_still_video(path, frame, fps=fps, seconds=seconds)
+
+
+def write_still_video(path: Path, frame: npt.NDArray[np.uint8], *, fps: float,
+                      seconds: float = 2.0) -> Path:
+    """``frame`` held still for ``seconds`` at ``fps`` (MJPEG in AVI)."""
+    height_px, width_px = frame.shape[:2]
+    if frame.ndim == 2:
+        frame = np.asarray(cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR), np.uint8)
     writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"MJPG"), fps,
                              (width_px, height_px))
     if not writer.isOpened():

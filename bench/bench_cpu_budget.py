@@ -7,10 +7,13 @@ on its real drivers, fed by ``python -m sim.feed SCENARIO`` in another process (
 counted) at real rates and in real time: the motor board (the fake MCU speaking the serial
 protocol, its encoders turning with the commanded wheels, the docking lines) on a pty, the
 LD19's byte stream (10 Hz, 4500 points/s, 47-byte packets, ~21 kB/s, ranges ray-cast in the
-scenario's world at the robot's pose) on another pty, the dock IR receivers' edges on a named
-pipe (``docking.ir_source = "stream"``), the QR camera from a video file
-(``qr_camera.source = "file"``), sounds into ALSA's null device. The feeder plays the
-scenario's script (a customer walking in), starting it ``--hold-s`` after the daemon answers.
+scenario's world at the robot's pose) on another pty, the dock IR receivers' edges, the BLE
+adverts and the HX711's conversions on named pipes (``docking.ir_source``, ``ble.source``,
+``hx711.source`` = ``"stream"``), the line camera and the QR camera from video files
+(``camera.source``/``qr_camera.source = "file"``, MJPEG at the configured rate: the line
+camera's is a still of what it sees at the start), sounds into ALSA's null device. The feeder
+plays the scenario's script (a customer walking in), starting it ``--hold-s`` after the
+daemon answers.
 
 Every 0.25 s the bench reads the daemon's CPU time (/proc/PID/stat) and asks ``status`` for
 the state and the loop monitor's latest lag (``loop_lag_ms.last_ms``; the monitor wakes every
@@ -19,9 +22,8 @@ at home, a vacuum on its dock) or ``mission`` (anything else: moving, docking, r
 ``boot`` (loading maps, fitting the first scan) is shown apart. Start-up before the socket
 answers is not counted. Once a robot has been ``--seconds`` mid-mission and has had no idle
 time yet, the bench ends its mission as a technician would (``trigger mission_done``) and
-measures it idle. Laundry's robot needs a BLE adapter and an HX711 on GPIO that the feeder
-cannot serve yet: its row says so, and its ``robotd sim --realtime`` figure (an upper bound,
-below) is measured in its place.
+measures it idle. A profile that cannot be fed says why, and its ``robotd sim --realtime``
+figure (an upper bound, below) is measured in its place.
 
 The reference is a plain asyncio process running only robotd's loop monitor (same timer
 chain, same 0.25 s period): the floor of CPU and lag on this machine at this moment (the

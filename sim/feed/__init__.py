@@ -4,8 +4,11 @@
 simulated devices (``sim.rig``), runs them against the wall clock, and serves them where a real
 robot's drivers find real hardware: the motor board on a pseudo-terminal (its encoders turn with
 the commanded wheels), the LD19 on another (its byte stream at line rate), the dock IR
-receivers' edges on a named pipe (``docking.ir_source = "stream"``), the QR camera as a video
-file (``qr_camera.source = "file"``). It writes ``DIR/robotd.toml`` for ``robotd run`` and
+receivers' edges, the BLE adverts and the HX711's conversions on named pipes
+(``docking.ir_source``, ``ble.source``, ``hx711.source`` = ``"stream"``), the cameras as video
+files (``camera.source``, ``qr_camera.source`` = ``"file"``: a still of what the line camera
+sees at the start; the first customer's QR code held up). It writes ``DIR/robotd.toml`` for
+``robotd run`` and
 plays the scenario's script (people walking, staff), following the daemon's state through its
 control socket. Used by ``bench/bench_cpu_budget.py`` (issue 31).
 """

@@ -17,29 +17,7 @@ from drivers.ble_stream import advert_line
 from drivers.hx711 import Gain, ReadDiscarded, clock_out
 from drivers.hx711_ready import wait_dout_low
 from hal.ports import Hx711Lines, IrEdgeSource, StreamPair
-
-
-async def pty_streams(master: int) -> StreamPair:
-    """Reader and writer on a pty's master side (the device's end of the cable)."""
-    loop = asyncio.get_running_loop()
-    reader = asyncio.StreamReader(loop=loop)
-    protocol = asyncio.StreamReaderProtocol(reader, loop=loop)
-    read_file = os.fdopen(os.dup(master), "rb", buffering=0)
-    write_file = os.fdopen(os.dup(master), "wb", buffering=0)
-    # The write side needs its own protocol (for drain); a reader takes one transport only.
-    write_protocol = asyncio.StreamReaderProtocol(asyncio.StreamReader(loop=loop), loop=loop)
-    await loop.connect_read_pipe(lambda: protocol, read_file)
-    write_transport, _ = await loop.connect_write_pipe(lambda: write_protocol, write_file)
-    return reader, asyncio.StreamWriter(write_transport, write_protocol, reader, loop)
-
-
-def link_to(link: Path, target: str) -> None:
-    """Point ``link`` at ``target`` atomically (a stable name, as udev's /dev/robotd-lidar)."""
-    tmp = link.with_name(link.name + ".tmp")
-    with contextlib.suppress(FileNotFoundError):
-        tmp.unlink()
-    tmp.symlink_to(target)
-    tmp.replace(link)
+from sim.devices.motor_board.pty_mcu import link_to, pty_streams
 
 
 class PtyLine:
@@ -51,17 +29,20 @@ class PtyLine:
         self.link = link
         self.b: StreamPair
         self._fds: tuple[int, int] = (-1, -1)
+        self._transports: list[asyncio.BaseTransport] = []
 
     async def open(self) -> None:
         master, slave = os.openpty()
         tty.setraw(slave)  # no echo, no CR/LF translation: bytes pass as on a UART
         self._fds = (master, slave)
         link_to(self.link, os.ttyname(slave))
-        self.b = await pty_streams(master)
+        self.b, self._transports = await pty_streams(master)
 
     def break_(self) -> None:
         """The cable is pulled: the pty closes and the link goes."""
-        self.b[1].close()
+        for transport in self._transports:
+            transport.close()
+        self._transports = []
         for fd in self._fds:
             if fd >= 0:
                 with contextlib.suppress(OSError):

@@ -17,12 +17,14 @@ daemon answers.
 
 Every 0.25 s the bench reads the daemon's CPU time (/proc/PID/stat) and asks ``status`` for
 the state and the loop monitor's latest lag (``loop_lag_ms.last_ms``; the monitor wakes every
-0.25 s), and files the interval under the state it ended in: ``idle`` (idle, RelayBot waiting
-at home, a vacuum on its dock) or ``mission`` (anything else: moving, docking, recovery);
+0.25 s), and files the interval under the state it ended in: ``idle`` (idle or maintenance,
+RelayBot waiting at home, a vacuum on its dock) or ``mission`` (anything else: moving,
+docking, recovery);
 ``boot`` (loading maps, fitting the first scan) is shown apart. Start-up before the socket
 answers is not counted. Once a robot has been ``--seconds`` mid-mission and has had no idle
-time yet, the bench ends its mission as a technician would (``trigger mission_done``) and
-measures it idle. A profile that cannot be fed says why, and its ``robotd sim --realtime``
+time yet, the bench ends its mission as a technician would (``trigger mission_done``; if it
+sets off again by itself, as the laundry robot's local route does, ``trigger maintenance``)
+and measures it idle. A profile that cannot be fed says why, and its ``robotd sim --realtime``
 figure (an upper bound, below) is measured in its place.
 
 The reference is a plain asyncio process running only robotd's loop monitor (same timer
@@ -123,7 +125,7 @@ def state_class(state: str) -> str:
     root = state.split(".", maxsplit=1)[0]
     if root == "boot":
         return "boot"
-    return "idle" if root == "idle" or state in RESTING else "mission"
+    return "idle" if root in ("idle", "maintenance") or state in RESTING else "mission"
 
 
 Step = Callable[[Connection, dict[str, "Phase"], str, float], bool]
@@ -137,21 +139,23 @@ def for_seconds(seconds: float) -> Step:
 
 def idle_and_mission(seconds: float, notes: list[str]) -> Step:
     """Until the robot has been ``seconds`` idle and ``seconds`` mid-mission (at most four
-    times that in all); a robot mid-mission for long enough is sent idle (``mission_done``)."""
-    ended = False
+    times that in all). A robot mid-mission for long enough is sent idle (``mission_done``);
+    one that starts its next mission from idle by itself (a local route's loop) is then put
+    in ``maintenance``: parked, its devices running, which counts as idle."""
+    sent: list[str] = []
 
     def step(conn: Connection, phases: dict[str, Phase], state: str, elapsed: float) -> bool:
-        nonlocal ended
         idle_s = phases["idle"].wall_s if "idle" in phases else 0.0
         mission_s = phases["mission"].wall_s if "mission" in phases else 0.0
-        if mission_s >= seconds and idle_s < seconds and not ended \
+        left = [t for t in ("mission_done", "maintenance") if t not in sent]
+        if mission_s >= seconds and idle_s < seconds and left \
                 and state_class(state) == "mission":
-            ended = True
+            sent.append(left[0])
             try:
-                conn.call("trigger", {"name": "mission_done"})
-                notes.append(f"mission ended by the bench in {state}")
+                conn.call("trigger", {"name": left[0]})
+                notes.append(f"{left[0]} sent by the bench in {state}")
             except DaemonError as exc:
-                notes.append(f"mission_done refused in {state}: {exc}")
+                notes.append(f"{left[0]} refused in {state}: {exc}")
         return (idle_s >= seconds and mission_s >= seconds) or elapsed >= 4 * seconds
 
     return step

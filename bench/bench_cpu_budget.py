@@ -111,6 +111,8 @@ class Phase:
     wall_s: float = 0.0
     lags_ms: list[float] = field(default_factory=list)
     states: set[str] = field(default_factory=set)
+    worst: list[tuple[float, float, str]] = field(default_factory=list)
+    """The three longest lags: (lag ms, seconds since the window opened, state)."""
 
     @property
     def cpu_pct(self) -> float:
@@ -253,7 +255,9 @@ def measure_process(argv: list[str], sock: str, work: Path,
             phase = phases.setdefault(state_class(state), Phase())
             phase.cpu_s += cpu - cpu_prev
             phase.wall_s += now - t_prev
-            phase.lags_ms.append(float(last_status["loop_lag_ms"]["last_ms"]))
+            lag_ms = float(last_status["loop_lag_ms"]["last_ms"])
+            phase.lags_ms.append(lag_ms)
+            phase.worst = sorted([*phase.worst, (lag_ms, now - t_open, state)])[-3:]
             phase.states.add(state.split(".")[1] if state.startswith("mission.")
                              and state_class(state) == "mission" else state)
             t_prev, cpu_prev = now, cpu
@@ -406,6 +410,9 @@ def main() -> int:
                 verdicts.append(f"delivery {state}: {phase.cpu_pct:.1f} % of a core here > "
                                 f"{TARGET_DELIVERY_CPU_PCT} %")
         print(f"{'':34} feeder: {json.dumps(figures)}; {'; '.join(notes) or '-'}")
+        worst = sorted((w for p in phases.values() for w in p.worst), reverse=True)[:3]
+        print(f"{'':34} longest lags: " + ", ".join(
+            f"{lag:.1f} ms at {t:.1f} s in {state}" for lag, t, state in worst))
     if args.upper_bound:
         upper_bound_rows(profiles, args.seconds, row)
     print("targets: delivery <= 10 % of a core here, every lag p99 <= 5 ms: "

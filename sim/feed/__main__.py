@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import json
 import signal
 import sys
@@ -37,7 +38,9 @@ async def _serve(args: argparse.Namespace) -> int:
         if serving.done() and serving.exception() is not None:
             raise serving.exception()  # type: ignore[misc]
     finally:
-        print(json.dumps(await feeder.close()), flush=True)
+        figures = await feeder.close()
+        with contextlib.suppress(BrokenPipeError):  # whoever read our output has gone
+            print(json.dumps(figures), flush=True)
     return 0
 
 

@@ -11,9 +11,9 @@ from robotd.config.overrides import render_toml
 from robotd.config.settings import Settings
 
 
-def hardware_keys(settings: Settings, work: Path, *, mcu_port: Path, lidar_port: Path | None,
-                  qr_video: Path | None) -> dict[str, Any]:
-    """The keys that send each driver to the feeder's device (dotted key -> value)."""
+def hardware_keys(work: Path, *, mcu_port: Path, lidar_port: Path | None) -> dict[str, Any]:
+    """The keys that send the serial drivers, the socket, the state and the speaker to the
+    feeder's (dotted key -> value)."""
     keys: dict[str, Any] = {
         "hal.backend": "real", "control.socket": str(work / "control.sock"),
         "robot.state_dir": str(work / "state"), "serial.port": str(mcu_port),
@@ -21,9 +21,6 @@ def hardware_keys(settings: Settings, work: Path, *, mcu_port: Path, lidar_port:
     }
     if lidar_port is not None:
         keys["lidar.port"] = str(lidar_port)
-    if qr_video is not None:
-        keys.update({"qr_camera.source": "file", "qr_camera.file": str(qr_video),
-                     "qr_camera.loop": True})
     return keys
 
 

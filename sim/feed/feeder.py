@@ -10,8 +10,6 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, TextIO
 
-import structlog
-
 from drivers.hx711 import Gain
 from robotd.profiles import PROFILES
 from sim.actors import ActorContext, SimActors, actors_factory
@@ -29,8 +27,6 @@ from sim.scenario import Scenario, load_scenario
 from sim.script import ScriptPlayer
 from sim.world.body import DiffDriveBody
 from sim.world.geometry import Pose
-
-log = structlog.get_logger(__name__)
 
 CONFIG_NAME = "robotd.toml"
 
@@ -93,37 +89,49 @@ class Feeder:
             self.lidar = PtyLine(work / "ttyLIDAR")
             await self.lidar.open()
             rig.ld19.connect_pipe(self.lidar)
+        keys = {**await self._serve_pipes(rig), **self._write_videos(rig, devices)}
+        keys.update(hardware_keys(work, mcu_port=work / "ttyMCU",
+                                  lidar_port=self.lidar.link if self.lidar else None))
+        write_config(self.config_path, settings, keys)
+        return self.config_path
+
+    async def _serve_pipes(self, rig: SimRig) -> dict[str, Any]:
+        """A named pipe for each device that has one; the config keys that name them."""
         keys: dict[str, Any] = {}
         if rig.dock_ir is not None:
-            self.pipes["ir"] = LinePipe(work / "dock-ir.fifo")
+            self.pipes["ir"] = LinePipe(self.work / "dock-ir.fifo")
             keys.update({"docking.ir_source": "stream",
                          "docking.ir_stream": str(self.pipes["ir"].path)})
         if rig.air is not None:  # a scanner on the simulated air, its adverts into the pipe
-            self.pipes["ble"] = LinePipe(work / "ble.fifo")
+            self.pipes["ble"] = LinePipe(self.work / "ble.fifo")
             scanner = rig.air.scanner_factory()(advert_writer(self.pipes["ble"]))
             await scanner.start()
             self.scanners.append(scanner)
             keys.update({"ble.source": "stream", "ble.stream": str(self.pipes["ble"].path)})
         if rig.hx711_lines is not None:
-            self.pipes["hx711"] = LinePipe(work / "hx711.fifo")
+            self.pipes["hx711"] = LinePipe(self.work / "hx711.fifo")
             keys.update({"hx711.source": "stream",
                          "hx711.stream": str(self.pipes["hx711"].path)})
+        return keys
+
+    def _write_videos(self, rig: SimRig, devices: tuple[str, ...]) -> dict[str, Any]:
+        """The cameras' video files; the config keys that name them."""
+        keys: dict[str, Any] = {}
+        settings = rig.settings
         if isinstance(rig.devices.camera, SimCamera):  # what the camera sees at the start
-            video = write_still_video(work / "camera.avi", rig.devices.camera.render(body.pose),
+            frame = rig.devices.camera.render(rig.body.pose)
+            video = write_still_video(self.work / "camera.avi", frame,
                                       fps=settings.get("camera.fps"))
             keys.update({"camera.source": "file", "camera.file": str(video),
                          "camera.loop": True})
-        qr_video = None
-        payload = first_qr_payload(scenario.world)
+        payload = first_qr_payload(self.scenario.world)
         if "qr" in devices and payload is not None:
-            qr_video = write_qr_video(
-                work / "qr.avi", payload, width_px=settings.get("qr_camera.width"),
+            video = write_qr_video(
+                self.work / "qr.avi", payload, width_px=settings.get("qr_camera.width"),
                 height_px=settings.get("qr_camera.height"), fps=settings.get("qr_camera.fps"))
-        keys.update(hardware_keys(settings, work, mcu_port=work / "ttyMCU",
-                                  lidar_port=self.lidar.link if self.lidar else None,
-                                  qr_video=qr_video))
-        write_config(self.config_path, settings, keys)
-        return self.config_path
+            keys.update({"qr_camera.source": "file", "qr_camera.file": str(video),
+                         "qr_camera.loop": True})
+        return keys
 
     async def run(self, hold_s: float = 0.0) -> None:
         """Serve until cancelled: the rig's own tasks, the IR pipe, the people and the script

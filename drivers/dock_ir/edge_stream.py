@@ -9,9 +9,10 @@ and the new level, 0 or 1. The decoder measures widths from these times, never f
 line arrives, so a writer may send a frame's edges at once or late.
 
 The pipe is read without blocking (``loop.add_reader``); the loop then waits ``batch_s`` more,
-so it wakes about 1 / batch_s times a second, never once per edge, as with lgpio. A line that
-does not parse is counted (``bad_lines``) and skipped; the writer closing the pipe ends the
-source (DeviceUnavailable), and the receivers' device opens it again after its retry delay.
+so it wakes about 1 / batch_s times a second, never once per edge, as with lgpio. It is opened
+for reading and writing, so a writer that comes and goes is no end of file: its absence is
+silence, which the docking behaviour already reports (``dock.ir_silent``). A line that does
+not parse is counted (``bad_lines``) and skipped.
 """
 
 from __future__ import annotations
@@ -63,7 +64,6 @@ class StreamIrEdges:
         self._loop = loop
         self._buffer: list[IrEdge] = []
         self._partial = b""
-        self._ended = False
         self._wake = asyncio.Event()
         try:
             mode = self.path.stat().st_mode
@@ -74,21 +74,13 @@ class StreamIrEdges:
             msg = (f"dock_ir: {self.path} is not a named pipe (make it with mkfifo); "
                    "check docking.ir_stream")
             raise DeviceUnavailable(msg)
-        self._fd = os.open(self.path, os.O_RDONLY | os.O_NONBLOCK)
+        self._fd = os.open(self.path, os.O_RDWR | os.O_NONBLOCK)
         loop.add_reader(self._fd, self._on_readable)
 
     def _on_readable(self) -> None:
         try:
             data = os.read(self._fd, READ_BYTES)
         except BlockingIOError:
-            return
-        except OSError as exc:
-            log.warning("dock_ir.stream_failed", path=str(self.path), error=str(exc))
-            data = b""
-        if not data:  # a FIFO with no writer left reads as end of file
-            self._ended = True
-            self._loop.remove_reader(self._fd)
-            self._wake.set()
             return
         lines = (self._partial + data).split(b"\n")
         self._partial = lines.pop()
@@ -113,9 +105,6 @@ class StreamIrEdges:
                 await asyncio.sleep(self.batch_s)  # let the rest of the frame come
                 batch, self._buffer = self._buffer, []
                 return batch
-            if self._ended:
-                msg = f"dock_ir: {self.path}: the writer closed the pipe"
-                raise DeviceUnavailable(msg)
             await self._wake.wait()
 
     def now_us(self) -> int:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import os
 import random
+import time
 from pathlib import Path
 from typing import Any
 
@@ -53,7 +54,7 @@ class TestStreamSource:
             device = from_settings(stream_settings(pipe))
             await device.start()
             writer = os.open(pipe, os.O_WRONLY | os.O_NONBLOCK)
-            t0_us = StreamIrEdges(pipe, ("omni",), asyncio.get_running_loop()).now_us()
+            t0_us = time.monotonic_ns() // 1000  # the pipe's clock (CLOCK_MONOTONIC)
             marks, _ = em.stream_marks([164] * 4, t0_us + 1000, jitter_us=100,
                                        rng=random.Random(1))
             lines = [f"{e.t_us} {e.receiver} {int(e.level)}\n"
@@ -74,6 +75,28 @@ class TestStreamSource:
         assert reading.codes["front_left"] == {164}
         assert reading.sees("front_left", "green_buoy")
         assert status["total"]["codes"] >= 3
+
+    def test_a_writer_that_goes_and_comes_back_is_no_end(self, tmp_path: Path) -> None:
+        """The first writer closes the pipe; the edges of the next one still arrive."""
+        pipe = tmp_path / "ir.fifo"
+        os.mkfifo(pipe)
+
+        async def main() -> list[list[IrEdge]]:
+            source = StreamIrEdges(pipe, ("omni",), asyncio.get_running_loop(), batch_s=0.0)
+            batches = []
+            try:
+                for t_us in (100, 200):
+                    writer = os.open(pipe, os.O_WRONLY | os.O_NONBLOCK)
+                    os.write(writer, f"{t_us} omni 0\n{t_us + 50} omni 1\n".encode())
+                    os.close(writer)
+                    batches.append(await asyncio.wait_for(source.next_edges(), 5))
+            finally:
+                source.close()
+            return batches
+
+        first, second = asyncio.run(main())
+        assert first == [IrEdge("omni", False, 100), IrEdge("omni", True, 150)]
+        assert second == [IrEdge("omni", False, 200), IrEdge("omni", True, 250)]
 
     def test_a_path_that_is_no_pipe_is_refused_with_the_key(self, tmp_path: Path) -> None:
         """A regular file is not a pipe: DeviceUnavailable naming docking.ir_stream."""

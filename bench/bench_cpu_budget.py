@@ -1,28 +1,39 @@
-"""CPU per second of real time and event-loop lag of each robot profile, beside a plain
-reference loop measured in the same run, and the factor to a Raspberry Pi 4 (issue 31).
+"""CPU per second of real time and event-loop lag of each robot profile's daemon, idle and
+mid-mission, beside a plain reference loop measured in the same run, and the factor to a
+Raspberry Pi 4 (issue 31).
 
-Each profile runs as a real process, ``robotd sim SCENARIO --realtime --socket S`` (the real
-drivers on the simulator's lowest-layer fakes, against the wall clock). Every 0.25 s the
-bench reads the process's CPU time (/proc/PID/stat) and asks ``status`` for the state and the
-loop monitor's latest lag (``loop_lag_ms.last_ms``, the monitor wakes every 0.25 s), and
-files the interval under the state it ended in: ``idle`` (idle or boot, RelayBot waiting at
-home, a vacuum charging or in standby on its dock) or ``mission`` (anything else: moving,
-docking, recovery). Start-up (imports,
-loading the scenario) is not counted: the window opens once the socket answers.
+Each profile runs as the service does, ``robotd run --config GENERATED.toml``, a real process
+on its real drivers, fed by ``python -m sim.feed SCENARIO`` in another process (whose CPU is not
+counted) at real rates and in real time: the motor board (the fake MCU speaking the serial
+protocol, its encoders turning with the commanded wheels, the docking lines) on a pty, the
+LD19's byte stream (10 Hz, 4500 points/s, 47-byte packets, ~21 kB/s, ranges ray-cast in the
+scenario's world at the robot's pose) on another pty, the dock IR receivers' edges, the BLE
+adverts and the HX711's conversions on named pipes (``docking.ir_source``, ``ble.source``,
+``hx711.source`` = ``"stream"``), the line camera and the QR camera from video files
+(``camera.source``/``qr_camera.source = "file"``, MJPEG at the configured rate: the line
+camera's is a still of what it sees at the start), sounds into ALSA's null device. The feeder
+plays the scenario's script (a customer walking in), starting it ``--hold-s`` after the
+daemon answers.
 
-The figures are an upper bound of the daemon's own: the process also runs the simulated
-world (physics, the fake MCU, LD19 packets, camera frames for OpenCV, BLE adverts and the
-laundry scenario's fleet server) on the same event loop and CPU.
-
-Two more rows measure the daemon alone: ``robotd run`` (profiles idle, and square, whose
-mission drives a square on the motor board) with the real Arduino driver on a pty, served at
-real rates (heartbeats, 20 Hz MOTOR and telemetry) by the fake motor board in a process of
-its own, whose CPU is not counted. Its encoders do not turn, so the square robot stays
-mid-mission, driving.
+Every 0.25 s the bench reads the daemon's CPU time (/proc/PID/stat) and asks ``status`` for
+the state and the loop monitor's latest lag (``loop_lag_ms.last_ms``; the monitor wakes every
+0.25 s), and files the interval under the state it ended in: ``idle`` (idle or maintenance,
+RelayBot waiting at home, a vacuum on its dock) or ``mission`` (anything else: moving,
+docking, recovery);
+``boot`` (loading maps, fitting the first scan) is shown apart. Start-up before the socket
+answers is not counted. Once a robot has been ``--seconds`` mid-mission and has had no idle
+time yet, the bench ends its mission as a technician would (``trigger mission_done``; if it
+sets off again by itself, as the laundry robot's local route does, ``trigger maintenance``)
+and measures it idle. A profile that cannot be fed says why, and its ``robotd sim --realtime``
+figure (an upper bound, below) is measured in its place.
 
 The reference is a plain asyncio process running only robotd's loop monitor (same timer
 chain, same 0.25 s period): the floor of CPU and lag on this machine at this moment (the
 machine is shared, so both move together).
+
+``--upper-bound`` adds the older rows: each profile in ``robotd sim SCENARIO --realtime`` (the
+simulated world in the daemon's own process: an upper bound), and ``robotd run`` idle and
+square with only the motor board on a pty (the fake board's encoders do not turn there).
 
 The Pi 4 factor is measured too: the Computer Language Benchmarks Game's n-body in pure
 Python, 500 000 steps here (CPU time), against 5 000 000 steps in 158.3 s on a Raspberry
@@ -31,7 +42,7 @@ of Languages on Raspberry Pi", chaitanyamehta.github.io). Python there was Raspb
 of 2020 (3.7), slower than 3.11 by about a quarter on such code, so the factor overstates
 the Pi's cost by about that much: a margin, not an error.
 
-    .venv/bin/python bench/bench_cpu_budget.py [--profiles laundry,delivery] [--seconds 30]
+    .venv/bin/python bench/bench_cpu_budget.py [--profiles delivery,cabinet] [--seconds 25]
 """
 
 from __future__ import annotations
@@ -44,6 +55,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -51,7 +63,7 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from robotd.ctl.connection import CannotConnect, Connection  # noqa: E402
+from robotd.ctl.connection import CannotConnect, Connection, DaemonError  # noqa: E402
 
 SCENARIOS = {"laundry": "laundry-loop", "vacuum": "docking", "delivery": "delivery",
              "cabinet": "cabinet"}
@@ -99,6 +111,8 @@ class Phase:
     wall_s: float = 0.0
     lags_ms: list[float] = field(default_factory=list)
     states: set[str] = field(default_factory=set)
+    worst: list[tuple[float, float, str]] = field(default_factory=list)
+    """The three longest lags: (lag ms, seconds since the window opened, state)."""
 
     @property
     def cpu_pct(self) -> float:
@@ -110,8 +124,76 @@ RESTING = ("mission.waiting", "docking.charging", "docking.standby")
 
 
 def state_class(state: str) -> str:
-    resting = state.split(".", maxsplit=1)[0] in ("idle", "boot") or state in RESTING
-    return "idle" if resting else "mission"
+    root = state.split(".", maxsplit=1)[0]
+    if root == "boot":
+        return "boot"
+    return "idle" if root in ("idle", "maintenance") or state in RESTING else "mission"
+
+
+Step = Callable[[Connection, dict[str, "Phase"], str, float], bool]
+"""Called after each interval with (connection, phases so far, state, seconds since the
+window opened); True ends the measurement."""
+
+
+def for_seconds(seconds: float) -> Step:
+    return lambda _conn, _phases, _state, elapsed: elapsed >= seconds
+
+
+def idle_and_mission(seconds: float, notes: list[str]) -> Step:
+    """Until the robot has been ``seconds`` idle and ``seconds`` mid-mission (at most four
+    times that in all). A robot mid-mission for long enough is sent idle (``mission_done``);
+    one that starts its next mission from idle by itself (a local route's loop) is then put
+    in ``maintenance``: parked, its devices running, which counts as idle."""
+    sent: list[str] = []
+
+    def step(conn: Connection, phases: dict[str, Phase], state: str, elapsed: float) -> bool:
+        idle_s = phases["idle"].wall_s if "idle" in phases else 0.0
+        mission_s = phases["mission"].wall_s if "mission" in phases else 0.0
+        left = [t for t in ("mission_done", "maintenance") if t not in sent]
+        if mission_s >= seconds and idle_s < seconds and left \
+                and state_class(state) == "mission":
+            sent.append(left[0])
+            try:
+                conn.call("trigger", {"name": left[0]})
+                notes.append(f"{left[0]} sent by the bench in {state}")
+            except DaemonError as exc:
+                notes.append(f"{left[0]} refused in {state}: {exc}")
+        return (idle_s >= seconds and mission_s >= seconds) or elapsed >= 4 * seconds
+
+    return step
+
+
+def measure_fed(profile: str, seconds: float, notes: list[str]
+                ) -> tuple[dict[str, Phase], dict[str, Any], dict[str, Any]]:
+    """``robotd run`` on its real drivers, fed by ``python -m sim.feed`` in its own process;
+    also the feeder's figures (what its devices sent)."""
+    with tempfile.TemporaryDirectory(prefix="bcpu-") as tmp:
+        work = Path(tmp)
+        feed = subprocess.Popen(
+            [sys.executable, "-m", "sim.feed", SCENARIOS[profile], "--dir", str(work / "feed"),
+             "--hold-s", str(seconds)], stdout=subprocess.PIPE, text=True, cwd=ROOT)
+        figures: dict[str, Any] = {}
+        try:
+            assert feed.stdout is not None
+            line = feed.stdout.readline().strip()
+            if not line.startswith("config "):
+                msg = (f"python -m sim.feed {SCENARIOS[profile]} did not start "
+                       f"({line or 'no output'})")
+                raise NoDaemon(msg)
+            config = line.removeprefix("config ")
+            argv = [str(Path(sys.executable).with_name("robotd")), "run", "--config", config]
+            phases, status = measure_process(argv, str(work / "feed" / "control.sock"), work,
+                                             idle_and_mission(seconds, notes))
+        finally:
+            feed.send_signal(signal.SIGINT)
+            try:
+                out, _ = feed.communicate(timeout=15)
+                last = out.strip().splitlines()[-1:] if out else []
+                figures = json.loads(last[0]) if last and last[0].startswith("{") else {}
+            except subprocess.TimeoutExpired:
+                feed.kill()
+                feed.wait()
+        return phases, status, figures
 
 
 def measure_profile(profile: str, seconds: float) -> tuple[dict[str, Phase], dict[str, Any]]:
@@ -120,7 +202,7 @@ def measure_profile(profile: str, seconds: float) -> tuple[dict[str, Phase], dic
         sock = str(Path(tmp) / "c.sock")
         argv = [str(Path(sys.executable).with_name("robotd")), "sim", SCENARIOS[profile],
                 "--realtime", "--socket", sock, "--quiet"]
-        return measure_process(argv, sock, Path(tmp), seconds)
+        return measure_process(argv, sock, Path(tmp), for_seconds(seconds))
 
 
 def measure_run(profile: str, seconds: float) -> tuple[dict[str, Phase], dict[str, Any]]:
@@ -141,7 +223,7 @@ def measure_run(profile: str, seconds: float) -> tuple[dict[str, Phase], dict[st
                               f'[serial]\nport = "{port}"\n')
             argv = [str(Path(sys.executable).with_name("robotd")), "run", "--config",
                     str(config)]
-            return measure_process(argv, sock, work, seconds)
+            return measure_process(argv, sock, work, for_seconds(seconds))
         finally:
             board.send_signal(signal.SIGINT)
             try:
@@ -152,7 +234,7 @@ def measure_run(profile: str, seconds: float) -> tuple[dict[str, Phase], dict[st
 
 
 def measure_process(argv: list[str], sock: str, work: Path,
-                    seconds: float) -> tuple[dict[str, Phase], dict[str, Any]]:
+                    done: Step) -> tuple[dict[str, Phase], dict[str, Any]]:
     errors = work / "stderr"
     with errors.open("w") as err:
         proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=err, cwd=work)
@@ -161,8 +243,8 @@ def measure_process(argv: list[str], sock: str, work: Path,
         phases: dict[str, Phase] = {}
         last_status: dict[str, Any] = {}
         t_prev, cpu_prev = time.monotonic(), cpu_s(proc.pid)
-        end = t_prev + seconds
-        while time.monotonic() < end and proc.poll() is None:
+        t_open = t_prev
+        while proc.poll() is None:
             time.sleep(max(0.0, PERIOD_S - (time.monotonic() - t_prev)))
             try:
                 last_status = conn.call("status")
@@ -173,9 +255,14 @@ def measure_process(argv: list[str], sock: str, work: Path,
             phase = phases.setdefault(state_class(state), Phase())
             phase.cpu_s += cpu - cpu_prev
             phase.wall_s += now - t_prev
-            phase.lags_ms.append(float(last_status["loop_lag_ms"]["last_ms"]))
-            phase.states.add(state.split(".")[0] if state_class(state) == "mission" else state)
+            lag_ms = float(last_status["loop_lag_ms"]["last_ms"])
+            phase.lags_ms.append(lag_ms)
+            phase.worst = sorted([*phase.worst, (lag_ms, now - t_open, state)])[-3:]
+            phase.states.add(state.split(".")[1] if state.startswith("mission.")
+                             and state_class(state) == "mission" else state)
             t_prev, cpu_prev = now, cpu
+            if done(conn, phases, state, now - t_open):
+                break
         conn.close()
     finally:
         if proc.poll() is None:
@@ -198,7 +285,8 @@ def _connect(sock: str, proc: subprocess.Popen[bytes], errors: Path) -> Connecti
         if proc.poll() is not None:
             why = [line for line in errors.read_text().splitlines()
                    if line and not line.startswith("{")]
-            msg = (f"robotd sim exited ({proc.returncode}) before its socket answered: "
+            command = f"{Path(str(proc.args[0])).name} {proc.args[1]}"  # type: ignore[index]
+            msg = (f"{command} exited ({proc.returncode}) before its socket answered: "
                    f"{why[-1] if why else '-'}")
             raise NoDaemon(msg)
         try:
@@ -267,14 +355,19 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--profiles", default="laundry,vacuum,delivery,cabinet",
                         help="comma-separated, of: " + ", ".join(SCENARIOS))
-    parser.add_argument("--seconds", type=float, default=30.0,
-                        help="real seconds measured per profile (and for the reference)")
+    parser.add_argument("--seconds", type=float, default=25.0,
+                        help="real seconds measured per state class and profile (and for the "
+                             "reference)")
+    parser.add_argument("--upper-bound", action="store_true",
+                        help="also the robotd sim --realtime rows and robotd run idle/square")
     args = parser.parse_args()
     profiles = [p for p in args.profiles.split(",") if p]
     unknown = [p for p in profiles if p not in SCENARIOS]
     if unknown:
         parser.error(f"--profiles: unknown {', '.join(unknown)} (known: {', '.join(SCENARIOS)})")
 
+    print(f"load average at the start: {' '.join(Path('/proc/loadavg').read_text().split()[:3])}"
+          f", {os.cpu_count()} CPUs")
     here_s = nbody_s(NBODY_STEPS)
     factor = (PI4_NBODY_S / PI4_NBODY_STEPS) / (here_s / NBODY_STEPS)
     print(f"Pi 4 factor: n-body {NBODY_STEPS} steps {here_s:.2f} s here; Pi 4 "
@@ -289,11 +382,51 @@ def main() -> int:
               f"{max(lags, default=float('nan')):8.2f} {len(lags):4d}  "
               f"{','.join(sorted(phase.states))[:40]}")
 
-    row("reference: asyncio + loop monitor", "-", measure_reference(args.seconds))
+    reference = measure_reference(args.seconds)
+    row("reference: asyncio + loop monitor", "-", reference)
     verdicts = []
-    for profile in ("idle", "square"):  # the daemon alone: no simulated world in it
+    for profile in profiles:
+        notes: list[str] = []
+        what = f"{profile}: robotd run, fed"
         try:
-            phases, _status = measure_run(profile, args.seconds)
+            phases, _status, figures = measure_fed(profile, args.seconds, notes)
+        except NoDaemon as exc:
+            print(f"{what}: not measured: {exc}")
+            verdicts.append(f"{profile}: robotd run not measured")
+            if not args.upper_bound:  # its simulation's figure, an upper bound, instead
+                upper_bound_rows([profile], args.seconds, row, daemon_alone=False)
+            continue
+        for state in ("boot", "idle", "mission"):
+            if state not in phases:
+                continue
+            phase = phases[state]
+            row(what, state, phase)
+            p99 = percentile(phase.lags_ms, 99)
+            if state != "boot" and p99 > TARGET_LAG_P99_MS:
+                verdicts.append(f"{profile} {state}: lag p99 {p99:.1f} ms > "
+                                f"{TARGET_LAG_P99_MS} ms")
+            if profile == "delivery" and state != "boot" \
+                    and phase.cpu_pct > TARGET_DELIVERY_CPU_PCT:
+                verdicts.append(f"delivery {state}: {phase.cpu_pct:.1f} % of a core here > "
+                                f"{TARGET_DELIVERY_CPU_PCT} %")
+        print(f"{'':34} feeder: {json.dumps(figures)}; {'; '.join(notes) or '-'}")
+        worst = sorted((w for p in phases.values() for w in p.worst), reverse=True)[:3]
+        print(f"{'':34} longest lags: " + ", ".join(
+            f"{lag:.1f} ms at {t:.1f} s in {state}" for lag, t, state in worst))
+    if args.upper_bound:
+        upper_bound_rows(profiles, args.seconds, row)
+    print("targets: delivery <= 10 % of a core here, every lag p99 <= 5 ms: "
+          + ("met" if not verdicts else "not met: " + "; ".join(verdicts)))
+    return 0
+
+
+def upper_bound_rows(profiles: list[str], seconds: float,
+                     row: Callable[[str, str, Phase], None], *, daemon_alone: bool = True
+                     ) -> None:
+    """The simulated world in the daemon's process, and the daemon with only its motor board."""
+    for profile in ("idle", "square") if daemon_alone else ():  # no simulated world in it
+        try:
+            phases, _status = measure_run(profile, seconds)
         except NoDaemon as exc:
             print(f"robotd run {profile}: not measured: {exc}")
             continue
@@ -301,30 +434,12 @@ def main() -> int:
             row(f"robotd run {profile} (board on pty)", state, phase)
     for profile in profiles:
         try:
-            phases, status = measure_profile(profile, args.seconds)
+            phases, _status = measure_profile(profile, seconds)
         except NoDaemon as exc:
-            print(f"{profile} ({SCENARIOS[profile]}): not measured: {exc}")
-            verdicts.append(f"{profile}: not measured")
+            print(f"{profile} (sim {SCENARIOS[profile]}): not measured: {exc}")
             continue
         for state, phase in sorted(phases.items()):
-            row(f"{profile} ({SCENARIOS[profile]})", state, phase)
-            p99 = percentile(phase.lags_ms, 99)
-            if p99 > TARGET_LAG_P99_MS:
-                verdicts.append(f"{profile} {state}: lag p99 {p99:.1f} ms > "
-                                f"{TARGET_LAG_P99_MS} ms")
-        window = status.get("loop_lag_ms", {})
-        print(f"{'':34} {'status':8} loop_lag_ms over its last {window.get('samples', 0)} "
-              f"samples: p99 {window.get('p99_ms', float('nan')):.2f}, max "
-              f"{window.get('max_ms', float('nan')):.2f}")
-        if profile == "delivery":
-            whole = Phase(sum(p.cpu_s for p in phases.values()),
-                          sum(p.wall_s for p in phases.values()))
-            if whole.cpu_pct > TARGET_DELIVERY_CPU_PCT:
-                verdicts.append(f"delivery: {whole.cpu_pct:.1f} % of a core here > "
-                                f"{TARGET_DELIVERY_CPU_PCT} % (simulated world included)")
-    print("targets: delivery <= 10 % of a core here, every lag p99 <= 5 ms: "
-          + ("met" if not verdicts else "not met: " + "; ".join(verdicts)))
-    return 0
+            row(f"{profile} (sim {SCENARIOS[profile]} --realtime)", state, phase)
 
 
 if __name__ == "__main__":

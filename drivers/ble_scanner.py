@@ -376,6 +376,13 @@ class BleBeaconScanner:
 def from_settings(settings: SettingsView,
                   scanner_factory: ScannerFactory | None = None) -> BleBeaconScanner:
     """The scanner from the ``ble`` section (``robotd.hardware`` calls this)."""
+    if scanner_factory is None and settings.get("ble.source") == "stream":
+        from drivers.ble_stream import stream_scanner_factory
+
+        if not settings.get("ble.stream"):
+            msg = "ble.stream: empty, but ble.source = 'stream' needs a pipe"
+            raise ValueError(msg)
+        scanner_factory = stream_scanner_factory(settings.get("ble.stream"))
     return BleBeaconScanner(
         settings.get("ble.uuids"),
         scanner_factory=scanner_factory or bleak_scanner_factory(settings.get("ble.adapter")),

@@ -359,6 +359,17 @@ def from_settings(settings: SettingsView,
                   open_lines: Callable[[], Hx711Lines] | None = None) -> Hx711:
     """The load cell from the ``hx711`` section, on lgpio unless ``open_lines`` is given."""
     config = Hx711Config.from_settings(settings)
+    if open_lines is None and config.source == "stream":
+        from drivers.hx711_stream import StreamHx711Lines
+
+        if not config.stream:
+            msg = "hx711.stream: empty, but hx711.source = 'stream' needs a pipe"
+            raise ValueError(msg)
+        path = config.stream
+
+        def open_lines() -> Hx711Lines:
+            return StreamHx711Lines(path, asyncio.get_running_loop())
+
     if open_lines is None:
         from drivers.gpio_lgpio import lgpio_lines_opener
 

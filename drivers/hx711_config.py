@@ -12,6 +12,10 @@ from hal.settings import SettingsView
 class Hx711Config:
     """Its GPIO lines, channel, rate, calibration and filters."""
 
+    source: str = setting("gpio", "Where DOUT and PD_SCK are: gpio (lgpio lines) or stream "
+                          "(conversions written to the named pipe hx711.stream, "
+                          "drivers/hx711_stream.py).", choices=("gpio", "stream"))
+    stream: str = setting("", "Named pipe of conversions for hx711.source = stream.")
     gpiochip: int = setting(0, "GPIO chip number (/dev/gpiochipN).", min=0, max=64)
     data_gpio: int = setting(5, "GPIO line wired to DOUT.", min=0, max=511)
     clock_gpio: int = setting(6, "GPIO line wired to PD_SCK.", min=0, max=511)

@@ -78,6 +78,40 @@ def _qr_camera_check(settings: Settings) -> str | None:
     return None
 
 
+def _dock_ir_check(settings: Settings) -> str | None:
+    if settings.get("docking.ir_source") != "stream":
+        return _any_path("/dev/gpiochip*", "GPIO chip")(settings)
+    stream = str(settings.get("docking.ir_stream"))
+    if not Path(stream).exists():
+        return f"IR edge pipe {stream} does not exist (check docking.ir_stream; mkfifo it)"
+    return None
+
+
+def _ble_check(settings: Settings) -> str | None:
+    if settings.get("ble.source") != "stream":
+        return _any_path("/sys/class/bluetooth/hci*", "Bluetooth adapter")(settings)
+    stream = str(settings.get("ble.stream"))
+    if not Path(stream).exists():
+        return f"advert pipe {stream} does not exist (check ble.stream; mkfifo it)"
+    return None
+
+
+def _hx711_check(settings: Settings) -> str | None:
+    if settings.get("hx711.source") != "stream":
+        return _any_path("/dev/gpiochip*", "GPIO chip")(settings)
+    stream = str(settings.get("hx711.stream"))
+    if not Path(stream).exists():
+        return f"conversion pipe {stream} does not exist (check hx711.stream; mkfifo it)"
+    return None
+
+
+def _audio_check(settings: Settings) -> str | None:
+    # ALSA's null device plays into nothing: a robot without a speaker, or a bench.
+    if settings.get("audio.device") == "null":
+        return None
+    return _any_path("/dev/snd/pcm*", "sound card")(settings)
+
+
 def _any_path(pattern: str, what: str) -> Check:
     def check(_settings: Settings) -> str | None:
         return None if glob.glob(pattern) else f"no {what} found ({pattern})"
@@ -89,14 +123,14 @@ HARDWARE: dict[str, Hardware] = {
                          "dock_signal", "dock_contacts", "bumpers", "wall", "bin", "station"),
                         _serial_check, "drivers.arduino:from_settings"),
     "camera": Hardware(("camera",), _camera_check, "drivers.camera:from_settings"),
-    "ble": Hardware(("beacons",), _any_path("/sys/class/bluetooth/hci*", "Bluetooth adapter"),
+    "ble": Hardware(("beacons",), _ble_check,
                     "drivers.ble_scanner:from_settings"),
-    "hx711": Hardware(("load_cell",), _any_path("/dev/gpiochip*", "GPIO chip"),
+    "hx711": Hardware(("load_cell",), _hx711_check,
                       "drivers.hx711:from_settings"),
-    "dock_ir": Hardware(("dock_ir",), _any_path("/dev/gpiochip*", "GPIO chip"),
+    "dock_ir": Hardware(("dock_ir",), _dock_ir_check,
                         "drivers.dock_ir:from_settings"),
     "lidar": Hardware(("lidar",), _lidar_check, "drivers.lidar:from_settings"),
-    "audio": Hardware(("audio",), _any_path("/dev/snd/pcm*", "sound card"),
+    "audio": Hardware(("audio",), _audio_check,
                       "drivers.audio:from_settings"),
     "qr_camera": Hardware(("qr",), _qr_camera_check, "drivers.camera.qr_reader:from_settings"),
 }

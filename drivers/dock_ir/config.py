@@ -23,6 +23,12 @@ IR_OPTIONS: tuple[Option, ...] = (
     Option("ir_window_s", "float", 0.2,
            "A dock IR code stays seen this long after it was decoded (OR over a window).",
            min=0.02, max=5, tunable=True),
+    Option("ir_source", "str", "gpio",
+           "Where the receivers' edges come from: gpio (lgpio alerts on ir_gpiochip's lines) "
+           "or stream (T_US NAME LEVEL lines written to the named pipe ir_stream).",
+           choices=("gpio", "stream")),
+    Option("ir_stream", "str", "",
+           "Named pipe of edges for ir_source = stream (drivers/dock_ir/edge_stream.py)."),
     Option("ir_gpiochip", "int", 0, "GPIO chip of the IR receivers (/dev/gpiochipN).",
            min=0, max=64),
     *(Option(f"ir_gpio_{receiver}", "int", gpio,
@@ -66,6 +72,8 @@ class DockIrConfig:
     lines: dict[str, int] = field(default_factory=dict)
     """Receiver name -> GPIO line, fitted receivers only."""
     gpiochip: int = 0
+    source: str = "gpio"
+    stream: str = ""
     active_low: bool = True
     tolerance: float = 0.25
     window_s: float = 0.2
@@ -88,9 +96,15 @@ class DockIrConfig:
         if not lines:
             msg = f"docking.ir_gpio_*: no receiver has a GPIO line (all are {NOT_FITTED})"
             raise ValueError(msg)
+        source, stream = str(settings.get("docking.ir_source")), str(
+            settings.get("docking.ir_stream"))
+        if source == "stream" and not stream:
+            msg = "docking.ir_stream: empty, but docking.ir_source = 'stream' needs a pipe"
+            raise ValueError(msg)
         table = CodeTable.build(settings.get("docking.ir_codes"),
                                 settings.get("docking.ir_combined"))
         return cls(lines=lines, gpiochip=int(settings.get("docking.ir_gpiochip")),
+                   source=source, stream=stream,
                    active_low=bool(settings.get("docking.ir_active_low")),
                    tolerance=float(settings.get("docking.ir_tolerance_pct")) / 100,
                    window_s=float(settings.get("docking.ir_window_s")), table=table)

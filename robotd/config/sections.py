@@ -125,6 +125,10 @@ _CORE: tuple[Section, ...] = (
     Section("ble", "BLE iBeacon scanning, tracking and arrival (seed 000 sections 4, 7).", (
         opt("uuids", "list[str]", [], "iBeacon proximity UUIDs to track; empty: every one."),
         opt("adapter", "str", "", "BlueZ adapter (e.g. hci0); empty: the default one."),
+        opt("source", "str", "bluez",
+            "Where adverts come from: bluez (the adapter) or stream (JSON lines written to the "
+            "named pipe ble.stream, drivers/ble_stream.py).", choices=("bluez", "stream")),
+        opt("stream", "str", "", "Named pipe of adverts for ble.source = stream."),
         opt("path_loss_exponent", "float", 2.0,
           "n in d = 10^((TxPower - RSSI) / (10 n)); 2 = free space (the seed).",
           min=1, max=6, tunable=True),

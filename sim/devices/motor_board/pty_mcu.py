@@ -59,25 +59,12 @@ class PtyMcu:
         self._master, self._slave = master, slave
         self.slave_path = os.ttyname(slave)
         if self.link is not None:
-            tmp = self.link.with_name(self.link.name + ".tmp")
-            with contextlib.suppress(FileNotFoundError):
-                tmp.unlink()
-            tmp.symlink_to(self.slave_path)
-            tmp.replace(self.link)
+            link_to(self.link, self.slave_path)
         self.mcu.connect(await self._streams(master), hangup=self._hangup)
 
     async def _streams(self, master: int) -> StreamPair:
-        loop = asyncio.get_running_loop()
-        reader = asyncio.StreamReader(loop=loop)
-        protocol = asyncio.StreamReaderProtocol(reader, loop=loop)
-        read_file = os.fdopen(os.dup(master), "rb", buffering=0)
-        write_file = os.fdopen(os.dup(master), "wb", buffering=0)
-        # The write side needs its own protocol (for drain); a reader takes one transport only.
-        write_protocol = asyncio.StreamReaderProtocol(asyncio.StreamReader(loop=loop), loop=loop)
-        read_transport, _ = await loop.connect_read_pipe(lambda: protocol, read_file)
-        write_transport, _ = await loop.connect_write_pipe(lambda: write_protocol, write_file)
-        self._transports = [read_transport, write_transport]
-        return reader, asyncio.StreamWriter(write_transport, write_protocol, reader, loop)
+        streams, self._transports = await pty_streams(master)
+        return streams
 
     def _hangup(self) -> None:
         """Close the pty: the slave path disappears and the host's port fails."""
@@ -96,6 +83,31 @@ class PtyMcu:
     def _on_plug(self, plugged: bool) -> None:
         if plugged:
             asyncio.get_running_loop().create_task(self._open())
+
+
+def link_to(link: Path, target: str) -> None:
+    """Point ``link`` at ``target`` atomically (a stable name, as /dev/serial/by-id's)."""
+    tmp = link.with_name(link.name + ".tmp")
+    with contextlib.suppress(FileNotFoundError):
+        tmp.unlink()
+    tmp.symlink_to(target)
+    tmp.replace(link)
+
+
+async def pty_streams(master: int) -> tuple[StreamPair, list[asyncio.BaseTransport]]:
+    """Reader and writer on a pty's master side (the device's end of the cable), and the
+    transports that closing the line closes."""
+    loop = asyncio.get_running_loop()
+    reader = asyncio.StreamReader(loop=loop)
+    protocol = asyncio.StreamReaderProtocol(reader, loop=loop)
+    read_file = os.fdopen(os.dup(master), "rb", buffering=0)
+    write_file = os.fdopen(os.dup(master), "wb", buffering=0)
+    # The write side needs its own protocol (for drain); a reader takes one transport only.
+    write_protocol = asyncio.StreamReaderProtocol(asyncio.StreamReader(loop=loop), loop=loop)
+    read_transport, _ = await loop.connect_read_pipe(lambda: protocol, read_file)
+    write_transport, _ = await loop.connect_write_pipe(lambda: write_protocol, write_file)
+    writer = asyncio.StreamWriter(write_transport, write_protocol, reader, loop)
+    return (reader, writer), [read_transport, write_transport]
 
 
 def summary(mcu: FakeMcu) -> dict[str, Any]:

@@ -56,6 +56,12 @@ class LaundryProfile(BaseProfile):
         self.fleet: FleetLink | None = None
         self.memory: LaundryMemory | None = None
 
+    @property
+    def reports_itself(self) -> bool:
+        """Its data exchange carries the site status (with ``fleet.url``; without one it
+        reports to nobody)."""
+        return True
+
     def mission_records(self) -> tuple[MissionRecord, ...]:
         return (LAUNDRY_MISSION,)
 

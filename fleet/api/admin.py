@@ -9,6 +9,7 @@ from fastapi import Request as HttpRequest
 from pydantic import ValidationError
 from sqlalchemy import select
 
+from fleet.api.auth import Admin
 from fleet.api.auth import admin as admin_only
 from fleet.api.deps import AUTH_ERRORS, ERRORS, errors, robot_out, server_of
 from fleet.api.schemas import (
@@ -18,6 +19,7 @@ from fleet.api.schemas import (
     CustomerOut,
     LineIn,
     LineOut,
+    MaintenanceIn,
     NotificationOut,
     RobotIn,
     RobotOut,
@@ -27,7 +29,7 @@ from fleet.api.schemas import (
 )
 from fleet.errors import Conflict, NotFound
 from fleet.models import Beacon, Customer, Notification, Robot, Room
-from fleet.services import admin, lines, unload
+from fleet.services import admin, lines, robot_commands, unload
 from fleet.services.assignment import process_queue
 from fleet.services.common import robot_by_name
 from fleet.services.notify import notification_out
@@ -72,6 +74,39 @@ async def patch_robot(name: Name, body: RobotPatch, http: HttpRequest) -> RobotO
             session, server.clock(), await _robot(session, name), is_active=body.IsActive,
             emergency_stop=body.EmergencyStop, maintenance_mode=body.MaintenanceMode)
         return robot_out(robot)
+
+
+@router.post("/robots/{name}/estop", response_model=RobotOut, responses=errors(404))
+async def robot_estop(name: Name, http: HttpRequest, caller: Admin) -> RobotOut:
+    """Order any robot into emergency stop (``EmergencyStop`` true): it stops at its next
+    report (data exchange or site status), through its own e-stop."""
+    server = server_of(http)
+    async with server.db.write() as session:
+        return robot_out(await robot_commands.estop(session, name, caller.subject,
+                                                    now=server.clock()))
+
+
+@router.post("/robots/{name}/resume", response_model=RobotOut, responses=errors(404))
+async def robot_resume(name: Name, http: HttpRequest, caller: Admin) -> RobotOut:
+    """Lift the server's emergency stop; the robot resumes at its next report (an e-stop a
+    person latched on the robot stays until lifted there)."""
+    server = server_of(http)
+    await server.flush_pings()  # a robot released now is dispatched on its latest report
+    async with server.db.write() as session:
+        return robot_out(await robot_commands.resume(session, name, caller.subject,
+                                                     now=server.clock()))
+
+
+@router.post("/robots/{name}/maintenance", response_model=RobotOut, responses=ERRORS)
+async def robot_maintenance(name: Name, body: MaintenanceIn, http: HttpRequest,
+                            caller: Admin) -> RobotOut:
+    """``{"On": true}`` puts the robot into maintenance (stopped, out of service) at its next
+    report; ``{"On": false}`` takes it out."""
+    server = server_of(http)
+    await server.flush_pings()
+    async with server.db.write() as session:
+        return robot_out(await robot_commands.maintenance(session, name, caller.subject,
+                                                          on=body.On, now=server.clock()))
 
 
 @router.post("/robots/{name}/unloaded", response_model=RobotOut, responses=errors(404, 409))

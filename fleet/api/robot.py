@@ -91,7 +91,8 @@ async def answer(server: FleetServer, robot_name: str, body: DataExchangeIn) -> 
         estop_active=body.EmergencyStopActive,
         fault_code=body.Fault.Code if body.Fault is not None else None,
         fault_message=body.Fault.Message if body.Fault is not None else None,
-        battery_pct=body.BatteryPct, queued=body.Queued,
+        battery_pct=body.BatteryPct, queued=body.Queued, profile=body.Profile,
+        place=body.Place, job=body.Job,
     )
     return reply_json(await exchange(server.db, server.clock, server.cache, server.views, report))
 

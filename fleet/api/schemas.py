@@ -33,6 +33,12 @@ Mac = Annotated[str, StringConstraints(pattern=r"^[0-9A-Fa-f]{2}(:[0-9A-Fa-f]{2}
 Real = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-1e6, le=1e6)]
 Rssi = Annotated[int, Field(strict=True, ge=-200, le=50), Whole]
 Flag = Annotated[bool, Field(strict=True)]
+ProfileName = Annotated[str, StringConstraints(min_length=1, max_length=40,
+                                               pattern=r"^[^\x00-\x1f\x7f]+$")]
+"""A robot profile's name (``vacuum``, ``delivery`` ...)."""
+JobText = Annotated[str, StringConstraints(min_length=1, max_length=200,
+                                           pattern=r"^[^\x00-\x1f\x7f]+$")]
+"""What a robot serves now, in its words (``order 7``, ``cabinet C3``)."""
 
 
 class Strict(BaseModel):
@@ -116,6 +122,11 @@ class DataExchangeIn(BaseModel):
     Queued: Flag = False
     """At base, queued behind the robot ahead on the line (``IsInTarget`` is true too): it
     pulls up to the base beacon as the queue moves, so the base beacons stay its targets."""
+    # Added (issue 29): what the site status carries for every robot. All optional.
+    Profile: ProfileName | None = None
+    Place: Text | None = None
+    """The last room whose beacon it arrived at."""
+    Job: JobText | None = None
 
 
 class PoseIn(BaseModel):
@@ -140,8 +151,7 @@ class StatusIn(BaseModel):
         "The robot's name, as in the URL. Optional; when given it must equal the path's "
         "RobotName: a body that names another robot is refused with 422."))] = None
     Timestamp: datetime | None = None
-    Profile: Annotated[str, StringConstraints(min_length=1, max_length=40,
-                                              pattern=r"^[^\x00-\x1f\x7f]+$")] | None = None
+    Profile: ProfileName | None = None
     State: Text | None = None
     """The daemon's dotted state path, e.g. ``docking.approach``."""
     EmergencyStopActive: Flag | None = None
@@ -152,8 +162,7 @@ class StatusIn(BaseModel):
     """A LiDAR robot's map pose (or a robot's odometry, ``Map`` "odom")."""
     Place: Text | None = None
     """The last room or beacon of a robot on a line."""
-    Job: Annotated[str, StringConstraints(min_length=1, max_length=200,
-                                          pattern=r"^[^\x00-\x1f\x7f]+$")] | None = None
+    Job: JobText | None = None
     """What it serves now (a request, an order, a cabinet task)."""
 
 

@@ -185,3 +185,27 @@ class TestRefused:
     ])
     async def test_bad_values_are_422(self, site, bad):
         await post_status(site, expect=422, **vacuum_status(**bad))
+
+
+class TestTheLaundryExchangeCarriesTheSameFields:
+    async def test_profile_place_and_job_ride_on_the_data_exchange(self, site):
+        """A laundry robot says them in its data exchange (added fields); quiet reports
+        write them with the batched pings."""
+        await site.exchange("robot-1", Profile="laundry", Place="Room 101")
+        writes = site.server.db.generation
+        await site.exchange("robot-1", Profile="laundry", Place="Laundry", Job="request 3")
+        assert site.server.db.generation == writes
+        robot = (await site.robots())["robot-1"]
+        assert (robot["Profile"], robot["Place"], robot["Job"]) == (
+            "laundry", "Laundry", "request 3")
+
+    async def test_a_laundry_robots_job_is_its_request(self, site):
+        request = await site.request(1)  # accepted at once (AutoAccept), a robot dispatched
+        async with site.server.db.read() as session:
+            views = {v.name: v for v in await robot_statuses(session, site.clock())}
+        assert views[request["AssignedRobotName"]].job == f"request {request['Id']}"
+
+    async def test_bad_added_fields_are_422(self, site):
+        response = await site.http.post("/api/Robot/robot-1/data-exchange",
+                                        json={"Place": "", "Profile": "laundry"})
+        assert response.status_code == 422

@@ -20,7 +20,7 @@ from behaviours.beacons.tracker import BeaconTracker
 from behaviours.line.follow import LineFollower, LineLostError
 from behaviours.motion.obstacle_guard import ObstacleGuard
 from behaviours.persistence import MissionRecord
-from behaviours.profile import BaseProfile, StateTask
+from behaviours.profile import BaseProfile, SiteFacts, StateTask
 from behaviours.profiles.laundry.base_queue import BaseQueue
 from behaviours.profiles.laundry.directive import Directive
 from behaviours.profiles.laundry.fleet_link import FleetLink, fleet_client, read_token, token_path
@@ -64,6 +64,11 @@ class LaundryProfile(BaseProfile):
 
     def mission_records(self) -> tuple[MissionRecord, ...]:
         return (LAUNDRY_MISSION,)
+
+    def site_facts(self, ctx: RobotContext) -> SiteFacts:
+        """The last room it arrived at (a robot on a line has no map pose); its request is
+        the server's to name."""
+        return SiteFacts(place=self.memory.last_room if self.memory is not None else None)
 
     def mission_states(self) -> list[str | dict[str, Any]]:
         return ["to_room", "at_room", "to_base", "queued", "at_base"]
@@ -115,7 +120,8 @@ class LaundryProfile(BaseProfile):
         if url:
             report = RobotReport(ctx.settings.get("robot.name"), ctx.wall_clock, tracker,
                                  arrival, load, d.front_range, holding=memory.report,
-                                 ctx=ctx, guard=guard, queue=queue)
+                                 ctx=ctx, guard=guard, queue=queue,
+                                 facts=lambda: self.site_facts(ctx))
             client = fleet_client(url, d.network, str(ctx.settings.get("fleet.ca_file")))
 
             async def follow(directive: Directive) -> None:

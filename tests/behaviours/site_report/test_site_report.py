@@ -15,7 +15,7 @@ from behaviours.machine import RobotMachine
 from behaviours.profile import BaseProfile, SiteFacts
 from behaviours.site_report.orders import StaffOrders
 from behaviours.site_report.reporter import SiteReporter, parse_answer
-from behaviours.site_report.status import status_body
+from behaviours.site_report.status import site_fields, status_body
 from hal.backend import Devices
 from hal.ports import system_wall_clock
 from robotd.config import Settings
@@ -138,6 +138,15 @@ class TestTheReport:
                 "Code": "line_lost", "Message": "no line"}
 
         rig.run(scenario)
+
+
+    def test_a_robot_on_a_line_gives_its_place_and_long_text_is_cut(self) -> None:
+        """What the laundry data exchange adds too: no pose, the last room; text longer than
+        the server's columns is cut rather than refused."""
+        fields = site_fields("laundry", SiteFacts(place="Room 101", job="x" * 300))
+        assert (fields["Profile"], fields["Pose"], fields["Place"]) == (
+            "laundry", None, "Room 101")
+        assert len(fields["Job"]) == 200
 
 
 class TestServerAway:

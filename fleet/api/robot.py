@@ -63,7 +63,7 @@ async def site_status(
         raise Invalid(msg)
     server = server_of(http)
     pose = body.Pose
-    orders = await answer_status(server.db, server.clock(), SiteStatus(
+    orders = await answer_status(server.views, server.db, server.clock(), SiteStatus(
         robot_name=RobotName, profile=body.Profile, state=body.State,
         estop_active=body.EmergencyStopActive,
         fault_code=body.Fault.Code if body.Fault is not None else None,

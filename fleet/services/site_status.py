@@ -4,8 +4,9 @@ alert, pushed to the staff), answered with the staff's orders.
 
 As with the data exchange's pings, most reports change nothing but the figures (state path,
 battery, pose, job): those are answered from one read and written in one batch a second
-(``StatusWrites``, flushed with the pings), so a report costs no commit of its own. A report
-whose e-stop latch or fault code changed, or a robot's first, is a write transaction.
+(``StatusWrites``, flushed with the pings), read from the snapshot of every robot that the
+data exchange keeps, so a report costs no statement of its own. A report whose e-stop latch
+or fault code changed (a robot's first, too: nothing stored yet) is a write transaction.
 """
 
 from __future__ import annotations
@@ -15,13 +16,14 @@ from datetime import datetime
 from typing import Any, cast
 
 import structlog
-from sqlalchemy import Connection, Table, bindparam, select, update
+from sqlalchemy import Connection, Table, bindparam, update
 
 from fleet.db import Database
 from fleet.errors import NotFound
 from fleet.models import Robot
 from fleet.services.common import robot_by_name
 from fleet.services.condition import apply_condition
+from fleet.services.exchange import RobotViews
 
 log = structlog.get_logger(__name__)
 
@@ -54,8 +56,6 @@ class Orders:
 
 
 _robots = cast(Table, Robot.__table__)
-_LIGHT = select(Robot.id, Robot.estop_active, Robot.fault_code, Robot.emergency_stop,
-                Robot.maintenance_mode, Robot.status_at)
 _FIGURES = ("status_at", "profile", "state", "battery_pct", "pose_x_m", "pose_y_m",
             "pose_theta_rad", "map_name", "place", "job", "fault_message")
 _UPDATE = update(_robots).where(_robots.c.id == bindparam("rid")).values(
@@ -93,22 +93,16 @@ class StatusWrites:
         return len(rows)
 
 
-async def answer_status(db: Database, now: datetime, status: SiteStatus,
+async def answer_status(views: RobotViews, db: Database, now: datetime, status: SiteStatus,
                         pending: StatusWrites) -> Orders:
     """One report: a quiet one (e-stop latch and fault code as stored) is noted for the next
-    batch and answered from one read; any other is ``record_status``. NotFound for a robot
-    the site does not have."""
-    async with db.read_connection() as conn:
-        row = (await conn.execute(_LIGHT.where(Robot.name == status.robot_name))).first()
-    if row is None:
-        msg = f"robot {status.robot_name!r} is not registered"
-        raise NotFound(msg)
-    robot_id, estop_active, fault_code, emergency_stop, maintenance_mode, status_at = row
-    if status_at is not None and estop_active == status.estop_active \
-            and fault_code == status.fault_code:
-        pending.note(robot_id, now, status)
-        return Orders(bool(emergency_stop), bool(maintenance_mode))
-    pending.discard(robot_id)
+    batch and answered from the robots' snapshot the data exchange reads (no statement of
+    its own); any other is ``record_status``. NotFound for a robot the site does not have."""
+    light = await views.get(status.robot_name)
+    if light.estop_active == status.estop_active and light.fault_code == status.fault_code:
+        pending.note(light.robot_id, now, status)
+        return Orders(light.emergency_stop, light.maintenance_mode)
+    pending.discard(light.robot_id)
     return await record_status(db, now, status)
 
 

@@ -15,6 +15,7 @@ import pytest
 from robotd.cli import main
 
 Events = list[dict[str, Any]]
+VACUUM_SCENARIOS = Path(__file__).parents[2] / "sim" / "robots" / "vacuum" / "scenarios"
 
 
 def _run(out: Path, scenario: str) -> Events:
@@ -70,6 +71,42 @@ class TestVacuumOnTheFleet:
                              ("idle", "start_mission", "mission.cleaning")]
         assert "docking.charging" in {dst for _src, _trigger, dst in after}
         assert len([t for t in _transitions(vacuum) if t[2] == "estop"]) == 1
+
+
+class TestDockingGaveUp:
+    def test_a_vacuum_that_gave_up_docking_is_an_alert_on_the_server(
+            self, tmp_path: Path) -> None:
+        """``docking-rear`` with the dock's contacts faulty for good (as test_sim_docking's
+        long contacts fault, seed 2): the seed's retries and fallbacks spent, the robot in
+        recovery with the fault dock_failed (until recovery's timeout e-stops it); on a site
+        with a fleet server that is an alert the staff see, code docking_gave_up."""
+        text = (VACUUM_SCENARIOS / "docking-rear.toml").read_text()
+        head, _, _ = text.partition("[success]")
+        path = tmp_path / "gave-up.toml"
+        path.write_text(head.replace('name = "docking-rear"', 'name = "gave-up"') + """
+[[script]]
+at_s = 0.5
+action = "dock.contacts_fault"
+
+[fleet]
+watch_s = 1.0
+
+[success]
+time_limit_s = 1500
+final_state = "estop"
+no_estop = false
+no_collisions = false
+""")
+        out = tmp_path / "out"
+        assert main(["sim", str(path), "--seed", "2", "--quiet", "--report", str(out)]) == 0
+        events = [json.loads(line) for line in (out / "events.jsonl").read_text().splitlines()]
+        gave_up = _kind(events, "dock.gave_up")[0]
+        alerts = _kind(events, "fleet.alert")
+        assert [(a["alert_kind"], a["code"], a["robot"]) for a in alerts] == [
+            ("robot.fault", "docking_gave_up", "vac-1")]
+        assert gave_up["t"] < alerts[0]["t"] <= gave_up["t"] + 2.1
+        shown = [e for e in _kind(events, "fleet.robot") if e["fault"]]
+        assert (shown[0]["state"], shown[0]["fault"]["Code"]) == ("recovery", "dock_failed")
 
 
 class TestRelayBotOnTheFleet:

@@ -27,11 +27,11 @@ from fleet.api.schemas import (
     RoomIn,
     RoomOut,
 )
-from fleet.errors import Conflict, NotFound
+from fleet.errors import Conflict
 from fleet.models import Beacon, Customer, Notification, Robot, Room
 from fleet.services import admin, lines, robot_commands, unload
 from fleet.services.assignment import process_queue
-from fleet.services.common import robot_by_name
+from fleet.services.common import registered_robot
 from fleet.services.notify import notification_out
 from fleet.settings import SettingsUpdate, load_settings, store_settings
 
@@ -124,11 +124,7 @@ async def robot_unloaded(name: Name, http: HttpRequest) -> RobotOut:
 
 
 async def _robot(session: Any, name: str) -> Robot:
-    robot = await robot_by_name(session, name)
-    if robot is None:
-        msg = f"robot {name!r} is not registered"
-        raise NotFound(msg)
-    return robot
+    return await registered_robot(session, name)
 
 
 @router.get("/rooms", response_model=list[RoomOut])

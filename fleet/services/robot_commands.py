@@ -14,28 +14,19 @@ import structlog
 from sqlalchemy.ext.asyncio import AsyncSession
 
 from fleet.clock import system_clock
-from fleet.errors import NotFound
 from fleet.models import Robot
 from fleet.services.admin import update_robot
-from fleet.services.common import robot_by_name
+from fleet.services.common import registered_robot
 from fleet.services.notify import notify
 
 log = structlog.get_logger(__name__)
-
-
-async def _robot(session: AsyncSession, name: str) -> Robot:
-    robot = await robot_by_name(session, name)
-    if robot is None:
-        msg = f"robot {name!r} is not registered"
-        raise NotFound(msg)
-    return robot
 
 
 async def _order(session: AsyncSession, name: str, by: str, now: datetime | None, *,
                  order: str, emergency_stop: bool | None = None,
                  maintenance_mode: bool | None = None) -> Robot:
     at = now if now is not None else system_clock()
-    robot = await update_robot(session, at, await _robot(session, name), is_active=None,
+    robot = await update_robot(session, at, await registered_robot(session, name), is_active=None,
                                emergency_stop=emergency_stop,
                                maintenance_mode=maintenance_mode)
     notify(session, at, recipient="admin", kind="robot.order", level="info",

@@ -19,9 +19,8 @@ import structlog
 from sqlalchemy import Connection, Table, bindparam, update
 
 from fleet.db import Database
-from fleet.errors import NotFound
 from fleet.models import Robot
-from fleet.services.common import robot_by_name
+from fleet.services.common import registered_robot
 from fleet.services.condition import apply_condition
 from fleet.services.exchange import RobotViews
 
@@ -110,10 +109,7 @@ async def record_status(db: Database, now: datetime, status: SiteStatus) -> Orde
     """Store the status as the robot's latest and act on its e-stop and fault. NotFound for
     a robot the site does not have."""
     async with db.write() as session:
-        robot = await robot_by_name(session, status.robot_name)
-        if robot is None:
-            msg = f"robot {status.robot_name!r} is not registered"
-            raise NotFound(msg)
+        robot = await registered_robot(session, status.robot_name)
         first = robot.status_at is None
         robot.status_at = now
         robot.profile = status.profile

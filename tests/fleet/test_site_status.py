@@ -128,6 +128,19 @@ class TestFaults:
         assert response.json()["ResolvedBy"] == "staff"
 
 
+    async def test_the_alert_is_pushed_on_the_staffs_event_stream(self, site):
+        """The staff's open SSE stream has the fault's notification as it is raised."""
+        from test_push import STAFF, Listener, serving
+
+        async with serving(site.app) as url, Listener(url, STAFF) as listener:
+            await post_status(site, "relay-1", Profile="delivery",
+                              Fault={"Code": "stuck", "Message": "error recovery: stuck"})
+            _came, kind, data = await listener.next()
+            assert (kind, data["RobotName"], data["Level"]) == ("robot.fault", "relay-1",
+                                                                "warning")
+            assert "stuck" in data["Message"]
+
+
 class TestOrders:
     async def test_estop_resume_and_maintenance_come_back_in_the_answer(self, site):
         await post_status(site, **vacuum_status())

@@ -6,7 +6,7 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
-from behaviours.context import RobotContext
+from behaviours.context import Fault, RobotContext
 from behaviours.machine_part import MachinePart
 from behaviours.persistence import MissionRecord
 from hal.options import FileCheck, Order, Section
@@ -52,6 +52,30 @@ class CtlCommand:
     """The result as text (None: robotctl's key/value table)."""
 
 
+@dataclass(frozen=True, slots=True)
+class SiteFacts:
+    """What a profile says of where it is and what it is doing, for whoever shows the site
+    (the fleet server's robot list). Every field may be None: not known, or not its kind.
+
+    Args:
+        x_m, y_m, theta_rad: the pose in the frame ``map_name`` names (a LiDAR robot's site
+            map; ``odom`` for a robot that knows only where it started).
+        map_name: the map (file stem) of that pose.
+        place: the last room or beacon heard, for a robot on a line.
+        job: what it serves now: a request, an order, a cabinet task (one short line).
+        fault: a fault the profile's own states hold (the machine's ``recovery`` is the
+            context's ``fault``, reported without this).
+    """
+
+    x_m: float | None = None
+    y_m: float | None = None
+    theta_rad: float | None = None
+    map_name: str | None = None
+    place: str | None = None
+    job: str | None = None
+    fault: Fault | None = None
+
+
 class ControlRefused(Exception):
     """A profile's control method refuses (e.g. not in the state it needs); says why."""
 
@@ -77,6 +101,9 @@ class Profile(Protocol):
     def mission_records(self) -> tuple[MissionRecord, ...]: ...
     def control_methods(self, ctx: RobotContext) -> dict[str, ControlMethod]: ...
     def machine_parts(self, ctx: RobotContext) -> tuple[MachinePart, ...]: ...
+    def site_facts(self, ctx: RobotContext) -> SiteFacts: ...
+    @property
+    def reports_itself(self) -> bool: ...
 
 
 class BaseProfile:
@@ -115,6 +142,17 @@ class BaseProfile:
     def machine_parts(self, ctx: RobotContext) -> tuple[MachinePart, ...]:
         """The capabilities it plugs into the machine (docking: ``Docking.machine_part``)."""
         return ()
+
+    def site_facts(self, ctx: RobotContext) -> SiteFacts:
+        """Where the robot is and what job it does, read (short, no waiting) each time the
+        robot reports to a site server; nothing known by default."""
+        return SiteFacts()
+
+    @property
+    def reports_itself(self) -> bool:
+        """True when the profile's own services tell the fleet server (``fleet.url``) all a
+        site report would (the laundry data exchange): the daemon then adds none."""
+        return False
 
 
 @dataclass(frozen=True, slots=True)

@@ -92,6 +92,21 @@ class Robot(Base):
     """Since its dispatch it has reported a place out of the base beacons' hearing (or it
     names no beacons): back, it joins the back of the queue; one that never left (cancelled
     before it went) keeps its place at the front."""
+    # The site status any robot reports (issue 29, ``POST /api/Robot/{name}/status``; null:
+    # never reported). A robot that reports only this is not a laundry robot: it stays
+    # ``is_offline`` for the request queue, and is online by ``status_at``.
+    profile: Mapped[str | None] = mapped_column(String(40), default=None)
+    pose_x_m: Mapped[float | None] = mapped_column(Float, default=None)
+    pose_y_m: Mapped[float | None] = mapped_column(Float, default=None)
+    pose_theta_rad: Mapped[float | None] = mapped_column(Float, default=None)
+    map_name: Mapped[str | None] = mapped_column(String(100), default=None)
+    """The frame of the pose: the site map's name (``odom``: where the robot started)."""
+    place: Mapped[str | None] = mapped_column(String(100), default=None)
+    """The last room or beacon of a robot on a line."""
+    job: Mapped[str | None] = mapped_column(String(200), default=None)
+    """What it serves now, in the robot's words (``order 7``, ``cabinet C3``)."""
+    status_at: Mapped[datetime | None] = mapped_column(UtcDateTime(), default=None)
+    """When its last site status came."""
 
 
 class Request(Base):
@@ -154,6 +169,9 @@ class Alert(Base):
     resolved_at: Mapped[datetime | None] = mapped_column(UtcDateTime(), default=None)
     resolved_by: Mapped[str | None] = mapped_column(String(100), default=None)
     resolution: Mapped[str | None] = mapped_column(String(60), default=None)
+    code: Mapped[str | None] = mapped_column(String(60), default=None)
+    """What a ``robot.fault`` is (issue 29): ``docking_gave_up``, a RelayBot error category
+    (``stuck``, ``no_path`` ...) or the robot's own fault code; None for other kinds."""
 
 
 class Refund(Base):

@@ -26,6 +26,7 @@ from fleet.push import EventHub, Webhooks
 from fleet.services.assignment import process_queue
 from fleet.services.exchange import RobotViews
 from fleet.services.offline import check_offline
+from fleet.services.site_status import StatusWrites
 from fleet.services.timeouts import any_timed_out, check_timeouts
 from fleet.settings import FleetSettings, load_settings, store_settings
 from fleet.site import Site, apply_site, load_site
@@ -65,6 +66,8 @@ class FleetServer:
         self._settings = settings
         self.cache = SiteCache(self.db)
         self.views = RobotViews(self.db, self.clock)
+        self.statuses = StatusWrites()
+        """Quiet site status reports (issue 29), written with the pings."""
         self.auth = Authenticator(self.db, max_failures_per_min=auth_failures_per_min)
         self.events = EventHub(self.db)
         self.webhooks = Webhooks(self.db, self.cache.settings)
@@ -127,8 +130,9 @@ class FleetServer:
             return await load_settings(session)
 
     async def flush_pings(self) -> int:
-        """Write the robots' pending pings (the ping monitor does this every second)."""
-        return await self.views.flush_pings()
+        """Write the robots' pending pings and quiet site statuses (the ping monitor does
+        this every second)."""
+        return await self.views.flush_pings() + await self.statuses.flush(self.db)
 
     async def check_timeouts(self) -> list[int]:
         """One pass of the timeout monitor (seed section 10); returns cancelled request ids."""

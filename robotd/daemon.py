@@ -30,6 +30,7 @@ from robotd.control.server import ControlServer
 from robotd.health import LoopMonitor, WatchdogFeeder
 from robotd.logs import set_level
 from robotd.sdnotify import Notifier
+from robotd.site_link import site_report_services
 from robotd.store import StateStore
 from robotd.supervisor import DeviceService, RestartPolicy, StartFailed, Supervisor
 
@@ -161,6 +162,8 @@ class Daemon:
                 self.machine.restore()
                 await self._leave_boot()
                 self.supervisor.add(self.profile.services(self.context))
+                self.supervisor.add(site_report_services(self.profile, self.context,
+                                                         self.estop))
                 await self.supervisor.start()
             except (StartFailed, ValueError) as exc:
                 self.start_problems = getattr(exc, "problems", [str(exc)])

@@ -203,12 +203,23 @@ async def _simulate(args: argparse.Namespace, scenario: Scenario, console: SimCo
                 factory = actors_factory(name)
                 actors_of[name] = factory(context) if factory is not None else None
         actors = [a for a in actors_of.values() if a is not None]
+        site: list[SimActors] = []
+        if "fleet" in scenario.raw:  # the fleet server's imports take seconds: only then
+            from sim.actors.site_fleet import site_fleet_for
+
+            fleet = site_fleet_for(context, [
+                (s.get("robot.name"), slice_of(s.get("robot.profile")).runs_fleet)
+                for s in settings_of])
+            site = [fleet] if fleet is not None else []
+        actors += site
         for a in actors:
             await a.start()
         for index, (spec, settings) in enumerate(zip(scenario.robots, settings_of, strict=True)):
             mine = actors_of[settings.get("robot.profile")]
             if mine is not None:
                 mine.configure_robot(settings)
+            for a in site:  # it serves only the robots it was made for
+                a.configure_robot(settings)
             body = DiffDriveBody(scenario.world, Pose(spec.x_m, spec.y_m, spec.heading_rad),
                                  spec.body, rng=random.Random(f"{seed}:{spec.name}:body"),
                                  payload_kg=spec.payload_kg, clock=loop.time)
@@ -220,6 +231,8 @@ async def _simulate(args: argparse.Namespace, scenario: Scenario, console: SimCo
             rigs.append(rig)
             if mine is not None:
                 mine.attach(rig)
+            for a in site:
+                a.attach(rig)
             socket_path = _socket_path(getattr(args, "socket", None), workdir, spec.name, index)
             socket_why = socket_problem(socket_path)
             if socket_why is not None:  # no robot runs without its socket: exit 2, say why

@@ -195,8 +195,25 @@ def check_keys(table: dict[str, Any], known: tuple[str, ...], where: str) -> Non
             raise ValueError(msg)
 
 
+SITE_FLEET_KEYS = ("site", "settings", "watch_s", "orders")
+"""The ``[fleet]`` keys the simulator's site fleet reads (``sim.actors.site_fleet``), for the
+robots of any profile; a slice that runs its own fleet (laundry) adds its own keys."""
+
+
+def _scenario_tables() -> dict[str, tuple[str, ...] | None]:
+    """The top-level tables the slices' actors read, with their keys (a table several
+    declare, such as ``fleet``, takes the keys of all; None: its actors check it)."""
+    tables: dict[str, tuple[str, ...] | None] = {"fleet": SITE_FLEET_KEYS}
+    for sim in slices():
+        for name, keys in sim.scenario_tables.items():
+            known = tables.get(name, ())
+            tables[name] = None if keys is None or (name in tables and known is None) \
+                else tuple(dict.fromkeys((*(known or ()), *keys)))
+    return tables
+
+
 def _build(raw: dict[str, Any], source: str) -> Scenario:
-    tables = {name: keys for sim in slices() for name, keys in sim.scenario_tables.items()}
+    tables = _scenario_tables()
     check_keys(raw, (*_TOP, *tables), "")
     meta = _table(raw, "scenario")
     check_keys(meta, _SCENARIO, "scenario")

@@ -90,3 +90,7 @@ class SimSlice:
     scenario_tables: Mapping[str, tuple[str, ...] | None] = field(default_factory=dict)
     """Top-level tables of a scenario that only its actors read: name -> their keys (None:
     the actors check them themselves)."""
+    runs_fleet: bool = False
+    """Its actors run the fleet server of a scenario's ``[fleet]`` table themselves (the
+    laundry site's); otherwise its robots report to the simulator's site fleet
+    (``sim.actors.site_fleet``) when the scenario has one."""

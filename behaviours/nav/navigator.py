@@ -22,6 +22,7 @@ import asyncio
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -51,6 +52,7 @@ from behaviours.nav.path_follower import NoProgress, PathFollower
 from behaviours.nav.planner import NoPath, Planner
 from behaviours.nav.relocalise import Relocaliser
 from behaviours.nav.zones import NO_LIMIT, SPEED_MARGIN, SpeedLimit, Zones
+from behaviours.profile import SiteFacts
 from hal.devices import Lidar, Motors, RangeSensor
 from hal.readings import LidarScan
 from hal.settings import SettingsView
@@ -103,6 +105,8 @@ class NavStack:
         map_config = MapConfig.from_settings(settings)
         if grid is None:  # a profile with its own map format (cabinet) gives its grid
             grid = load_grid(map_config)
+        self.map_name = Path(map_config.file).stem
+        """The map's name as a site knows it (its file's stem; ``walls``: the world's)."""
         self.zones = Zones.from_config(ZoneConfig.from_settings(settings),
                                        None if map_config.file == WALLS else map_config.file)
         self.planner_config = PlannerConfig.from_settings(settings)
@@ -257,6 +261,15 @@ class NavStack:
         """The fused map pose now (correction x live odometry)."""
         p = self.localiser.pose_array(self._odom())
         return OdometryPose(float(p[0]), float(p[1]), float(p[2]))
+
+    def site_facts(self, job: str | None = None, map_name: str | None = None) -> SiteFacts:
+        """The last published map pose (none before the first) on ``map_name`` (default the
+        map file's), with ``job``, for the site report (``Profile.site_facts``)."""
+        pose = self.service.poses.latest()
+        if pose is None:
+            return SiteFacts(job=job)
+        return SiteFacts(x_m=pose.x_m, y_m=pose.y_m, theta_rad=pose.theta_rad,
+                         map_name=map_name or self.map_name, job=job)
 
     def live_pose(self) -> LocalisedPose:
         """The fused pose as of now (not the last one published)."""

@@ -9,6 +9,7 @@ from fastapi import Request as HttpRequest
 from pydantic import ValidationError
 from sqlalchemy import select
 
+from fleet.api.auth import Admin
 from fleet.api.auth import admin as admin_only
 from fleet.api.deps import AUTH_ERRORS, ERRORS, errors, robot_out, server_of
 from fleet.api.schemas import (
@@ -18,6 +19,7 @@ from fleet.api.schemas import (
     CustomerOut,
     LineIn,
     LineOut,
+    MaintenanceIn,
     NotificationOut,
     RobotIn,
     RobotOut,
@@ -25,11 +27,11 @@ from fleet.api.schemas import (
     RoomIn,
     RoomOut,
 )
-from fleet.errors import Conflict, NotFound
+from fleet.errors import Conflict
 from fleet.models import Beacon, Customer, Notification, Robot, Room
-from fleet.services import admin, lines, unload
+from fleet.services import admin, lines, robot_commands, unload
 from fleet.services.assignment import process_queue
-from fleet.services.common import robot_by_name
+from fleet.services.common import registered_robot
 from fleet.services.notify import notification_out
 from fleet.settings import SettingsUpdate, load_settings, store_settings
 
@@ -74,6 +76,39 @@ async def patch_robot(name: Name, body: RobotPatch, http: HttpRequest) -> RobotO
         return robot_out(robot)
 
 
+@router.post("/robots/{name}/estop", response_model=RobotOut, responses=errors(404))
+async def robot_estop(name: Name, http: HttpRequest, caller: Admin) -> RobotOut:
+    """Order any robot into emergency stop (``EmergencyStop`` true): it stops at its next
+    report (data exchange or site status), through its own e-stop."""
+    server = server_of(http)
+    async with server.db.write() as session:
+        return robot_out(await robot_commands.estop(session, name, caller.subject,
+                                                    now=server.clock()))
+
+
+@router.post("/robots/{name}/resume", response_model=RobotOut, responses=errors(404))
+async def robot_resume(name: Name, http: HttpRequest, caller: Admin) -> RobotOut:
+    """Lift the server's emergency stop; the robot resumes at its next report (an e-stop a
+    person latched on the robot stays until lifted there)."""
+    server = server_of(http)
+    await server.flush_pings()  # a robot released now is dispatched on its latest report
+    async with server.db.write() as session:
+        return robot_out(await robot_commands.resume(session, name, caller.subject,
+                                                     now=server.clock()))
+
+
+@router.post("/robots/{name}/maintenance", response_model=RobotOut, responses=ERRORS)
+async def robot_maintenance(name: Name, body: MaintenanceIn, http: HttpRequest,
+                            caller: Admin) -> RobotOut:
+    """``{"On": true}`` puts the robot into maintenance (stopped, out of service) at its next
+    report; ``{"On": false}`` takes it out."""
+    server = server_of(http)
+    await server.flush_pings()
+    async with server.db.write() as session:
+        return robot_out(await robot_commands.maintenance(session, name, caller.subject,
+                                                          on=body.On, now=server.clock()))
+
+
 @router.post("/robots/{name}/unloaded", response_model=RobotOut, responses=errors(404, 409))
 async def robot_unloaded(name: Name, http: HttpRequest) -> RobotOut:
     """The staff took the load off a robot back at base (``WaitingFor`` "unload"): it serves
@@ -89,11 +124,7 @@ async def robot_unloaded(name: Name, http: HttpRequest) -> RobotOut:
 
 
 async def _robot(session: Any, name: str) -> Robot:
-    robot = await robot_by_name(session, name)
-    if robot is None:
-        msg = f"robot {name!r} is not registered"
-        raise NotFound(msg)
-    return robot
+    return await registered_robot(session, name)
 
 
 @router.get("/rooms", response_model=list[RoomOut])

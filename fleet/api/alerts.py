@@ -28,7 +28,7 @@ def alert_out(alert: Alert) -> AlertOut:
         RobotName=alert.robot_name, RequestId=alert.request_id, Message=alert.message,
         IsLaundry=alert.kind in LAUNDRY_KINDS, AcknowledgedAt=alert.acknowledged_at,
         AcknowledgedBy=alert.acknowledged_by, ResolvedAt=alert.resolved_at,
-        ResolvedBy=alert.resolved_by, Resolution=alert.resolution)
+        ResolvedBy=alert.resolved_by, Resolution=alert.resolution, Code=alert.code)
 
 
 @router.get("", response_model=list[AlertOut])

@@ -9,7 +9,7 @@ from fastapi import Request as HttpRequest
 from sqlalchemy import select
 from sqlalchemy.ext.asyncio import AsyncSession
 
-from fleet.api.schemas import ErrorOut, FaultOut, RefundOut, RequestOut, RobotOut
+from fleet.api.schemas import ErrorOut, FaultOut, PoseOut, RefundOut, RequestOut, RobotOut
 from fleet.models import Refund, Request, Robot
 from fleet.server import FleetServer
 from fleet.services.common import waiting_for
@@ -141,4 +141,13 @@ def robot_out(robot: Robot) -> RobotOut:
                if robot.fault_code is not None else None),
         BatteryPct=robot.battery_pct,
         WaitingFor=waiting_for(robot.unload_pending, robot.waiting_for_line),
+        Profile=robot.profile, Pose=_pose_out(robot), Place=robot.place, Job=robot.job,
+        LastStatusAt=robot.status_at,
     )
+
+
+def _pose_out(robot: Robot) -> PoseOut | None:
+    if robot.pose_x_m is None or robot.pose_y_m is None or robot.pose_theta_rad is None:
+        return None
+    return PoseOut(X=robot.pose_x_m, Y=robot.pose_y_m, Theta=robot.pose_theta_rad,
+                   Map=robot.map_name)

@@ -11,11 +11,12 @@ from fastapi import Request as HttpRequest
 
 from fleet.api.auth import Caller
 from fleet.api.deps import AUTH_ERRORS, errors, server_of
-from fleet.api.schemas import DataExchangeIn, DataExchangeOut
+from fleet.api.schemas import DataExchangeIn, DataExchangeOut, StatusIn, StatusOut
 from fleet.errors import FleetError, Forbidden, Invalid
 from fleet.server import FleetServer
 from fleet.services.arrival import Sighting
 from fleet.services.exchange import Reply, Report, exchange
+from fleet.services.site_status import SiteStatus, answer_status
 from fleet.tokens import Principal
 
 router = APIRouter(prefix="/api/Robot", tags=["robot"], responses=AUTH_ERRORS)
@@ -30,7 +31,7 @@ _NAME_MISMATCH: dict[int | str, dict[str, object]] = {422: {**errors(422)[422], 
 async def own_robot(RobotName: RobotName, caller: Caller) -> Principal:  # noqa: N803
     """403 unless the token is the robot named in the path."""
     if not caller.is_robot(RobotName):
-        msg = (f"only robot {RobotName!r} may post its data exchange "
+        msg = (f"only robot {RobotName!r} may post its data exchange or status "
                f"(this is a {caller.role} token)")
         raise Forbidden(msg)
     return caller
@@ -48,6 +49,34 @@ async def data_exchange(
     return Response(content=reply, media_type="application/json")
 
 
+@router.post("/{RobotName}/status", response_model=StatusOut,
+             responses={**errors(404, 413), **_NAME_MISMATCH}, dependencies=[Depends(own_robot)])
+async def site_status(
+    RobotName: RobotName, body: StatusIn, http: HttpRequest  # noqa: N803
+) -> StatusOut:
+    """Any robot's site status (issue 29), every ``fleet.period_s``: profile, state path,
+    e-stop, fault, battery, pose on its map or last place, current job. Stored as the
+    robot's latest (``GET /api/robots``); a fault raises a ``robot.fault`` alert. The answer
+    carries the staff's orders, as the data exchange's does."""
+    if body.RobotName is not None and body.RobotName != RobotName:
+        msg = f"RobotName {body.RobotName!r} in the body does not match {RobotName!r} in the URL"
+        raise Invalid(msg)
+    server = server_of(http)
+    pose = body.Pose
+    orders = await answer_status(server.views, server.db, server.clock(), SiteStatus(
+        robot_name=RobotName, profile=body.Profile, state=body.State,
+        estop_active=body.EmergencyStopActive,
+        fault_code=body.Fault.Code if body.Fault is not None else None,
+        fault_message=body.Fault.Message if body.Fault is not None else None,
+        battery_pct=body.BatteryPct,
+        x_m=pose.X if pose is not None else None, y_m=pose.Y if pose is not None else None,
+        theta_rad=pose.Theta if pose is not None else None,
+        map_name=pose.Map if pose is not None else None, place=body.Place, job=body.Job),
+        server.statuses)
+    return StatusOut(EmergencyStop=orders.emergency_stop,
+                     MaintenanceMode=orders.maintenance_mode)
+
+
 async def answer(server: FleetServer, robot_name: str, body: DataExchangeIn) -> bytes:
     """One exchange, answered as JSON (the route and ``exchange_fast`` both call this).
     Raises FleetError for a request the server refuses."""
@@ -62,7 +91,8 @@ async def answer(server: FleetServer, robot_name: str, body: DataExchangeIn) -> 
         estop_active=body.EmergencyStopActive,
         fault_code=body.Fault.Code if body.Fault is not None else None,
         fault_message=body.Fault.Message if body.Fault is not None else None,
-        battery_pct=body.BatteryPct, queued=body.Queued,
+        battery_pct=body.BatteryPct, queued=body.Queued, profile=body.Profile,
+        place=body.Place, job=body.Job,
     )
     return reply_json(await exchange(server.db, server.clock, server.cache, server.views, report))
 

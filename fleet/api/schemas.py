@@ -33,6 +33,12 @@ Mac = Annotated[str, StringConstraints(pattern=r"^[0-9A-Fa-f]{2}(:[0-9A-Fa-f]{2}
 Real = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-1e6, le=1e6)]
 Rssi = Annotated[int, Field(strict=True, ge=-200, le=50), Whole]
 Flag = Annotated[bool, Field(strict=True)]
+ProfileName = Annotated[str, StringConstraints(min_length=1, max_length=40,
+                                               pattern=r"^[^\x00-\x1f\x7f]+$")]
+"""A robot profile's name (``vacuum``, ``delivery`` ...)."""
+JobText = Annotated[str, StringConstraints(min_length=1, max_length=200,
+                                           pattern=r"^[^\x00-\x1f\x7f]+$")]
+"""What a robot serves now, in its words (``order 7``, ``cabinet C3``)."""
 
 
 class Strict(BaseModel):
@@ -116,6 +122,55 @@ class DataExchangeIn(BaseModel):
     Queued: Flag = False
     """At base, queued behind the robot ahead on the line (``IsInTarget`` is true too): it
     pulls up to the base beacon as the queue moves, so the base beacons stay its targets."""
+    # Added (issue 29): what the site status carries for every robot. All optional.
+    Profile: ProfileName | None = None
+    Place: Text | None = None
+    """The last room whose beacon it arrived at."""
+    Job: JobText | None = None
+
+
+class PoseIn(BaseModel):
+    """Where a robot stands on its map: metres and radians in the frame ``Map`` names."""
+
+    model_config = ConfigDict(extra="ignore")
+
+    X: Real
+    Y: Real
+    Theta: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-7, le=7)]
+    Map: Text | None = None
+    """The map's name (a site map's file stem; ``odom``: where the robot started)."""
+
+
+class StatusIn(BaseModel):
+    """Any robot's site status (issue 29), every ``fleet.period_s``. All optional but the
+    path's robot."""
+
+    model_config = ConfigDict(extra="ignore")
+
+    RobotName: Annotated[Text | None, Field(description=(
+        "The robot's name, as in the URL. Optional; when given it must equal the path's "
+        "RobotName: a body that names another robot is refused with 422."))] = None
+    Timestamp: datetime | None = None
+    Profile: ProfileName | None = None
+    State: Text | None = None
+    """The daemon's dotted state path, e.g. ``docking.approach``."""
+    EmergencyStopActive: Flag | None = None
+    Fault: FaultIn | None = None
+    BatteryPct: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0, le=100)] | None \
+        = None
+    Pose: PoseIn | None = None
+    """A LiDAR robot's map pose (or a robot's odometry, ``Map`` "odom")."""
+    Place: Text | None = None
+    """The last room or beacon of a robot on a line."""
+    Job: JobText | None = None
+    """What it serves now (a request, an order, a cabinet task)."""
+
+
+class StatusOut(BaseModel):
+    """The staff's orders, as in the data exchange's reply."""
+
+    EmergencyStop: bool
+    MaintenanceMode: bool
 
 
 class ActiveBeacon(BaseModel):
@@ -149,9 +204,21 @@ class RobotPatch(Strict):
     MaintenanceMode: Flag | None = None
 
 
+class MaintenanceIn(Strict):
+    On: Flag
+    """True: into maintenance; false: out of it."""
+
+
 class FaultOut(BaseModel):
     Code: str
     Message: str
+
+
+class PoseOut(BaseModel):
+    X: float
+    Y: float
+    Theta: float
+    Map: str | None
 
 
 class RobotOut(BaseModel):
@@ -170,6 +237,12 @@ class RobotOut(BaseModel):
     Fault: FaultOut | None = None
     BatteryPct: float | None = None
     WaitingFor: Literal["unload", "line"] | None = None
+    # Added (issue 29): the site status any robot reports.
+    Profile: str | None = None
+    Pose: PoseOut | None = None
+    Place: str | None = None
+    Job: str | None = None
+    LastStatusAt: datetime | None = None
 
 
 class RoomIn(Strict):
@@ -241,6 +314,9 @@ class AlertOut(BaseModel):
     ResolvedAt: datetime | None
     ResolvedBy: str | None
     Resolution: str | None
+    Code: str | None = None
+    """What a ``robot.fault`` is: ``docking_gave_up``, a RelayBot error category, or the
+    robot's fault code (issue 29)."""
 
 
 class AlertResolve(Strict):

@@ -43,16 +43,18 @@ class LaundryAt(StrEnum):
 
 def raise_alert(
     session: AsyncSession, now: datetime, *, kind: str, level: str, message: str,
-    robot_name: str | None = None, request: Request | None = None,
+    robot_name: str | None = None, request: Request | None = None, code: str | None = None,
 ) -> Alert:
-    """Store an open alert and tell the admin (a notification of the same kind)."""
+    """Store an open alert and tell the admin (a notification of the same kind); ``code``
+    says what a ``robot.fault`` is (``docking_gave_up``, a RelayBot error category)."""
     alert = Alert(created_at=now, kind=kind, level=level, message=message,
-                  robot_name=robot_name, request_id=request.id if request is not None else None)
+                  robot_name=robot_name, request_id=request.id if request is not None else None,
+                  code=code)
     session.add(alert)
     notify(session, now, recipient="admin", kind=kind, level=level, message=message,
            request=request, robot_name=robot_name)
     log.warning("fleet.alert.raised", kind=kind, level=level, robot=robot_name,
-                request_id=alert.request_id)
+                request_id=alert.request_id, code=code)
     return alert
 
 

@@ -9,6 +9,7 @@ import structlog
 from sqlalchemy import func, select
 from sqlalchemy.ext.asyncio import AsyncSession
 
+from fleet.errors import NotFound
 from fleet.models import Request, Robot
 from fleet.settings import FleetSettings
 from fleet.status import Status
@@ -58,6 +59,15 @@ def waiting_for(unload_pending: bool, line: str | None) -> Literal["unload", "li
 async def robot_by_name(session: AsyncSession, name: str) -> Robot | None:
     result = await session.execute(select(Robot).where(Robot.name == name))
     return result.scalar_one_or_none()
+
+
+async def registered_robot(session: AsyncSession, name: str) -> Robot:
+    """The robot of this name; NotFound when the site does not have it."""
+    robot = await robot_by_name(session, name)
+    if robot is None:
+        msg = f"robot {name!r} is not registered"
+        raise NotFound(msg)
+    return robot
 
 
 async def robot_serving(session: AsyncSession, request: Request) -> Robot | None:

@@ -16,6 +16,15 @@ from fleet.services.notify import notify
 
 log = structlog.get_logger(__name__)
 
+ALERT_CODES = {"dock_failed": "docking_gave_up", "dock_ir_lost": "docking_gave_up"}
+"""Robot fault codes that one alert code stands for (the docking capability's two ways of
+giving up); any other fault code (a RelayBot error category such as ``stuck``) is its own."""
+
+
+def alert_code(fault_code: str) -> str:
+    """The ``Code`` of the alert a robot's fault raises."""
+    return ALERT_CODES.get(fault_code, fault_code)
+
 
 async def apply_condition(
     session: AsyncSession, now: datetime, robot: Robot, estop_active: bool | None,
@@ -53,7 +62,7 @@ async def _fault_changed(
         return
     request = await current_request(session, robot)
     raise_alert(session, now, kind=FAULT, level="warning", robot_name=robot.name,
-                request=request,
+                request=request, code=alert_code(code),
                 message=f"Robot {robot.name} reports fault {code}: {message or 'no message'}")
     log.warning("fleet.robot.fault", robot=robot.name, code=code,
                 request_id=request.id if request is not None else None)

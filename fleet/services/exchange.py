@@ -50,6 +50,10 @@ class Report:
     queued: bool = False
     """Queued at base behind the robot ahead, pulling up to the base beacon as it can: it keeps
     the base beacons as its targets (``laundry.base_queue``)."""
+    # What the site status carries for every robot (issue 29); None: not reported.
+    profile: str | None = None
+    place: str | None = None
+    job: str | None = None
 
 
 @dataclass(frozen=True)
@@ -150,7 +154,8 @@ class RobotViews:
             "rid": robot_id, "ping": now, "weight": report.weight_kg,
             "distance": report.ultrasonic_distance, "in_target": report.is_in_target,
             "state": report.state, "battery": report.battery_pct,
-            "fault_message": report.fault_message}
+            "fault_message": report.fault_message, "profile": report.profile,
+            "place": report.place, "job": report.job}
 
     def drop_ping(self, robot_id: int) -> None:
         """Forget the robot's pending ping: a newer report of it is being written."""
@@ -179,6 +184,7 @@ _PING_UPDATE = (
         last_ping_at=bindparam("ping"), weight_kg=bindparam("weight"),
         ultrasonic_distance=bindparam("distance"), is_in_target=bindparam("in_target"),
         state=bindparam("state"), battery_pct=bindparam("battery"),
+        profile=bindparam("profile"), place=bindparam("place"), job=bindparam("job"),
         fault_message=case((_robots.c.fault_code.is_(None), None),
                            else_=bindparam("fault_message")))
 )
@@ -287,6 +293,8 @@ def _apply_report(robot: Robot, now: datetime, report: Report) -> None:
         robot.state = report.state
     if robot.battery_pct != report.battery_pct:
         robot.battery_pct = report.battery_pct
+    if (robot.profile, robot.place, robot.job) != (report.profile, report.place, report.job):
+        robot.profile, robot.place, robot.job = report.profile, report.place, report.job
     if robot.fault_code is not None and robot.fault_code == report.fault_code \
             and robot.fault_message != report.fault_message:
         robot.fault_message = report.fault_message

@@ -101,7 +101,7 @@ _CORE: tuple[Section, ...] = (
         opt("height", "int", 240, "Frame height in pixels.", min=16, max=4096),
         opt("fps", "float", 30.0, "Capture rate.", min=1, max=240),
     )),
-    Section("fleet", "The fleet server's data exchange (seed 000 section 8).", (
+    Section("fleet", "The fleet server: the seed's data exchange, or any robot's site status.", (
         opt("url", "str", "", "Base URL of the fleet server; empty: no fleet server."),
         opt("period_s", "float", 1.0, "Data exchange period.", min=0.1, max=60, tunable=True),
         opt("token_file", "str", "",

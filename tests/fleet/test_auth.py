@@ -20,7 +20,8 @@ CUSTOMER_1 = token_for("customer", "1")
 CUSTOMER_2 = token_for("customer", "2")
 
 # Who may call each operation (docs/fleet.md has the same table).
-ROBOT_OPS = {("post", "/api/Robot/{RobotName}/data-exchange")}
+ROBOT_OPS = {("post", "/api/Robot/{RobotName}/data-exchange"),
+             ("post", "/api/Robot/{RobotName}/status")}
 CUSTOMER_OPS = {("post", "/api/requests"), ("get", "/api/requests"),
                 ("get", "/api/requests/{request_id}"),
                 ("post", "/api/requests/{request_id}/{action}"), ("get", "/api/events")}
@@ -95,8 +96,8 @@ class TestEveryOperation:
         assert await dump(fleet) == before
 
     async def test_wrong_role_tokens_get_403_and_change_nothing(self, fleet):
-        """A robot token on anything but its exchange, a customer token on admin operations,
-        an admin token on a robot's exchange: 403, nothing changed."""
+        """A robot token on anything but its exchange and status, a customer token on admin
+        operations, an admin token on a robot's exchange or status: 403, nothing changed."""
         before = await dump(fleet)
         checked = 0
         for method, template, path in await operations(fleet):

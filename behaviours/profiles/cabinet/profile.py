@@ -22,7 +22,13 @@ from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker
 from behaviours.nav.navigator import NavStack
 from behaviours.nav.scan_match import MatchConfig, ScanMatcher
-from behaviours.profile import BaseProfile, ControlMethod, ControlRefused, StateTask
+from behaviours.profile import (
+    BaseProfile,
+    ControlMethod,
+    ControlRefused,
+    SiteFacts,
+    StateTask,
+)
 from behaviours.profiles.cabinet.config import CabinetConfig
 from behaviours.profiles.cabinet.map_reader import SiteFileError, parse_site_map, read_json
 from behaviours.profiles.cabinet.site import build_site, resolve
@@ -217,6 +223,16 @@ class CabinetProfile(BaseProfile):
         m = self.mission
         if state == CabinetState.FAILED and m is not None and m.drive is not None:
             m.path = []
+
+    def site_facts(self, ctx: RobotContext) -> SiteFacts:
+        """The pose on its site map, and the cabinet task in hand."""
+        m = self.mission
+        if m is None:
+            return SiteFacts()
+        job = f"cabinet {m.current.cabinet}" if m.current is not None else None
+        if m.nav is None:
+            return SiteFacts(job=job)
+        return m.nav.site_facts(job, Path(m.config.map_file).stem)
 
     def status(self) -> dict[str, Any]:
         """The navigation figures for ``robotctl sensors`` (pose, spread, scan rate)."""

@@ -25,10 +25,12 @@ from __future__ import annotations
 import asyncio
 import math
 from collections.abc import Awaitable, Callable
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import structlog
 
+from behaviours.context import Fault
 from behaviours.machine_tables import CoreTrigger
 from behaviours.motion.encoder_watch import CommandedMotors, EncoderWatch, EncoderWatchConfig
 from behaviours.motion.odometry import Odometry
@@ -36,7 +38,7 @@ from behaviours.motion.waypoint_drive import OdometryTracker
 from behaviours.nav.localisation.filter import LOCALISED
 from behaviours.nav.navigator import NavLocalisation, NavStack, stored_pose
 from behaviours.persistence import MissionRecord
-from behaviours.profile import BaseProfile, ControlMethod, StateTask
+from behaviours.profile import BaseProfile, ControlMethod, SiteFacts, StateTask
 from behaviours.profiles.delivery import states
 from behaviours.profiles.delivery.box import BoxController
 from behaviours.profiles.delivery.config import timers_from
@@ -256,6 +258,17 @@ class DeliveryProfile(BaseProfile):
                 "parcel_in_box": self.memory.parcel_in_box,
                 "box_angle_deg": None if self.box is None else self.box.angle_deg,
                 "last_error": m["last_error"]}
+
+    def site_facts(self, ctx: RobotContext) -> SiteFacts:
+        """The map pose, the order in hand, and in ``error_recovery`` the seed's error
+        category as the fault (what the site's staff are alerted to)."""
+        order_id = self.memory.order_id if self.memory is not None else None
+        job = f"order {order_id}" if order_id is not None else None
+        facts = self.nav.site_facts(job) if self.nav is not None else SiteFacts(job=job)
+        if ctx.state == states.path(states.ERROR_RECOVERY) and self.recovery is not None:
+            category = self.recovery.category or "unknown"
+            facts = replace(facts, fault=Fault(category, f"error recovery: {category}"))
+        return facts
 
     def status(self) -> dict[str, Any]:
         """Navigation figures and the order in hand, for ``robotctl status``."""

@@ -67,6 +67,12 @@ class LaundryMemory:
             return None
         return {"Laundry": self.kept["holding"], "RequestId": self.kept["holding_request_id"]}
 
+    @property
+    def last_room(self) -> str | None:
+        """The last room whose beacon it arrived at (None: none yet)."""
+        room = self.kept["last_room"]
+        return None if room is None else str(room)
+
     def arrived(self, room: str | None) -> None:
         """It arrived at ``room``'s beacon (written at once; not awaited: a position)."""
         self.kept.set(last_room=room)

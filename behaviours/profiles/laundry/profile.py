@@ -21,7 +21,7 @@ from behaviours.line.follow import LineFollower, LineLostError
 from behaviours.machine_tables import CoreTrigger
 from behaviours.motion.obstacle_guard import ObstacleGuard
 from behaviours.persistence import MissionRecord
-from behaviours.profile import BaseProfile, StateTask
+from behaviours.profile import BaseProfile, SiteFacts, StateTask
 from behaviours.profiles.laundry.base_queue import BaseQueue
 from behaviours.profiles.laundry.directive import Directive
 from behaviours.profiles.laundry.fleet_link import FleetLink, fleet_client, read_token, token_path
@@ -55,8 +55,19 @@ class LaundryProfile(BaseProfile):
         self.fleet: FleetLink | None = None
         self.memory: LaundryMemory | None = None
 
+    @property
+    def reports_itself(self) -> bool:
+        """Its data exchange carries the site status (with ``fleet.url``; without one it
+        reports to nobody)."""
+        return True
+
     def mission_records(self) -> tuple[MissionRecord, ...]:
         return (LAUNDRY_MISSION,)
+
+    def site_facts(self, ctx: RobotContext) -> SiteFacts:
+        """The last room it arrived at (a robot on a line has no map pose); its request is
+        the server's to name."""
+        return SiteFacts(place=self.memory.last_room if self.memory is not None else None)
 
     def mission_states(self) -> list[str | dict[str, Any]]:
         return list(MISSION_STATES)
@@ -99,7 +110,8 @@ class LaundryProfile(BaseProfile):
         if url:
             report = RobotReport(ctx.settings.get("robot.name"), ctx.wall_clock, tracker,
                                  arrival, load, d.front_range, holding=memory.report,
-                                 ctx=ctx, guard=guard, queue=queue)
+                                 ctx=ctx, guard=guard, queue=queue,
+                                 facts=lambda: self.site_facts(ctx))
             client = fleet_client(url, d.network, str(ctx.settings.get("fleet.ca_file")))
 
             async def follow(directive: Directive) -> None:

@@ -10,9 +10,11 @@ from behaviours.beacons.arrival import Arrival
 from behaviours.beacons.tracker import BeaconTracker
 from behaviours.context import RobotContext
 from behaviours.motion.obstacle_guard import ObstacleGuard
+from behaviours.profile import SiteFacts
 from behaviours.profiles.laundry.base_queue import BaseQueue
 from behaviours.profiles.laundry.load_check import LoadCheck
 from behaviours.profiles.laundry.states import FOLLOWING
+from behaviours.site_report.status import site_fields
 from hal.devices import RangeSensor
 from hal.ports import WallClock
 
@@ -28,7 +30,8 @@ class RobotReport:
                  arrival: Arrival, load: LoadCheck | None, front_range: RangeSensor | None,
                  holding: Callable[[], dict[str, Any] | None] | None = None, *,
                  ctx: RobotContext | None = None, guard: ObstacleGuard | None = None,
-                 queue: BaseQueue | None = None) -> None:
+                 queue: BaseQueue | None = None,
+                 facts: Callable[[], SiteFacts] | None = None) -> None:
         self.robot_name = robot_name
         self.wall_clock = wall_clock
         self.tracker = tracker
@@ -39,6 +42,7 @@ class RobotReport:
         self.ctx = ctx
         self.guard = guard
         self.queue = queue
+        self.facts = facts
 
     def build(self) -> dict[str, Any]:
         weight = self.load.weight().kg if self.load is not None else None
@@ -61,6 +65,11 @@ class RobotReport:
             report["Holding"] = held
         if self.ctx is not None:
             report.update(self.robot_state(self.ctx, queued=queued))
+        if self.facts is not None:
+            # Added (issue 29): what the site status carries for every robot; no pose on a
+            # line, the last room instead.
+            fields = site_fields("laundry", self.facts())
+            report.update({k: fields[k] for k in ("Profile", "Place", "Job")})
         return report
 
     def robot_state(self, ctx: RobotContext, *, queued: bool = False) -> dict[str, Any]:

@@ -23,7 +23,7 @@ from behaviours.nav.control import pose_methods
 from behaviours.nav.localisation.filter import LocalisedPose
 from behaviours.nav.navigator import NavLocalisation, NavOutcome, NavStack, stored_pose
 from behaviours.persistence import MissionRecord
-from behaviours.profile import BaseProfile, ControlMethod, StateTask
+from behaviours.profile import BaseProfile, ControlMethod, SiteFacts, StateTask
 from behaviours.service import Service, TaskService
 from hal.options import Option, Section
 
@@ -239,6 +239,10 @@ class PatrolProfile(BaseProfile):
             await ctx.trigger(CoreTrigger.MISSION_DONE)
             return
         await ctx.trigger(PatrolTrigger.NEXT_GOAL)
+
+    def site_facts(self, ctx: RobotContext) -> SiteFacts:
+        """The map pose (no job: it patrols)."""
+        return self.nav.site_facts() if self.nav is not None else SiteFacts()
 
     def status(self) -> dict[str, Any]:
         """The navigation figures for ``robotctl status``."""

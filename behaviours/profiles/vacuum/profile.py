@@ -27,7 +27,7 @@ from behaviours.machine_tables import CoreTrigger, RootState, mission_children
 from behaviours.motion.moves import Mover
 from behaviours.motion.odometry import Odometry
 from behaviours.motion.waypoint_drive import OdometryTracker
-from behaviours.profile import BaseProfile, StateTask
+from behaviours.profile import BaseProfile, SiteFacts, StateTask
 from behaviours.profiles.vacuum.cleaning import Coverage
 from behaviours.profiles.vacuum.config import VacuumConfig
 from behaviours.profiles.vacuum.schedule import Schedule
@@ -101,6 +101,14 @@ class VacuumProfile(BaseProfile):
                                                         telemetry=ctx.telemetry).run,
                             critical=True),
                 TaskService("vacuum.autostart", autostart, depends_on=("odometry",))]
+
+    def site_facts(self, ctx: RobotContext) -> SiteFacts:
+        """Its odometry pose: no map, so the frame is ``odom`` (where it started)."""
+        odometry = self._odometry
+        if odometry is None:
+            return SiteFacts()
+        pose = odometry.pose()
+        return SiteFacts(x_m=pose.x_m, y_m=pose.y_m, theta_rad=pose.theta_rad, map_name="odom")
 
     def machine_parts(self, ctx: RobotContext) -> tuple[MachinePart, ...]:
         return (self.docking.machine_part(ctx),)

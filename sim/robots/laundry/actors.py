@@ -1,10 +1,11 @@
 """The laundry fleet server inside the simulator, and the people who use it.
 
-``InProcessFleet`` runs the real fleet app on the simulator's event loop (its clock follows
-virtual time); the robots' real HTTP clients reach it through an ASGI transport
-(``sim.actors.asgi_pipe``). Customers and the laundry staff are actors that use the same
-HTTP API a phone app or an admin page would: they create requests, load and unload the robots'
-bins, confirm, cancel, mark washing done and pay, each as their scenario table says.
+``InProcessFleet`` (``sim.actors.fleet_server``) runs the real fleet app on the simulator's
+event loop (its clock follows virtual time); the robots' real HTTP clients reach it through an
+ASGI transport (``sim.actors.asgi_pipe``). Customers and the laundry staff are actors that use
+the same HTTP API a phone app or an admin page would: they create requests, load and unload
+the robots' bins, confirm, cancel, mark washing done and pay, each as their scenario table
+says.
 
 Everyone holds a token like on a real site: each robot of the site its own (in a file its
 ``fleet.token_file`` names), each customer its own, the laundry staff an admin token. They
@@ -14,88 +15,28 @@ are random for each run and seeded through the site (stored hashed, as always).
 from __future__ import annotations
 
 import asyncio
-import secrets
 from collections.abc import Callable
-from dataclasses import dataclass, replace
-from datetime import datetime
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any
 
 import httpx
 import structlog
 
-from fleet.app import create_app
-from fleet.clock import loop_clock
-from fleet.site import Site
 from robotd.config.settings import Settings
 from sim.actors import ActorContext, ActorTask
-from sim.actors.asgi_pipe import AsgiPipe
+from sim.actors.fleet_server import FLEET_URL, InProcessFleet
 from sim.rig import SimRig
 from sim.scenario import read_beside
 
 log = structlog.get_logger(__name__)
 
+__all__ = ["FLEET_URL", "InProcessFleet", "LaundryActors", "send_poll"]
+
 ACTIVE = {"Pending", "Accepted", "ArrivedAtRoom", "LaundryLoaded",
           "FinishedWashingGoingToRoom", "FinishedWashingArrivedAtRoom",
           "FinishedWashingGoingToBase"}
-FLEET_URL = "http://fleet.sim"
 Record = Callable[[dict[str, Any]], None]
 SetPayload = Callable[[str, float], None]
-
-
-class InProcessFleet:
-    """The fleet app on this loop, a SQLite file in the run's work directory. ``client`` is
-    the laundry staff's (an admin token); ``customer_client(id)`` a customer's own."""
-
-    def __init__(self, workdir: Path, site: Site, settings: dict[str, Any],
-                 origin: datetime) -> None:
-        loop = asyncio.get_running_loop()
-        self._tokens: dict[tuple[str, str], str] = {
-            ("admin", "laundry-staff"): secrets.token_urlsafe(32),
-            **{("robot", str(r["name"])): secrets.token_urlsafe(32) for r in site.robots},
-            **{("customer", str(c["id"])): secrets.token_urlsafe(32)
-               for c in site.customers if "id" in c},
-        }
-        site = replace(site, tokens=[*site.tokens, *(
-            {"role": role, "subject": subject, "token": token}
-            for (role, subject), token in self._tokens.items())])
-        self._token_dir = workdir / "fleet-tokens"
-        self.app = create_app(f"sqlite:///{workdir / 'fleet.db'}", site=site,
-                              clock=loop_clock(origin, loop.time), settings=settings,
-                              inline_sqlite=True)
-        self.transport = AsgiPipe(self.app)
-        self.client = self._client(self._tokens[("admin", "laundry-staff")])
-        self._clients = [self.client]
-
-    def _client(self, token: str | None) -> httpx.AsyncClient:
-        headers = {"Authorization": f"Bearer {token}"} if token else None
-        return httpx.AsyncClient(transport=self.transport, base_url=FLEET_URL, headers=headers)
-
-    def customer_client(self, customer_id: int) -> httpx.AsyncClient:
-        """A client with this customer's own token (none if the site has no such customer)."""
-        client = self._client(self._tokens.get(("customer", str(customer_id))))
-        self._clients.append(client)
-        return client
-
-    def robot_token_file(self, robot: str) -> Path | None:
-        """A file (mode 0600) holding this robot's token, for its ``fleet.token_file``; None
-        for a robot the site does not have."""
-        token = self._tokens.get(("robot", robot))
-        if token is None:
-            return None
-        self._token_dir.mkdir(mode=0o700, exist_ok=True)
-        path = self._token_dir / robot
-        path.touch(mode=0o600)
-        path.write_text(token + "\n", encoding="ascii")
-        return path
-
-    async def start(self) -> None:
-        await self.app.state.fleet.start()
-
-    async def close(self) -> None:
-        for client in self._clients:
-            await client.aclose()
-        await self.app.state.fleet.stop()
 
 
 @dataclass
@@ -396,7 +337,7 @@ class LaundryActors:
         site = parse_site(read_beside(ctx.scenario, str(table.get("site", ""))),
                           str(table.get("site")))
         self.fleet = InProcessFleet(ctx.workdir, site, dict(table.get("settings", {})),
-                                    ctx.origin)
+                                    ctx.origin, staff="laundry-staff")
         plans = [CustomerPlan.from_table(t, f"fleet.customers[{i}]")
                  for i, t in enumerate(table.get("customers", []))]
         self.customers = [Customer(p, self.fleet.customer_client(p.customer), ctx.record,

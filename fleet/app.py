@@ -33,6 +33,7 @@ from fleet.console import robot_pages as console_robots
 from fleet.console import settings_page as console_settings
 from fleet.console import site_map as console_site
 from fleet.console import staff as console_staff
+from fleet.console.request_push import RequestChanges
 from fleet.console.robot_push import RobotChanges
 from fleet.console.web import cookie_caller, is_console_path
 from fleet.server import FleetServer
@@ -113,6 +114,7 @@ def create_app(
                     console_site, console_robots, console_settings):
         app.include_router(console.router)
     server.events.add_poller(RobotChanges(server.db, server.clock))
+    server.events.add_poller(RequestChanges(server.db, server.clock))
     add_error_handlers(app)
     add_offline_docs(app)
 

@@ -3,10 +3,10 @@
 ``EventHub`` feeds ``GET /api/events``. It reads the ``notifications`` table in id order (every
 notification is created in a serialized write transaction, so ids grow in commit order, across
 server processes too): at once when this process commits one, and every ``poll_s`` for those
-of other processes. It runs only while someone listens. Staff listeners also get what its
-pollers find each pass (``add_poller``: e.g. the console's ``robots`` event when a robot's
-state, place or fault changed), at most once every ``poll_s / 2``: one cheap read a pass for
-the whole process.
+of other processes. It runs only while someone listens. Listeners that follow them also get
+what its pollers find each pass (``add_poller``), at most once every ``poll_s / 2``: one cheap
+read a pass for the whole process: staff the console's ``robots`` event when a robot's state,
+place or fault changed, a customer the ``request`` event when one of its requests did.
 
 ``Webhooks`` POSTs each notification this process creates (so behind a load balancer each is
 sent once) to every URL of the ``WebhookUrls`` setting, from a bounded queue on its own task
@@ -38,11 +38,12 @@ Filter = Callable[[NotificationOut], bool]
 
 @dataclass(frozen=True)
 class StaffEvent:
-    """A pushed event that is no notification, for staff listeners only: its SSE event name
-    and its JSON body."""
+    """A pushed event that is no notification: its SSE event name and JSON body, for the
+    staff listeners that follow them (``customer_id`` None) or for that customer's."""
 
     event: str
     data: str
+    customer_id: int | None = None
 
 
 Pushed = NotificationOut | StaffEvent
@@ -54,6 +55,7 @@ Poller = Callable[[], Awaitable[list[StaffEvent]]]
 class _Subscriber:
     wants: Filter
     staff: bool = False
+    customer_id: int | None = None
     queue: asyncio.Queue[Pushed | None] = field(
         default_factory=lambda: asyncio.Queue(maxsize=1000))
 
@@ -85,12 +87,13 @@ class EventHub:
             self._wake.set()
 
     @contextlib.asynccontextmanager
-    async def subscribe(self, wants: Filter, *, staff: bool = False
+    async def subscribe(self, wants: Filter, *, staff: bool = False,
+                        customer_id: int | None = None
                         ) -> AsyncIterator[asyncio.Queue[Pushed | None]]:
-        """A queue of the notifications created from now on that ``wants`` accepts, and (for
-        ``staff``) the pollers' events (None: the hub stopped, or the listener fell too far
-        behind)."""
-        subscriber = _Subscriber(wants, staff)
+        """A queue of the notifications created from now on that ``wants`` accepts, and the
+        pollers' events for staff (``staff``) or for this customer (``customer_id``) (None:
+        the hub stopped, or the listener fell too far behind)."""
+        subscriber = _Subscriber(wants, staff, customer_id)
         if self._task is None or self._task.done():
             self._last_id = await self._newest_id()
             self._subscribers.add(subscriber)
@@ -133,7 +136,7 @@ class EventHub:
     async def _poll(self) -> None:
         loop = asyncio.get_running_loop()
         if not self._pollers or loop.time() - self._polled_at < self.poll_s / 2 or not any(
-                s.staff for s in self._subscribers):
+                s.staff or s.customer_id is not None for s in self._subscribers):
             return
         self._polled_at = loop.time()
         for poller in self._pollers:
@@ -144,7 +147,9 @@ class EventHub:
                 continue
             for event in found:
                 for subscriber in list(self._subscribers):
-                    if subscriber.staff and not _offer(subscriber, event):
+                    if not _for(subscriber, event):
+                        continue
+                    if not _offer(subscriber, event):
                         self._subscribers.discard(subscriber)
                         log.warning("fleet.events.listener_dropped", reason="too far behind")
 
@@ -163,6 +168,12 @@ class EventHub:
                         log.warning("fleet.events.listener_dropped", reason="too far behind")
             if len(rows) < self.BATCH:
                 return
+
+
+def _for(subscriber: _Subscriber, event: StaffEvent) -> bool:
+    if event.customer_id is None:
+        return subscriber.staff
+    return subscriber.customer_id == event.customer_id
 
 
 def _offer(subscriber: _Subscriber, item: Pushed | None) -> bool:

@@ -49,6 +49,12 @@ def add_arguments(sim: argparse.ArgumentParser) -> None:
     sim.add_argument("--viz-port", type=int, default=8765, metavar="PORT",
                      help="the live view's port, 0 for any free one (default: %(default)s)")
     sim.add_argument("--quiet", action="store_true", help="print only the result")
+    sim.add_argument("--fleet-url", metavar="URL",
+                     help="the robots report to this fleet server (robotd-fleet serve) instead "
+                          "of the scenario's own; its people are real (run with --realtime or "
+                          "--speed)")
+    sim.add_argument("--fleet-token-file", metavar="FILE",
+                     help="the robots' token for --fleet-url (one for all robots)")
     sim.add_argument("--mcu", choices=("fake", "simavr"), default="fake",
                      help="motor board: the Python fake MCU or the firmware in simavr")
 

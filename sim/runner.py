@@ -195,7 +195,10 @@ async def _simulate(args: argparse.Namespace, scenario: Scenario, console: SimCo
         settings_of = [robot_settings(scenario, spec, getattr(args, "config", None))
                        for spec in scenario.robots]
         context = ActorContext(scenario, workdir, origin, lambda ev: on_event("", ev),
-                               set_payload, robot_room, payload_kg)
+                               set_payload, robot_room, payload_kg,
+                               lambda n: robots[n].record.state if n in robots else None,
+                               getattr(args, "fleet_url", None),
+                               getattr(args, "fleet_token_file", None))
         actors_of: dict[str, SimActors | None] = {}
         for settings in settings_of:
             name = settings.get("robot.profile")

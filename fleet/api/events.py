@@ -24,7 +24,8 @@ _STREAM: dict[int | str, dict[str, Any]] = {200: {"description": (
     "text/event-stream: one event per notification (`id`: its Id, `event`: its Kind, "
     "`data`: the notification as JSON, as in GET /api/notifications); for staff with "
     "`?robots=true` also `event: robots` (`data`: `{\"Robots\": [...]}`, the robots "
-    "whose state, place or fault changed); comment lines "
+    "whose state, place or fault changed), for a customer with `?requests=true` "
+    "`event: request` (`data`: `{\"Id\": N, \"Status\": S}`); comment lines "
     "(`: ...`) when subscribed and every 15 s"),
     "content": {"text/event-stream": {"schema": {"type": "string"}}}}}
 
@@ -35,12 +36,17 @@ async def events(
     robots: Annotated[bool, Query(description=(
         "staff only: also `event: robots` whenever a robot's state, place or fault "
         "changes (the console's site map)"))] = False,
+    requests: Annotated[bool, Query(description=(
+        "customers only: also `event: request` whenever one of the caller's requests "
+        "changes status (the console's phone page)"))] = False,
 ) -> StreamingResponse:
     """Notifications pushed as they are created, from the subscription on: a customer gets
     its own (those addressed to it), the staff all. Missed ones (a dropped connection) are
     in GET /api/notifications (staff) and in the request itself (customers)."""
     return StreamingResponse(
-        _stream(http, _filter(caller), staff=robots and caller.role == Role.ADMIN),
+        _stream(http, _filter(caller), staff=robots and caller.role == Role.ADMIN,
+                customer_id=caller.customer_id if requests and caller.role == Role.CUSTOMER
+                else None),
         media_type="text/event-stream",
         headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
 
@@ -52,8 +58,10 @@ def _filter(caller: Principal) -> Filter:
     return lambda n: n.Recipient == "customer" and n.CustomerId == customer_id
 
 
-async def _stream(http: HttpRequest, wants: Filter, *, staff: bool) -> AsyncIterator[bytes]:
-    async with server_of(http).events.subscribe(wants, staff=staff) as queue:
+async def _stream(http: HttpRequest, wants: Filter, *, staff: bool,
+                  customer_id: int | None) -> AsyncIterator[bytes]:
+    async with server_of(http).events.subscribe(wants, staff=staff,
+                                                customer_id=customer_id) as queue:
         yield b": subscribed\n\n"
         while True:
             try:

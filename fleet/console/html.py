@@ -22,9 +22,10 @@ STAFF_LINKS = (("/", "Requests"), ("/site", "Site map"), ("/settings", "Settings
 
 
 def page(title: str, body: str, *, user: str | None = None, csrf: str | None = None,
-         live: bool = False, staff: bool = False) -> str:
+         live: bool = False, staff: bool = False, follow: str | None = None) -> str:
     """A whole page; ``live``: the script that follows ``GET /api/events`` and re-fetches
-    each ``data-live`` section when something happens; ``staff``: the staff pages' links."""
+    each ``data-live`` section when something happens (``follow``: also the ``robots`` or
+``request`` events of ``GET /api/events``); ``staff``: the staff pages' links."""
     links = "".join(f'<a href="{href}">{esc(text)}</a>' for href, text in STAFF_LINKS) \
         if staff else ""
     logout = ""
@@ -32,13 +33,15 @@ def page(title: str, body: str, *, user: str | None = None, csrf: str | None = N
         logout = (f'<span class="user">{esc(user)}</span>'
                   + button_form("/logout", "Log out", csrf, css="link"))
     script = '<script src="/static/console.js" defer></script>' if live else ""
-    follow = ' data-robots="follow"' if staff and live else ""
+    if staff and live:
+        follow = "robots"
+    followed = f' data-follow="{esc(follow)}"' if live and follow else ""
     return f"""<!doctype html>
 <html lang="en"><head><meta charset="utf-8">
 <meta name="viewport" content="width=device-width, initial-scale=1">
 <title>{esc(title)}</title>
 <link rel="stylesheet" href="/static/console.css">{script}
-</head><body{follow}>
+</head><body{followed}>
 <header><h1>{esc(title)}</h1><nav>{links}{logout}</nav></header>
 <main>{body}</main>
 </body></html>

@@ -41,8 +41,10 @@
   // Server-Sent Events read with fetch: EventSource only delivers events by their name, and
   // every notification kind is a name of its own.
   async function listen() {
-    // Staff pages also follow the robots (their state, place and fault: the site map).
-    const url = document.body.dataset.robots ? "/api/events?robots=true" : "/api/events";
+    // Staff pages also follow the robots (their state, place and fault: the site map), the
+    // customer's page its requests' statuses (not every change notifies the customer).
+    const follow = document.body.dataset.follow;
+    const url = follow ? `/api/events?${follow}=true` : "/api/events";
     const response = await fetch(url, {
       credentials: "same-origin", headers: { Accept: "text/event-stream" } });
     if (response.status === 401) { window.location.assign("/login"); return false; }

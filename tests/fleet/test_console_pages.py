@@ -15,6 +15,7 @@ from conftest import MakeFleet
 from fleet_harness import SITE_TOML, Fleet, loaded, offline
 from test_console_http import browser, logged_in
 
+from fleet.console.request_push import RequestChanges
 from fleet.console.robot_push import RobotChanges
 from fleet.console.robot_views import RobotView, place_rooms, robot_views
 from fleet.console.site_svg import loop_point, room_places
@@ -93,6 +94,31 @@ class TestRobotsEvent:
             while not hasattr(item, "event"):
                 item = await staff.get()
             assert customer.empty()
+
+
+class TestRequestEvent:
+    async def test_a_customer_is_told_each_status_of_its_own_requests(
+            self, fleet: Fleet) -> None:
+        """Reaching the laundry room notifies only the staff; the request event tells the
+        customer's page, and no other customer's."""
+        changes = RequestChanges(fleet.server.db, fleet.server.clock)
+        request_id = await loaded(fleet)
+        [event] = await changes()
+        assert (event.event, event.customer_id) == ("request", 1)
+        assert json.loads(event.data) == {"Id": request_id, "Status": "LaundryLoaded"}
+        assert await changes() == []
+        await fleet.arrive_at_base("robot-1", weight_kg=3.0)
+        [event] = await changes()
+        assert json.loads(event.data)["Status"] == "Washing"
+        hub = fleet.server.events
+        hub.poll_s = 0.05
+        async with hub.subscribe(lambda _n: False, customer_id=1) as mine, \
+                hub.subscribe(lambda _n: False, customer_id=2) as theirs:
+            await fleet.unloaded("robot-1")
+            await fleet.do(request_id, "washing-done")
+            item = await mine.get()
+            assert item is not None and getattr(item, "event", None) == "request"
+            assert theirs.empty()
 
 
 class TestSiteMap:

@@ -97,7 +97,7 @@ def marker(view: RobotView, x: float, y: float, heading_rad: float | None = None
             f'data-robot="{esc(view.name)}" data-condition="{view.condition}" '
             f'data-place="{esc(view.place or "")}" transform="translate({x:.1f},{y:.1f})">'
             f'{heading}<circle r="11"/><text class="name" y="-16">{esc(view.name)}</text>'
-            f'<text class="about" y="27">{esc((battery + fault).strip())}</text>'
+            f'<text class="about" x="16" y="5">{esc((battery + fault).strip())}</text>'
             f"<title>{esc(view.name)}: {esc(view.state or '?')} ({view.condition})</title></g>")
 
 

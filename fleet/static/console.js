@@ -107,7 +107,8 @@
     label.textContent = name;
     const about = document.createElementNS(SVG, "text");
     about.setAttribute("class", "about");
-    about.setAttribute("y", "27");
+    about.setAttribute("x", "16");
+    about.setAttribute("y", "5");
     g.append(circle, label, about);
     svg.appendChild(g);
     return g;

@@ -156,6 +156,8 @@ class TestTheWholeLifecycleInTheBrowser:
 
             # At base the staff empty it and wash; then they mark it washed.
             assert "being washed" in both_show(staff, phone, "Washing")
+            wait_for(staff, '#board tr[data-status=Washing] [data-action="washing-done"]')
+            screenshot(staff, "console-staff.png")
             click(staff, '#board tr[data-status=Washing] [data-action="washing-done"]')
             after_own_post(staff)
             assert "on its way back" in both_show(staff, phone, "FinishedWashingGoingToRoom")
@@ -165,7 +167,6 @@ class TestTheWholeLifecycleInTheBrowser:
             click(phone, '[data-action="confirm-unloaded"]')
             after_own_post(phone)
             both_show(staff, phone, "FinishedWashingGoingToBase")
-            screenshot(staff, "console-staff.png")
             screenshot(phone, "console-customer.png")
 
             assert "Done" in both_show(staff, phone, "Completed")

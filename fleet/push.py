@@ -4,7 +4,7 @@
 notification is created in a serialized write transaction, so ids grow in commit order, across
 server processes too): at once when this process commits one, and every ``poll_s`` for those
 of other processes. It runs only while someone listens. Listeners that follow them also get
-what its pollers find each pass (``add_poller``), at most once every ``poll_s / 2``: one cheap
+what its pollers find each pass (``add_poller``), at most about once every ``poll_s``: one cheap
 read a pass for the whole process: staff the console's ``robots`` event when a robot's state,
 place or fault changed, a customer the ``request`` event when one of its requests did.
 
@@ -135,7 +135,7 @@ class EventHub:
 
     async def _poll(self) -> None:
         loop = asyncio.get_running_loop()
-        if not self._pollers or loop.time() - self._polled_at < self.poll_s / 2 or not any(
+        if not self._pollers or loop.time() - self._polled_at < self.poll_s * 0.9 or not any(
                 s.staff or s.customer_id is not None for s in self._subscribers):
             return
         self._polled_at = loop.time()

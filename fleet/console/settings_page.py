@@ -47,7 +47,7 @@ def _kind(annotation: Any) -> str:
     return "urls" if get_args(annotation) else "text"
 
 
-def _shown(key: str, value: Any) -> str:
+def _shown(value: Any) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, tuple | list):
@@ -102,7 +102,7 @@ def _field(key: str, annotation: Any, value: str, problem: str | None) -> str:
 def settings_form(current: dict[str, Any], csrf: str, sent: dict[str, str] | None = None,
                   problems: dict[str, str] | None = None) -> str:
     sent, problems = sent or {}, problems or {}
-    rows = "".join(_field(key, annotation, sent.get(key, _shown(key, current.get(key))),
+    rows = "".join(_field(key, annotation, sent.get(key, _shown(current.get(key))),
                           problems.get(key)) for key, annotation in FIELDS)
     return (f'<form method="post" action="/settings" class="settings">'
             f'<input type="hidden" name="csrf" value="{esc(csrf)}">'

@@ -19,6 +19,7 @@ from fleet.console.request_push import RequestChanges
 from fleet.console.robot_push import RobotChanges
 from fleet.console.robot_views import RobotView, place_rooms, robot_views
 from fleet.console.site_svg import loop_point, room_places
+from fleet.site import SiteError, load_site, parse_site
 
 
 async def views(fleet: Fleet) -> dict[str, RobotView]:
@@ -180,6 +181,24 @@ class TestSiteMap:
         posed = RobotView("r", "x", "s", False, None, None, 50.0, 1.0, 0.0, 0.0, "yard", None,
                           None, True, None)
         assert 'transform="translate(20.0,20.0)"' in picture(site_map, [posed])
+
+
+    def test_a_bad_map_is_named_and_the_schematic_shown(self, tmp_path: Path) -> None:
+        with pytest.raises(SiteError, match=r"site: map: must be the path of a map YAML"):
+            parse_site("map = 3\n", "site")
+        (tmp_path / "site.toml").write_text('map = "maps/none.yaml"\n')
+        assert load_site(tmp_path / "site.toml").map == tmp_path / "maps/none.yaml"
+
+    async def test_a_map_that_cannot_be_read_does_not_break_the_page(
+            self, db_url: str, tmp_path: Path) -> None:
+        (tmp_path / "bad.yaml").write_text("image: gone.pgm\nresolution: 0.05\n"
+                                           "origin: [0, 0, 0]\n")
+        async with Fleet(db_url, site_toml=f'map = "{tmp_path / "bad.yaml"}"\n' + SITE_TOML
+                         ) as fleet, logged_in(fleet, "admin", "staff") as (client, _):
+            page = await client.get("/site")
+            assert page.status_code == 200
+            assert "cannot read" in page.text and 'class="schematic"' in page.text
+            assert (await client.get("/console/site/map.png")).status_code == 404
 
 
 class TestRobotPage:

@@ -64,7 +64,10 @@ async def _drawing(http: HttpRequest, views: list[RobotView]) -> str:
     except MapError as exc:
         return f'<p class="error">{esc(exc)}</p>' + await _schematic(http, views)
     if site_map is not None:
-        return site_svg.picture(site_map, views)
+        unposed = [v.name for v in views if v.x_m is None or v.y_m is None]
+        note = (f'<p class="note" id="no-pose">Without a pose on the map (see the table): '
+                f'{esc(", ".join(unposed))}</p>' if unposed else "")
+        return site_svg.picture(site_map, views) + note
     return await _schematic(http, views)
 
 

@@ -170,6 +170,7 @@ class TestSiteMap:
             page = (await client.get("/site")).text
             assert 'class="picture"' in page
             assert 'viewBox="0 0 60 40"' in page
+            assert "Without a pose on the map (see the table): robot-1, robot-2" in page
             png = await client.get("/console/site/map.png")
             assert png.headers["content-type"] == "image/png"
             decoded = cv2.imdecode(np.frombuffer(png.content, np.uint8), cv2.IMREAD_GRAYSCALE)

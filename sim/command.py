@@ -61,6 +61,12 @@ def add_arguments(sim: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the scenario: 0 success, 1 a condition failed, 2 bad input, 130 interrupted."""
+    if getattr(args, "fleet_url", None) and not (args.realtime or args.speed):
+        # A virtual clock races ahead of the server's wall clock: reports would flood it and
+        # its timeouts would never come.
+        print("robotd sim: --fleet-url needs --realtime or --speed X (the server keeps the "
+              "wall clock)")
+        return 2
     from sim.runner import run_sim  # the daemon, the drivers, the live view: only to run
 
     code: int = run_sim(args)

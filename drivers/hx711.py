@@ -36,6 +36,7 @@ from hal.tasks import cancel_and_wait
 log = structlog.get_logger(__name__)
 
 MAX_SCK_HIGH_US = 60  # HX711: PD_SCK high for > 60 us enters power-down
+RESET_HOLD_S = 100e-6  # PD_SCK held high this long to reset a stuck chip (> 60 us)
 SATURATED_HIGH = 0x7FFFFF
 SATURATED_LOW = -0x800000
 MIN_CALIBRATION_COUNTS = 1000  # a calibration mass must move the code well above the noise
@@ -304,6 +305,7 @@ class Hx711:
         if not await wait_dout_low(self._lines, self.timeout_s, from_s=from_s):
             self.counts["timeouts"] += 1
             log.warning("hx711.timeout", waited_s=self.timeout_s)
+            await self._reset_chip()
             return None
         code: int | None = None
         try:
@@ -322,6 +324,18 @@ class Hx711:
         if code is not None:
             self._settle_timer = loop.call_at(settle_s, self._settle, code)
         return settle_s
+
+    async def _reset_chip(self) -> None:
+        """HX711: a read broken off (the reader stalled a whole conversion period between
+        two pulses, so the chip took the next pulse as a new read's first) leaves DOUT
+        holding a data bit, high for good if that bit is 1. PD_SCK held high over 60 us
+        powers the chip down and low again resets it: it settles and converts anew (on A/128:
+        the first read after it is dropped)."""
+        assert self._lines is not None
+        self._lines.set_sck(True)
+        await asyncio.sleep(RESET_HOLD_S)
+        self._lines.set_sck(False)
+        self._discard_next = 1
 
     def _settle(self, code: int) -> None:
         """A read's code, a conversion period after the read: filter it, publish the weight."""

@@ -29,7 +29,12 @@ from fleet.clock import Clock
 from fleet.console import assets as console_assets
 from fleet.console import customer as console_customer
 from fleet.console import login as console_login
+from fleet.console import robot_pages as console_robots
+from fleet.console import settings_page as console_settings
+from fleet.console import site_map as console_site
 from fleet.console import staff as console_staff
+from fleet.console.request_push import RequestChanges
+from fleet.console.robot_push import RobotChanges
 from fleet.console.web import cookie_caller, is_console_path
 from fleet.server import FleetServer
 from fleet.settings import FleetSettings
@@ -105,8 +110,11 @@ def create_app(
     app.include_router(tokens.router)
     app.include_router(alerts.router)
     app.include_router(events.router)
-    for console in (console_login, console_staff, console_customer, console_assets):
+    for console in (console_login, console_staff, console_customer, console_assets,
+                    console_site, console_robots, console_settings):
         app.include_router(console.router)
+    server.events.add_poller(RobotChanges(server.db, server.clock))
+    server.events.add_poller(RequestChanges(server.db, server.clock))
     add_error_handlers(app)
     add_offline_docs(app)
 

@@ -3,7 +3,10 @@
 ``EventHub`` feeds ``GET /api/events``. It reads the ``notifications`` table in id order (every
 notification is created in a serialized write transaction, so ids grow in commit order, across
 server processes too): at once when this process commits one, and every ``poll_s`` for those
-of other processes. It runs only while someone listens.
+of other processes. It runs only while someone listens. Listeners that follow them also get
+what its pollers find each pass (``add_poller``), at most about once every ``poll_s``: one cheap
+read a pass for the whole process: staff the console's ``robots`` event when a robot's state,
+place or fault changed, a customer the ``request`` event when one of its requests did.
 
 ``Webhooks`` POSTs each notification this process creates (so behind a load balancer each is
 sent once) to every URL of the ``WebhookUrls`` setting, from a bounded queue on its own task
@@ -33,10 +36,27 @@ log = structlog.get_logger(__name__)
 Filter = Callable[[NotificationOut], bool]
 
 
+@dataclass(frozen=True)
+class StaffEvent:
+    """A pushed event that is no notification: its SSE event name and JSON body, for the
+    staff listeners that follow them (``customer_id`` None) or for that customer's."""
+
+    event: str
+    data: str
+    customer_id: int | None = None
+
+
+Pushed = NotificationOut | StaffEvent
+Poller = Callable[[], Awaitable[list[StaffEvent]]]
+"""Called once a pass while someone listens; returns what changed since its last call."""
+
+
 @dataclass(eq=False)
 class _Subscriber:
     wants: Filter
-    queue: asyncio.Queue[NotificationOut | None] = field(
+    staff: bool = False
+    customer_id: int | None = None
+    queue: asyncio.Queue[Pushed | None] = field(
         default_factory=lambda: asyncio.Queue(maxsize=1000))
 
 
@@ -55,18 +75,25 @@ class EventHub:
         self._wake = asyncio.Event()
         self._task: asyncio.Task[None] | None = None
         self._last_id = 0
+        self._pollers: list[Poller] = []
+        self._polled_at = float("-inf")
         db.after_commit.append(self._committed)
+
+    def add_poller(self, poller: Poller) -> None:
+        self._pollers.append(poller)
 
     def _committed(self, session: AsyncSession) -> None:
         if self._subscribers and session.info.get(CREATED):
             self._wake.set()
 
     @contextlib.asynccontextmanager
-    async def subscribe(self, wants: Filter) -> AsyncIterator[asyncio.Queue[
-            NotificationOut | None]]:
-        """A queue of the notifications created from now on that ``wants`` accepts (None:
+    async def subscribe(self, wants: Filter, *, staff: bool = False,
+                        customer_id: int | None = None
+                        ) -> AsyncIterator[asyncio.Queue[Pushed | None]]:
+        """A queue of the notifications created from now on that ``wants`` accepts, and the
+        pollers' events for staff (``staff``) or for this customer (``customer_id``) (None:
         the hub stopped, or the listener fell too far behind)."""
-        subscriber = _Subscriber(wants)
+        subscriber = _Subscriber(wants, staff, customer_id)
         if self._task is None or self._task.done():
             self._last_id = await self._newest_id()
             self._subscribers.add(subscriber)
@@ -104,6 +131,27 @@ class EventHub:
                 await self._deliver_new()
             except Exception:
                 log.exception("fleet.events.read_failed")
+            await self._poll()
+
+    async def _poll(self) -> None:
+        loop = asyncio.get_running_loop()
+        if not self._pollers or loop.time() - self._polled_at < self.poll_s * 0.9 or not any(
+                s.staff or s.customer_id is not None for s in self._subscribers):
+            return
+        self._polled_at = loop.time()
+        for poller in self._pollers:
+            try:
+                found = await poller()
+            except Exception:
+                log.exception("fleet.events.poll_failed")
+                continue
+            for event in found:
+                for subscriber in list(self._subscribers):
+                    if not _for(subscriber, event):
+                        continue
+                    if not _offer(subscriber, event):
+                        self._subscribers.discard(subscriber)
+                        log.warning("fleet.events.listener_dropped", reason="too far behind")
 
     async def _deliver_new(self) -> None:
         while True:
@@ -122,7 +170,13 @@ class EventHub:
                 return
 
 
-def _offer(subscriber: _Subscriber, item: NotificationOut | None) -> bool:
+def _for(subscriber: _Subscriber, event: StaffEvent) -> bool:
+    if event.customer_id is None:
+        return subscriber.staff
+    return subscriber.customer_id == event.customer_id
+
+
+def _offer(subscriber: _Subscriber, item: Pushed | None) -> bool:
     try:
         subscriber.queue.put_nowait(item)
     except asyncio.QueueFull:

@@ -125,6 +125,11 @@ class FleetServer:
         self.started = False
         log.info("fleet.stopped")
 
+    @property
+    def site(self) -> Site | None:
+        """The site file given at start (its map, for the console), or None."""
+        return self._site
+
     async def settings(self) -> FleetSettings:
         async with self.db.read() as session:
             return await load_settings(session)

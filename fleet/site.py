@@ -1,6 +1,8 @@
 """The site file: rooms, beacons, customers, robots and settings of one site, in TOML.
 
 ```toml
+map = "depot.yaml"          # optional: the site's map (map_server YAML + PGM), relative to
+                            # this file; the console draws robots with a pose on it
 [settings]
 AutoAccept = true
 
@@ -83,6 +85,8 @@ class Site:
     lines: list[dict[str, Any]] = field(default_factory=list)
     tokens: list[dict[str, Any]] = field(default_factory=list)
     source: str = "<site>"
+    map: Path | None = None
+    """The site map's YAML file (``map = "..."``), relative paths from the site file's folder."""
 
 
 def parse_site(text: str, source: str = "<site>") -> Site:
@@ -99,10 +103,16 @@ def parse_site(text: str, source: str = "<site>") -> Site:
                 msg = f"{source}: settings: must be a table"
                 raise SiteError(msg)
             site.settings = value
+        elif key == "map":
+            if not isinstance(value, str) or not value.strip():
+                msg = f"{source}: map: must be the path of a map YAML file, got {value!r}"
+                raise SiteError(msg)
+            site.map = Path(value)
         elif key in _KEYS:
             setattr(site, key, _entries(source, key, value))
         else:
-            msg = f"{source}: {key}: unknown section (known: settings, {', '.join(_KEYS)})"
+            msg = (f"{source}: {key}: unknown section (known: map, settings, "
+                   f"{', '.join(_KEYS)})")
             raise SiteError(msg)
     return site
 
@@ -152,7 +162,10 @@ def load_site(path: str | Path) -> Site:
     except OSError as exc:
         msg = f"{path}: cannot read: {exc.strerror}"
         raise SiteError(msg) from exc
-    return parse_site(text, str(path))
+    site = parse_site(text, str(path))
+    if site.map is not None and not site.map.is_absolute():
+        site.map = path.parent / site.map
+    return site
 
 
 async def apply_site(session: AsyncSession, now: datetime, site: Site) -> None:

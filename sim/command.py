@@ -49,12 +49,24 @@ def add_arguments(sim: argparse.ArgumentParser) -> None:
     sim.add_argument("--viz-port", type=int, default=8765, metavar="PORT",
                      help="the live view's port, 0 for any free one (default: %(default)s)")
     sim.add_argument("--quiet", action="store_true", help="print only the result")
+    sim.add_argument("--fleet-url", metavar="URL",
+                     help="the robots report to this fleet server (robotd-fleet serve) instead "
+                          "of the scenario's own; its people are real (run with --realtime or "
+                          "--speed)")
+    sim.add_argument("--fleet-token-file", metavar="FILE",
+                     help="the robots' token for --fleet-url (one for all robots)")
     sim.add_argument("--mcu", choices=("fake", "simavr"), default="fake",
                      help="motor board: the Python fake MCU or the firmware in simavr")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the scenario: 0 success, 1 a condition failed, 2 bad input, 130 interrupted."""
+    if getattr(args, "fleet_url", None) and not (args.realtime or args.speed):
+        # A virtual clock races ahead of the server's wall clock: reports would flood it and
+        # its timeouts would never come.
+        print("robotd sim: --fleet-url needs --realtime or --speed X (the server keeps the "
+              "wall clock)")
+        return 2
     from sim.runner import run_sim  # the daemon, the drivers, the live view: only to run
 
     code: int = run_sim(args)

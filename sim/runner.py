@@ -195,7 +195,10 @@ async def _simulate(args: argparse.Namespace, scenario: Scenario, console: SimCo
         settings_of = [robot_settings(scenario, spec, getattr(args, "config", None))
                        for spec in scenario.robots]
         context = ActorContext(scenario, workdir, origin, lambda ev: on_event("", ev),
-                               set_payload, robot_room, payload_kg)
+                               set_payload, robot_room, payload_kg,
+                               lambda n: robots[n].record.state if n in robots else None,
+                               getattr(args, "fleet_url", None),
+                               getattr(args, "fleet_token_file", None))
         actors_of: dict[str, SimActors | None] = {}
         for settings in settings_of:
             name = settings.get("robot.profile")
@@ -293,8 +296,9 @@ async def _simulate(args: argparse.Namespace, scenario: Scenario, console: SimCo
                          for n, r in robots.items()})
     tasks.append(asyncio.create_task(player.run(), name="script"))
     people = [asyncio.create_task(coro, name=name) for a in actors for name, coro in a.people()]
-    tasks += [asyncio.create_task(coro, name=name)
-              for a in actors for name, coro in a.background()]
+    staff = [asyncio.create_task(coro, name=name)
+             for a in actors for name, coro in a.background()]
+    tasks += staff
     # The live view rides on the watch's ticks: a timer of its own would change the run.
     feed = SimFeed(viz, scenario.world, recorder.tracks) if viz is not None else None
 
@@ -351,7 +355,12 @@ async def _simulate(args: argparse.Namespace, scenario: Scenario, console: SimCo
                                _STOP_TIMEOUT_S)
     for task in [*tasks, *people]:
         task.cancel()
-    await asyncio.gather(*tasks, *people, return_exceptions=True)
+    outcomes = await asyncio.gather(*people, *staff, return_exceptions=True)
+    await asyncio.gather(*tasks, return_exceptions=True)
+    # An actor that raised stopped doing its part: say so rather than judge the run without it.
+    extra += [f"actor {task.get_name()} failed: {type(outcome).__name__}: {outcome}"
+              for task, outcome in zip([*people, *staff], outcomes, strict=True)
+              if isinstance(outcome, Exception)]
     for a in actors:
         extra += a.failures()
     extra += player.steps_not_run()

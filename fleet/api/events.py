@@ -4,16 +4,15 @@ from __future__ import annotations
 
 import asyncio
 from collections.abc import AsyncIterator
-from typing import Any
+from typing import Annotated, Any
 
-from fastapi import APIRouter
+from fastapi import APIRouter, Query
 from fastapi import Request as HttpRequest
 from fastapi.responses import StreamingResponse
 
 from fleet.api.auth import CustomerOrAdmin
 from fleet.api.deps import AUTH_ERRORS, server_of
-from fleet.api.schemas import NotificationOut
-from fleet.push import Filter
+from fleet.push import Filter, Pushed, StaffEvent
 from fleet.tokens import Principal, Role
 
 router = APIRouter(prefix="/api", tags=["events"], responses=AUTH_ERRORS)
@@ -23,18 +22,32 @@ KEEPALIVE_S = 15.0
 
 _STREAM: dict[int | str, dict[str, Any]] = {200: {"description": (
     "text/event-stream: one event per notification (`id`: its Id, `event`: its Kind, "
-    "`data`: the notification as JSON, as in GET /api/notifications); comment lines "
+    "`data`: the notification as JSON, as in GET /api/notifications); for staff with "
+    "`?robots=true` also `event: robots` (`data`: `{\"Robots\": [...]}`, the robots "
+    "whose state, place or fault changed), for a customer with `?requests=true` "
+    "`event: request` (`data`: `{\"Id\": N, \"Status\": S}`); comment lines "
     "(`: ...`) when subscribed and every 15 s"),
     "content": {"text/event-stream": {"schema": {"type": "string"}}}}}
 
 
 @router.get("/events", response_class=StreamingResponse, responses=_STREAM)
-async def events(http: HttpRequest, caller: CustomerOrAdmin) -> StreamingResponse:
+async def events(
+    http: HttpRequest, caller: CustomerOrAdmin,
+    robots: Annotated[bool, Query(description=(
+        "staff only: also `event: robots` whenever a robot's state, place or fault "
+        "changes (the console's site map)"))] = False,
+    requests: Annotated[bool, Query(description=(
+        "customers only: also `event: request` whenever one of the caller's requests "
+        "changes status (the console's phone page)"))] = False,
+) -> StreamingResponse:
     """Notifications pushed as they are created, from the subscription on: a customer gets
     its own (those addressed to it), the staff all. Missed ones (a dropped connection) are
     in GET /api/notifications (staff) and in the request itself (customers)."""
     return StreamingResponse(
-        _stream(http, _filter(caller)), media_type="text/event-stream",
+        _stream(http, _filter(caller), staff=robots and caller.role == Role.ADMIN,
+                customer_id=caller.customer_id if requests and caller.role == Role.CUSTOMER
+                else None),
+        media_type="text/event-stream",
         headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
 
 
@@ -45,8 +58,10 @@ def _filter(caller: Principal) -> Filter:
     return lambda n: n.Recipient == "customer" and n.CustomerId == customer_id
 
 
-async def _stream(http: HttpRequest, wants: Filter) -> AsyncIterator[bytes]:
-    async with server_of(http).events.subscribe(wants) as queue:
+async def _stream(http: HttpRequest, wants: Filter, *, staff: bool,
+                  customer_id: int | None) -> AsyncIterator[bytes]:
+    async with server_of(http).events.subscribe(wants, staff=staff,
+                                                customer_id=customer_id) as queue:
         yield b": subscribed\n\n"
         while True:
             try:
@@ -59,7 +74,9 @@ async def _stream(http: HttpRequest, wants: Filter) -> AsyncIterator[bytes]:
             yield encode(item)
 
 
-def encode(item: NotificationOut) -> bytes:
+def encode(item: Pushed) -> bytes:
     """One SSE event (the JSON has no newline in it, so one ``data`` line)."""
+    if isinstance(item, StaffEvent):
+        return f"event: {item.event}\ndata: {item.data}\n\n".encode()
     return (f"id: {item.Id}\nevent: {item.Kind}\ndata: ".encode()
             + item.model_dump_json().encode() + b"\n\n")

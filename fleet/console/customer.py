@@ -121,7 +121,7 @@ async def _me(http: HttpRequest, login: Login, message: str | None = None,
     body = banner(message) + section("mine", "/me/status", "My laundry",
                                      await _status(http, login))
     return html(page("Laundry", body, user=await _name(http, login),
-                     csrf=login.csrf_token, live=True), status_code)
+                     csrf=login.csrf_token, live=True, follow="requests"), status_code)
 
 
 @router.get("/me")

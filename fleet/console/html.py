@@ -17,22 +17,32 @@ def when(moment: datetime | None) -> str:
     return "" if moment is None else moment.strftime("%Y-%m-%d %H:%M:%S UTC")
 
 
+STAFF_LINKS = (("/", "Requests"), ("/site", "Site map"), ("/settings", "Settings"))
+"""The staff pages' links in every staff page's header."""
+
+
 def page(title: str, body: str, *, user: str | None = None, csrf: str | None = None,
-         live: bool = False) -> str:
+         live: bool = False, staff: bool = False, follow: str | None = None) -> str:
     """A whole page; ``live``: the script that follows ``GET /api/events`` and re-fetches
-    each ``data-live`` section when something happens."""
+    each ``data-live`` section when something happens (``follow``: also the ``robots`` or
+``request`` events of ``GET /api/events``); ``staff``: the staff pages' links."""
+    links = "".join(f'<a href="{href}">{esc(text)}</a>' for href, text in STAFF_LINKS) \
+        if staff else ""
     logout = ""
     if user is not None and csrf is not None:
         logout = (f'<span class="user">{esc(user)}</span>'
                   + button_form("/logout", "Log out", csrf, css="link"))
     script = '<script src="/static/console.js" defer></script>' if live else ""
+    if staff and live:
+        follow = "robots"
+    followed = f' data-follow="{esc(follow)}"' if live and follow else ""
     return f"""<!doctype html>
 <html lang="en"><head><meta charset="utf-8">
 <meta name="viewport" content="width=device-width, initial-scale=1">
 <title>{esc(title)}</title>
 <link rel="stylesheet" href="/static/console.css">{script}
-</head><body>
-<header><h1>{esc(title)}</h1><nav>{logout}</nav></header>
+</head><body{followed}>
+<header><h1>{esc(title)}</h1><nav>{links}{logout}</nav></header>
 <main>{body}</main>
 </body></html>
 """

@@ -68,7 +68,7 @@ async def _console(http: HttpRequest, login: Login, message: str | None = None,
             + section("alerts", "/console/alerts", "Open alerts", await _alerts(http, login))
             + section("robots", "/console/robots", "Robots", await _robots(http)))
     return html(page("Laundry - staff console", body, user=login.principal.subject,
-                     csrf=login.csrf_token, live=True), status_code)
+                     csrf=login.csrf_token, live=True, staff=True), status_code)
 
 
 @router.get("/")

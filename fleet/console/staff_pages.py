@@ -7,6 +7,8 @@ allows (``fleet.status.ALLOWED``), each a POST form with the session's CSRF toke
 
 from __future__ import annotations
 
+from urllib.parse import quote
+
 from fleet.api.schemas import AlertOut, RequestOut, RobotOut
 from fleet.console.html import button_form, esc, when
 from fleet.status import ALLOWED, Action, Status
@@ -79,7 +81,7 @@ def _robot_row(robot: RobotOut) -> str:
     fault = ("-" if robot.Fault is None
              else f"{esc(robot.Fault.Code)}: {esc(robot.Fault.Message)}")
     return (f'<tr id="robot-{esc(robot.Name)}" data-status="{esc(robot.Status)}">'
-            f"<td>{esc(robot.Name)}</td>"
+            f'<td><a href="/robots/{esc(quote(robot.Name, safe=""))}">{esc(robot.Name)}</a></td>'
             f'<td><span class="status r-{esc(robot.Status)}">{esc(robot.Status)}</span></td>'
             f"<td>{esc(robot.State or '-')}</td><td>{esc(battery)}</td><td>{fault}</td>"
             f"<td>{esc(robot.WaitingFor or '-')}</td>"

@@ -28,6 +28,8 @@ from fleet.tokens import Principal, Role
 log = structlog.get_logger(__name__)
 
 FORM_TYPE = "application/x-www-form-urlencoded"
+MAX_FORM_FIELDS = 40
+"""The settings form has the most (one a setting and its CSRF token)."""
 # Every console answer: scripts and styles from this server only (no CDN, no inline
 # script), never framed by another site.
 SECURITY_HEADERS = {
@@ -85,7 +87,11 @@ async def read_form(http: HttpRequest) -> dict[str, str]:
     if content_type != FORM_TYPE:
         return {}
     body = (await http.body()).decode("utf-8", "replace")
-    return {key: values[0] for key, values in parse_qs(body, max_num_fields=20).items()}
+    try:
+        fields = parse_qs(body, max_num_fields=MAX_FORM_FIELDS)
+    except ValueError:  # more fields than any console form has: nothing of it is read
+        return {}
+    return {key: values[0] for key, values in fields.items()}
 
 
 async def checked_form(http: HttpRequest, role: Role | None) -> tuple[Login, dict[str, str]]:
@@ -127,8 +133,8 @@ class ConsoleRoute(APIRoute):
 
 # The console's pages and forms: they answer a browser without a session themselves (the
 # login page, 401), so the API's bearer-token middleware lets them through.
-CONSOLE_PATHS = frozenset({"/", "/login", "/logout", "/me"})
-CONSOLE_PREFIXES = ("/console/", "/me/", "/static/")
+CONSOLE_PATHS = frozenset({"/", "/login", "/logout", "/me", "/site", "/settings"})
+CONSOLE_PREFIXES = ("/console/", "/me/", "/static/", "/robots/")
 
 
 def is_console_path(path: str) -> bool:

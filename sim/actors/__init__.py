@@ -41,6 +41,13 @@ class ActorContext:
     what a person on the site sees."""
     payload_kg: Callable[[str], float] = lambda _robot: 0.0
     """What lies in the named robot's bin now."""
+    robot_state: Callable[[str], str | None] = lambda _robot: None
+    """The named robot's state path now (``mission.at_room``), as its daemon last said."""
+    fleet_url: str | None = None
+    """An outside fleet server the robots report to (``robotd sim --fleet-url``), instead of
+    the one the scenario runs in-process: its people are then real ones, in a browser."""
+    fleet_token_file: str | None = None
+    """The robots' token file for that server (``--fleet-token-file``)."""
 
 
 class SimActors(Protocol):

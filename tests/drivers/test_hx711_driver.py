@@ -96,6 +96,33 @@ class TestHx711Driver:
 
         vclock.run(main())
 
+    def test_a_read_broken_off_mid_code_is_reset_and_reading_resumes(self) -> None:
+        """A pulse the driver did not make (a reader stalled a whole conversion between two
+        of its pulses) starts a read; DOUT then holds a 1 bit and never falls. The driver's
+        timeout resets the chip (PD_SCK high over 60 us) and readings come again."""
+        async def main() -> None:
+            body, lines, hx = _rig()
+            hx.tare_offset, hx.calibration_factor = -48_213, 103_500.0
+            body.payload_kg = 2.0
+            await hx.start()
+            await _settle(hx, 3)
+            lines.saturate(high=False)  # the code's first bit is a 1
+
+            def stray_pulse() -> None:
+                lines.pulse_sck()
+                lines.clear_faults()
+
+            lines.on_dout_low(stray_pulse)
+            accepted = hx.counts["accepted"]
+            await asyncio.sleep(3 * hx.timeout_s)
+            assert hx.counts["timeouts"] >= 1
+            assert lines.power_downs >= 1
+            assert abs(await _settle(hx, 5) - 2.0) < 0.02
+            assert hx.counts["accepted"] > accepted
+            await hx.close()
+
+        vclock.run(main())
+
     def test_saturated_input_publishes_nothing_until_it_recovers(self) -> None:
         """Saturated codes are counted and skipped; readings resume when the input is back."""
         async def main() -> None:

@@ -110,11 +110,11 @@ def _free_port() -> int:
         return port
 
 
-@pytest.fixture
-def server(tmp_path: Path) -> Iterator[str]:
-    """A real ``robotd-fleet serve`` on a free port, with the site above."""
+@contextlib.contextmanager
+def fleet_serve(tmp_path: Path, site_text: str) -> Iterator[str]:
+    """A real ``robotd-fleet serve`` on a free port with this site; yields its URL."""
     site = tmp_path / "site.toml"
-    site.write_text(SITE)
+    site.write_text(site_text)
     port = _free_port()
     log = (tmp_path / "fleet.log").open("wb")
     process = subprocess.Popen(
@@ -136,6 +136,13 @@ def server(tmp_path: Path) -> Iterator[str]:
         process.terminate()
         process.wait(10)
         log.close()
+
+
+@pytest.fixture
+def server(tmp_path: Path) -> Iterator[str]:
+    """A real ``robotd-fleet serve`` on a free port, with the site above."""
+    with fleet_serve(tmp_path, SITE) as url:
+        yield url
 
 
 class Robot:
@@ -213,7 +220,7 @@ def not_reloaded(driver: Any) -> bool:
     return bool(driver.execute_script("return window.notReloaded === true;"))
 
 
-def wait_for(driver: Any, css: str) -> str:
+def wait_for(driver: Any, css: str, timeout_s: float = WAIT_S) -> str:
     """The text of what ``css`` finds, once it is there (pushed updates replace elements:
     one replaced while read is read again)."""
 
@@ -224,7 +231,7 @@ def wait_for(driver: Any, css: str) -> str:
         except StaleElementReferenceException:
             return None
 
-    found: str = WebDriverWait(driver, WAIT_S).until(text)
+    found: str = WebDriverWait(driver, timeout_s).until(text)
     return found
 
 

@@ -94,6 +94,12 @@ class TestSim:
         assert (seen["socket"], seen["report"], seen["quiet"], seen["mcu"]) == (
             "/tmp/s", "out", True, "simavr")
 
+    def test_an_outside_fleet_needs_a_paced_clock(self, capsys: pytest.CaptureFixture[str]
+                                                  ) -> None:
+        """--fleet-url on the virtual clock would flood the server: exit 2, saying why."""
+        assert cli.main(["sim", "laundry-console", "--fleet-url", "http://127.0.0.1:1"]) == 2
+        assert "--fleet-url needs --realtime or --speed" in capsys.readouterr().out
+
     def test_realtime_and_speed_exclude_each_other(self) -> None:
         with pytest.raises(SystemExit) as exc:
             cli.main(["sim", "--realtime", "--speed", "2"])

@@ -9,5 +9,5 @@ SIM = SimSlice(actors="sim.robots.laundry.actors:LaundryActors.for_scenario",
                checks=(LaundrySiteCheck(),),
                scenario_tables={"fleet": ("site", "settings", "customers", "washing_s",
                                           "base_room", "unload_after_s", "slow_unloads",
-                                          "slow_unload_s", "fetch_laundry_s")},
+                                          "slow_unload_s", "fetch_laundry_s", "hands")},
                runs_fleet=True)

@@ -26,6 +26,7 @@ from robotd.config.settings import Settings
 from sim.actors import ActorContext, ActorTask
 from sim.actors.fleet_server import FLEET_URL, InProcessFleet
 from sim.rig import SimRig
+from sim.robots.laundry.hands import OutsideFleetActors
 from sim.scenario import read_beside
 
 log = structlog.get_logger(__name__)
@@ -353,8 +354,12 @@ class LaundryActors:
                            fetch_laundry_s=float(table.get("fetch_laundry_s", 20.0)))
 
     @classmethod
-    def for_scenario(cls, ctx: ActorContext) -> LaundryActors | None:
+    def for_scenario(cls, ctx: ActorContext) -> LaundryActors | OutsideFleetActors | None:
+        """The scenario's own server and people, or (``--fleet-url``) only the people's
+        hands around robots that report to an outside server."""
         table = ctx.scenario.raw.get("fleet")
+        if ctx.fleet_url:
+            return OutsideFleetActors(ctx, table if isinstance(table, dict) else {})
         return cls(ctx, table) if isinstance(table, dict) else None
 
     async def start(self) -> None:

@@ -71,7 +71,7 @@ class Teleop:
         state = self.d.state
         if not allowed(state):
             raise RpcError(APP_ERROR, f"drive: refused in state {state}: a technician drives "
-                           "only an idle robot, in maintenance or in robotd map's survey")
+                           "only an idle robot or one in maintenance (robotd map keeps it idle)")
         if self.d.devices.motors is None:
             raise RpcError(APP_ERROR, "drive: this robot has no motors")
         loop = asyncio.get_running_loop()

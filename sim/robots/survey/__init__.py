@@ -1,5 +1,8 @@
-"""The survey mode's simulator slice: the map it makes judged against the world's true cells,
-the hand-over to a profile that drives on that map, and its scenarios (``map-depot``)."""
+"""The survey mode's simulator slice: its map judged, its hand-over, its scenarios.
+
+The map it makes is judged against the world's true cells and its key poses against the true
+ones; ``survey.handover`` restarts the robot as a profile that drives on that map; its
+scenario is ``map-depot``."""
 
 from __future__ import annotations
 

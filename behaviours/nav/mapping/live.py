@@ -34,8 +34,9 @@ from behaviours.nav.mapping.growing_grid import GrowingGrid
 from behaviours.nav.mapping.log_odds import RenderConfig, render
 from behaviours.nav.mapping.mapper import Mapper, MappingConfig
 from behaviours.nav.mapping.scan import Scan, between, compose
-from hal.occupancy_map import OccupancyMap
+from hal.occupancy_map import OCCUPIED, OccupancyMap
 from hal.readings import LidarScan
+from hal.telemetry import NULL_TELEMETRY, Telemetry
 
 log = structlog.get_logger(__name__)
 
@@ -71,7 +72,8 @@ class LiveMapping:
 
     def __init__(self, odometry: Callable[[], Pose], *, config: MappingConfig | None = None,
                  start: Pose = (0.0, 0.0, 0.0), still_m: float = 0.005,
-                 still_rad: float = math.radians(0.3), emit: Emit | None = None) -> None:
+                 still_rad: float = math.radians(0.3), emit: Emit | None = None,
+                 telemetry: Telemetry = NULL_TELEMETRY) -> None:
         self.mapper = Mapper(config)
         self.config = self.mapper.config
         self.render_config = RenderConfig(resolution_m=self.config.resolution_m)
@@ -82,6 +84,7 @@ class LiveMapping:
         self.still_m = still_m
         self.still_rad = still_rad
         self.emit: Emit = emit if emit is not None else _no_event
+        self.telemetry = telemetry
         self._odom0: Pose | None = None
         self._previous: Pose | None = None
         self._still_before = False
@@ -106,6 +109,9 @@ class LiveMapping:
         """Called with each LiDAR scan (on the loop): a key scan when it is one."""
         self.scans_seen += 1
         odom = self.map_odom()
+        if self.telemetry.enabled:  # the live view: the scan where the mapping puts it
+            self.telemetry.scan("scan", scan)
+            self.telemetry.pose("pose", self.pose(), child_frame="base_link")
         previous, self._previous = self._previous, odom
         if previous is None:
             return
@@ -143,6 +149,10 @@ class LiveMapping:
         if loops > self._loops_drawn:
             self.emit("mapping.loop_closed", key_scans=len(self.mapper.key_scans),
                       loops_closed=loops)
+        if self.telemetry.enabled:  # the growing map's walls
+            grid = self.grid
+            self.telemetry.grid("map", grid.occupancy().cells == OCCUPIED,
+                                self.config.resolution_m, (grid.x0, grid.y0))
         self._mark_settled(t_s)
 
     def _key_work(self, scan: Scan) -> None:

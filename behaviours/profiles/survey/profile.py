@@ -87,7 +87,8 @@ class SurveyProfile(BaseProfile):
             p = odometry.pose()
             return (p.x_m, p.y_m, p.theta_rad)
 
-        live = self.live = LiveMapping(odom, start=start, emit=ctx.emit)
+        live = self.live = LiveMapping(odom, start=start, emit=ctx.emit,
+                                       telemetry=ctx.telemetry)
         lidar = d.lidar
 
         async def mapping() -> None:

@@ -36,8 +36,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", help="live: the robot's config file (default "
                         "$ROBOTD_CONFIG or /etc/robotd/robotd.toml)")
     parser.add_argument("--from-log", metavar="FILE",
-                        help="map a recorded CARMEN .clf log (FLASER / ROBOTLASER1 lines) "
-                             "instead of the live robot")
+                        help="map a recorded log instead of the live robot: a CARMEN .clf "
+                             "(FLASER / ROBOTLASER1 lines) or our own run.mcap (/scan, /odom)")
     parser.add_argument("--out", metavar="NAME",
                         help="writes NAME.pgm and NAME.yaml (map_saver's trinary format)")
     parser.add_argument("--trajectory", metavar="OUT",
@@ -64,14 +64,20 @@ def run(args: argparse.Namespace) -> int:
     configure_logging(args.log_level)
     started = time.perf_counter()
     try:
-        recorded = read_clf(args.from_log, flaser_max_range_m=args.flaser_max_range_m)
+        if str(args.from_log).endswith(".mcap"):  # our own recording (robotd/viz)
+            from robotd.mapping.mcap_log import read_mcap
+
+            recorded = read_mcap(args.from_log)
+        else:
+            recorded = read_clf(args.from_log, flaser_max_range_m=args.flaser_max_range_m)
     except OSError as exc:
         print(f"robotd map: {args.from_log}: {exc.strerror or exc}", file=sys.stderr)
         return 2
     read_s = time.perf_counter() - started
     if not recorded.scans:
-        print(f"robotd map: {args.from_log}: no FLASER or ROBOTLASER1 scan in the log",
-              file=sys.stderr)
+        wanted = ("/scan with /odom, taken standing" if str(args.from_log).endswith(".mcap")
+                  else "FLASER or ROBOTLASER1 scan")
+        print(f"robotd map: {args.from_log}: no {wanted} in the log", file=sys.stderr)
         _print_skipped(args.from_log, recorded)
         return 1
     result = build_map(recorded.scans, MappingConfig(resolution_m=args.resolution_m))

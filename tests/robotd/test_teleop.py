@@ -101,3 +101,16 @@ class TestRobotctl:
 
         args = build_parser().parse_args(["map", "save", "depot"])
         assert _request(args) == ("save_map", {"name": "depot"})
+
+    def test_the_keys_mode_steps_speed_and_turn(self) -> None:
+        """w/s step the speed by 5 cm/s, a/d the turn by 0.2 rad/s, space stops, others
+        change nothing; the limits hold."""
+        from robotd.ctl.drive import _key
+
+        assert _key("w", 0.0, 0.0) == (0.05, 0.0)
+        assert _key("s", 0.05, 0.4) == (0.0, 0.4)
+        assert _key("a", 0.1, 0.0) == (0.1, 0.2)
+        assert _key("d", 0.1, 0.0) == (0.1, -0.2)
+        assert _key(" ", 0.3, 1.0) == (0.0, 0.0)
+        assert _key("x", 0.3, 1.0) == (0.3, 1.0)
+        assert _key("w", 1.0, 0.0) == (1.0, 0.0)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 from behaviours.machine_tables import CoreTrigger, RootState
@@ -52,12 +53,16 @@ class RobotContext:
         wall_clock: the one source of wall-clock timestamps.
         emit: records an event (``emit("beacon.arrived", room="A")``).
         telemetry: what behaviours show the live view (``hal.telemetry``; a no-op when off).
+        state_dir: the daemon's state directory.
     """
 
     def __init__(self, devices: Devices, settings: SettingsView, store: KeyValueStore,
                  wall_clock: WallClock, emit: EventSink, *,
-                 telemetry: Telemetry = NULL_TELEMETRY) -> None:
+                 telemetry: Telemetry = NULL_TELEMETRY, state_dir: Path | None = None) -> None:
         self.devices = devices
+        self.state_dir = state_dir
+        """The daemon's state directory (where a profile keeps files it makes: maps), or
+        None when it has none."""
         self.settings = settings
         self.store = store
         self.wall_clock = wall_clock

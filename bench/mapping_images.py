@@ -45,7 +45,10 @@ def _on_truth(made: OccupancyMap, true: OccupancyMap) -> np.ndarray:
 
 def write_images(folder: str, made: OccupancyMap, true: OccupancyMap, truth: Sequence[Pose],
                  mapped: Sequence[Pose], odometry: Sequence[Pose],
-                 figures: dict[str, Any]) -> list[Path]:
+                 figures: dict[str, Any], prefix: str = "mapping-depot",
+                 drive: str = "drive") -> list[Path]:
+    """``PREFIX.png`` (the map with the paths) and ``PREFIX-error.png`` (against the truth);
+    ``drive`` names what made it in the title."""
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
     shade = np.full(made.cells.shape, 0.6)
@@ -57,14 +60,14 @@ def write_images(folder: str, made: OccupancyMap, true: OccupancyMap, truth: Seq
                                 (odometry, "r:", "odometry alone")):
         ax.plot([p[0] for p in poses], [p[1] for p in poses], style, lw=1.2, label=label)
     mapping, odo = figures["mapping_all"], figures["odometry_all"]
-    ax.set_title(f"The depot mapped from a {figures['distance_m']} m drive: relation error "
+    ax.set_title(f"The depot mapped from a {figures['distance_m']} m {drive}: relation error "
                  f"{mapping['cm']} cm / {mapping['deg']} deg (odometry alone {odo['cm']} cm), "
                  f"{figures['loops_closed']} loops closed")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.legend(loc="lower right", fontsize=8)
     fig.tight_layout()
-    first = out / "mapping-depot.png"
+    first = out / f"{prefix}.png"
     fig.savefig(first, dpi=110)
     plt.close(fig)
 
@@ -87,7 +90,7 @@ def write_images(folder: str, made: OccupancyMap, true: OccupancyMap, truth: Seq
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     fig.tight_layout()
-    second = out / "mapping-depot-error.png"
+    second = out / f"{prefix}-error.png"
     fig.savefig(second, dpi=110)
     plt.close(fig)
     return [first, second]

@@ -82,6 +82,10 @@ def _main(argv: list[str] | None) -> int:
     if args.command == "map":
         from robotd.mapping import command as map_command
 
+        if args.from_log is None:  # live: the daemon, on the robot's drivers, mapping
+            from robotd.profiles import MAPPING_PROFILE
+
+            return cmd_run(args, profile=MAPPING_PROFILE)
         return map_command.run(args)
     if args.command == "example-config":
         from robotd.config.example import render_example
@@ -131,7 +135,9 @@ def cmd_probe(args: argparse.Namespace) -> int:
     return run_probe(module.run, options)
 
 
-def cmd_run(args: argparse.Namespace) -> int:
+def cmd_run(args: argparse.Namespace, profile: str | None = None) -> int:
+    """``robotd run``; ``profile``: run this profile instead of ``robot.profile`` (``robotd map``
+    runs the survey on the robot's own config)."""
     from hal.ports import system_wall_clock
     from robotd.config.loader import load_config_and_overrides
     from robotd.control.access import socket_problem
@@ -152,6 +158,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     for problem in ignored:  # tuning kept from before: not worth a robot that does not start
         print(f"{problem} (overrides file ignored; the robot runs on {config_path})",
               file=sys.stderr)
+    if profile is not None:
+        values["robot"]["profile"] = profile
     settings = Settings(values, source=str(config_path))
     configure_logging(settings.get("logging.level"))
     if settings.get("hal.backend") == "sim":
@@ -163,19 +171,19 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"{config_path}: control.socket: {socket_why}", file=sys.stderr)
         return 2
     try:
-        profile = PROFILES.build(settings.get("robot.profile"))
+        robot = PROFILES.build(settings.get("robot.profile"))
     except ValueError as exc:
         print(f"{config_path}: {exc}", file=sys.stderr)
         return 2
     try:
-        devices = build_devices(settings, profile.devices)
+        devices = build_devices(settings, robot.devices)
     except HardwareMissing as exc:
         for missing in exc.problems:
             print(f"robotd: missing device: {missing}", file=sys.stderr)
         return 1
     viz = open_daemon_viz(settings, state_dir, system_wall_clock)  # None while [viz] is off
     try:
-        daemon = Daemon(settings, devices, profile, state_dir=state_dir,
+        daemon = Daemon(settings, devices, robot, state_dir=state_dir,
                         socket_path=settings.get("control.socket"),
                         wall_clock=system_wall_clock, config_path=config_path, freeze_gc=True,
                         telemetry=telemetry_of(viz, settings.get("robot.name")))

@@ -85,7 +85,7 @@ class Daemon:
         self.start_problems: list[str] = []
         self.store = StateStore(self.state_dir / STATE_FILE)
         self.context = RobotContext(devices, settings, self.store, wall_clock, self.emit,
-                                    telemetry=telemetry)
+                                    telemetry=telemetry, state_dir=self.state_dir)
         self.machine = RobotMachine(profile, self.context, on_transition=self._on_transition,
                                     stop_motors=self.stop_motors)
         self.monitor = LoopMonitor(lambda: float(settings.get("supervisor.lag_warn_ms")))

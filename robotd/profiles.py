@@ -15,7 +15,16 @@ from collections.abc import Iterator
 from importlib.metadata import entry_points
 
 from behaviours.profile import Profile, ProfileSpec
-from behaviours.profiles import cabinet, delivery, idle, laundry, patrol, square, vacuum
+from behaviours.profiles import (
+    cabinet,
+    delivery,
+    idle,
+    laundry,
+    patrol,
+    square,
+    survey,
+    vacuum,
+)
 from hal.options import Order, Section
 
 
@@ -81,6 +90,9 @@ DEFAULT_SCENARIO = "laundry"
 DEFAULT_SIM_PROFILE = "square"
 """The profile of a scenario file that names none (``[scenario] profile``)."""
 
+MAPPING_PROFILE = survey.SPEC.name
+"""The profile ``robotd map`` runs (without ``--from-log``): the robot's drivers mapping live."""
+
 PROFILES = ProfileRegistry()
 """The robot profiles this installation knows."""
 PROFILES.register(idle.SPEC)
@@ -90,6 +102,7 @@ PROFILES.register(patrol.SPEC)
 PROFILES.register(vacuum.SPEC)
 PROFILES.register(delivery.SPEC)
 PROFILES.register(cabinet.SPEC)
+PROFILES.register(survey.SPEC)
 
 
 def _register_installed(registry: ProfileRegistry) -> None:

@@ -98,6 +98,31 @@ class DaemonKeeper:
             await down
         log.warning("sim.robot_restarted", robot=name)
 
+    async def replace(self, name: str, changes: dict[str, Any]) -> None:
+        """Stops the robot's daemon in order (as ``systemctl stop`` would) and starts a new one
+        on the same hardware and state directory with ``changes`` (dotted key -> value) laid
+        over its settings: a survey handing over to the profile that drives on its map."""
+        from robotd.config.settings import Settings
+
+        robot = self.robots[name]
+        old = self.tasks[name]
+        # A placeholder first, so the runner does not take the stop for a daemon that died.
+        self.tasks[name] = asyncio.create_task(asyncio.Event().wait(), name=f"daemon.{name}.down")
+        robot.daemon.request_stop()
+        await asyncio.gather(old, return_exceptions=True)
+        values = robot.settings.as_dict()
+        for dotted, value in changes.items():
+            section, _, key = dotted.partition(".")
+            checked, error = Settings.option(dotted).check(value)
+            if error is not None:
+                msg = f"{dotted}: {error}"
+                raise ValueError(msg)
+            values[section][key] = checked
+        robot.settings = Settings(values, source=robot.settings.source)
+        await asyncio.sleep(0)
+        await self.restart(name)
+        log.warning("sim.robot_replaced", robot=name, changes=sorted(changes))
+
     async def close(self) -> None:
         for task in list(self._later):
             task.cancel()

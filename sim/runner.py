@@ -145,7 +145,7 @@ async def _simulate(args: argparse.Namespace, scenario: Scenario, console: SimCo
         if record is not None and "x_m" not in entry and entry.get("kind") != "service":
             pose = record.body.pose
             entry["x_m"], entry["y_m"] = pose.x_m, pose.y_m
-            if str(entry.get("kind", "")).startswith("nav."):  # the truth, beside estimates
+            if str(entry.get("kind", "")).startswith(("nav.", "mapping.")):  # the truth
                 entry["true_heading_deg"] = round(math.degrees(pose.heading_rad), 2)
         if record is not None and entry.get("kind") == "transition":
             dst = str(entry.get("dst", ""))

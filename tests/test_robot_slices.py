@@ -21,7 +21,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("robotd", "hal", "drivers", "behaviours", "sim")
-ROBOTS = ("laundry", "vacuum", "delivery", "cabinet", "patrol", "square")
+ROBOTS = ("laundry", "vacuum", "delivery", "cabinet", "patrol", "square", "survey")
 """Every robot profile but ``idle`` (a root state's name as much as a robot's)."""
 REGISTRY = "robotd/profiles.py"
 SEED_WORDS = {

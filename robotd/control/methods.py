@@ -12,6 +12,7 @@ from robotd.config.screen import clip, read_option_text
 from robotd.control.profile_methods import profile_handlers
 from robotd.control.rpc import APP_ERROR, INVALID_PARAMS, RpcError
 from robotd.control.server import Client, Handler
+from robotd.control.teleop import Teleop
 
 if TYPE_CHECKING:
     from robotd.daemon import Daemon
@@ -23,6 +24,11 @@ MAX_EVENTS = 1000
 def control_handlers(daemon: Daemon) -> dict[str, Handler]:
     """Method name -> handler for the control server: the core's and the profile's own."""
     methods = _Methods(daemon)
+    teleop = Teleop(daemon)
+
+    async def drive(params: dict[str, Any], _client: Client) -> dict[str, Any]:
+        return await teleop.drive(params)
+
     core: dict[str, Handler] = {
         "status": methods.status,
         "sensors": methods.sensors,
@@ -35,6 +41,7 @@ def control_handlers(daemon: Daemon) -> dict[str, Handler]:
         "trigger": methods.trigger,
         "subscribe": methods.subscribe,
         "unsubscribe": methods.unsubscribe,
+        "drive": drive,
     }
     return {**core, **profile_handlers(daemon.profile, daemon.context, core)}
 

@@ -69,6 +69,19 @@ def build_parser() -> argparse.ArgumentParser:
                       help="how far off the position may be (m; default 0.25)")
     pset.add_argument("--sigma-deg", type=float, default=None,
                       help="how far off the heading may be (degrees; default 10)")
+    drive = sub.add_parser("drive", help="drive the robot by hand (idle, maintenance or robotd "
+                           "map only); it stops 0.5 s after the last command")
+    drive.add_argument("--linear", type=float, default=0.0, help="m/s, forward positive")
+    drive.add_argument("--angular", type=float, default=0.0,
+                       help="rad/s, counter-clockwise positive")
+    drive.add_argument("--for", dest="for_s", type=float, default=None, metavar="S",
+                       help="keep driving S seconds (refreshed), then stop")
+    drive.add_argument("--keys", action="store_true", help="drive with the keyboard")
+    map_p = sub.add_parser("map", help="the map robotd map is making")
+    map_sub = map_p.add_subparsers(dest="map_command", required=True, metavar="save")
+    msave = map_sub.add_parser("save", help="map save NAME: NAME.pgm + NAME.yaml into the "
+                               "robot's maps directory")
+    msave.add_argument("name", metavar="NAME")
     for command in profile_commands().values():
         own = sub.add_parser(command.name, help=command.help)
         for option in command.options:
@@ -111,8 +124,17 @@ def main(argv: list[str] | None = None) -> int:
             from robotd.ctl.watch import watch
 
             return watch(conn, args.interval, sys.stdout)
+        if args.command == "drive":
+            from robotd.ctl.drive import drive_for, drive_keys
+
+            if args.keys:
+                return drive_keys(conn, sys.stdout)
+            result = drive_for(conn, args.linear, args.angular, args.for_s)
+            print(json.dumps(result, indent=2) if args.json else render("drive", result),
+                  end="\n" if args.json else "")
+            return EXIT_OK
         method, params = _request(args)
-        if args.command == "pose":  # the method is the running profile's own
+        if args.command in ("pose", "map"):  # the method is the running profile's own
             method = f"{conn.call('status', {}).get('profile')}.{method}"
         result = conn.call(method, params)
         if args.json:
@@ -173,6 +195,8 @@ def _request(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
         if args.sigma_deg is not None:
             params["sigma_deg"] = args.sigma_deg
         return "set_pose", params
+    if args.command == "map":
+        return "save_map", {"name": args.name}
     own = profile_commands().get(args.command)
     if own is not None:
         return own.method, {o.param: getattr(args, o.param) for o in own.options}

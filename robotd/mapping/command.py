@@ -1,4 +1,10 @@
-"""``robotd map --from-log FILE --out NAME [--trajectory OUT]``: mapping over a recorded log.
+"""``robotd map``: the robot maps its site live; ``--from-log FILE --out NAME [--trajectory OUT]``
+maps a recorded log offline.
+
+Without ``--from-log`` it is ``robotd run`` with the ``survey`` profile (``robotd.cli``): the
+robot's real drivers (its LD19, its motor board's wheel odometry) feed the mapping core live,
+a technician drives it with ``robotctl drive`` and saves the map with ``robotctl map save
+NAME``; ``robotctl status`` shows the key scans, the loops closed and the map's size.
 
 Reads a CARMEN ``.clf`` log (``robotd.mapping.clf``), maps it (``behaviours.nav.mapping``) as
 fast as it can, writes the map as ``NAME.pgm`` + ``NAME.yaml`` and, with ``--trajectory``, the
@@ -21,15 +27,18 @@ import structlog
 from behaviours.nav.icp import Pose
 from robotd.mapping.clf import FLASER_MAX_RANGE_M, ClfLog, read_clf
 
-HELP = "build a map from a recorded log (CARMEN .clf)"
+HELP = "make a map: live on the robot (robotctl drive, robotctl map save) or from a log"
 log = structlog.get_logger(__name__)
 SHOWN_SKIPPED = 5
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--from-log", required=True, metavar="FILE",
-                        help="a CARMEN .clf log (FLASER / ROBOTLASER1 lines)")
-    parser.add_argument("--out", required=True, metavar="NAME",
+    parser.add_argument("--config", help="live: the robot's config file (default "
+                        "$ROBOTD_CONFIG or /etc/robotd/robotd.toml)")
+    parser.add_argument("--from-log", metavar="FILE",
+                        help="map a recorded log instead of the live robot: a CARMEN .clf "
+                             "(FLASER / ROBOTLASER1 lines) or our own run.mcap (/scan, /odom)")
+    parser.add_argument("--out", metavar="NAME",
                         help="writes NAME.pgm and NAME.yaml (map_saver's trinary format)")
     parser.add_argument("--trajectory", metavar="OUT",
                         help="writes every scan's optimised pose: 'timestamp x y theta' lines")
@@ -43,22 +52,32 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """``robotd map --from-log``; the live mode is ``robotd.cli``'s (it runs the daemon)."""
+    if not args.out:
+        print("robotd map: --from-log needs --out NAME", file=sys.stderr)
+        return 2
     # SciPy and the matcher are loaded here, not when the command line is built.
+    from behaviours.nav.mapping.map_save import write_map
     from behaviours.nav.mapping.mapper import MappingConfig, build_map
     from robotd.logs import configure_logging
-    from robotd.mapping.map_save import write_map
 
     configure_logging(args.log_level)
     started = time.perf_counter()
     try:
-        recorded = read_clf(args.from_log, flaser_max_range_m=args.flaser_max_range_m)
+        if str(args.from_log).endswith(".mcap"):  # our own recording (robotd/viz)
+            from robotd.mapping.mcap_log import read_mcap
+
+            recorded = read_mcap(args.from_log)
+        else:
+            recorded = read_clf(args.from_log, flaser_max_range_m=args.flaser_max_range_m)
     except OSError as exc:
         print(f"robotd map: {args.from_log}: {exc.strerror or exc}", file=sys.stderr)
         return 2
     read_s = time.perf_counter() - started
     if not recorded.scans:
-        print(f"robotd map: {args.from_log}: no FLASER or ROBOTLASER1 scan in the log",
-              file=sys.stderr)
+        wanted = ("/scan with /odom, taken standing" if str(args.from_log).endswith(".mcap")
+                  else "FLASER or ROBOTLASER1 scan")
+        print(f"robotd map: {args.from_log}: no {wanted} in the log", file=sys.stderr)
         _print_skipped(args.from_log, recorded)
         return 1
     result = build_map(recorded.scans, MappingConfig(resolution_m=args.resolution_m))

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+from behaviours.nav.mapping.map_save import write_map
 from hal.occupancy_map import FREE, OCCUPIED, UNKNOWN, OccupancyMap, read_map_yaml
-from robotd.mapping.map_save import write_map
 
 
 class TestWriteMap:

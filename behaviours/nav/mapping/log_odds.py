@@ -43,13 +43,7 @@ def render(scans: Sequence[Scan], poses: Sequence[Pose], config: RenderConfig | 
     """The trinary map of ``scans`` placed at ``poses`` (robot poses in the map frame)."""
     c = config or RenderConfig()
     res = c.resolution_m
-    worlds: list[tuple[FloatArray, FloatArray]] = []
-    for scan, pose in zip(scans, poses, strict=True):
-        pts = scan.points()
-        if pts.shape[0]:
-            pts = pts[np.hypot(pts[:, 0], pts[:, 1]) <= c.max_range_m]
-        sensor = transform(np.asarray([scan.laser_offset[:2]], dtype=np.float64), pose)[0]
-        worlds.append((sensor, transform(pts, pose)))
+    worlds = [place(scan, pose, c) for scan, pose in zip(scans, poses, strict=True)]
     every = np.vstack([w for _, w in worlds] + [s[None, :] for s, _ in worlds])
     x0 = math.floor((float(every[:, 0].min()) - c.margin_m) / res) * res
     y0 = math.floor((float(every[:, 1].min()) - c.margin_m) / res) * res
@@ -58,22 +52,45 @@ def render(scans: Sequence[Scan], poses: Sequence[Pose], config: RenderConfig | 
     logodds = np.zeros(rows * cols, dtype=np.float32)
     seen = np.zeros(rows * cols, dtype=np.bool_)
     for sensor, pts in worlds:
-        if pts.shape[0] == 0:
-            continue
-        hit = _cells(pts[:, 0], pts[:, 1], x0, y0, res, cols)
-        passed = _beam_cells(sensor, pts, x0, y0, res, cols)
-        passed = np.setdiff1d(passed, hit, assume_unique=False)
-        hit = np.unique(hit)
-        logodds[passed] += c.free_logodds
-        logodds[hit] += c.hit_logodds
-        np.clip(logodds, -c.clamp_logodds, c.clamp_logodds, out=logodds)
-        seen[passed] = True
-        seen[hit] = True
+        accumulate(logodds, seen, sensor, pts, x0, y0, cols, c)
+    return OccupancyMap(trinary(logodds, seen, c).reshape(rows, cols), res, x0, y0, "mapping")
+
+
+def place(scan: Scan, pose: Pose, c: RenderConfig) -> tuple[FloatArray, FloatArray]:
+    """The sensor's position and the scan's returns (within ``max_range_m``) in the map."""
+    pts = scan.points()
+    if pts.shape[0]:
+        pts = pts[np.hypot(pts[:, 0], pts[:, 1]) <= c.max_range_m]
+    sensor = transform(np.asarray([scan.laser_offset[:2]], dtype=np.float64), pose)[0]
+    return sensor, transform(pts, pose)
+
+
+def accumulate(logodds: npt.NDArray[np.float32], seen: npt.NDArray[np.bool_],
+               sensor: FloatArray, pts: FloatArray, x0: float, y0: float, cols: int,
+               c: RenderConfig) -> None:
+    """One scan's beams into flat (row-major, ``cols`` wide) log odds and seen arrays."""
+    if pts.shape[0] == 0:
+        return
+    res = c.resolution_m
+    hit = _cells(pts[:, 0], pts[:, 1], x0, y0, res, cols)
+    passed = _beam_cells(sensor, pts, x0, y0, res, cols)
+    passed = np.setdiff1d(passed, hit, assume_unique=False)
+    hit = np.unique(hit)
+    logodds[passed] += c.free_logodds
+    logodds[hit] += c.hit_logodds
+    np.clip(logodds, -c.clamp_logodds, c.clamp_logodds, out=logodds)
+    seen[passed] = True
+    seen[hit] = True
+
+
+def trinary(logodds: npt.NDArray[np.float32], seen: npt.NDArray[np.bool_], c: RenderConfig
+            ) -> npt.NDArray[np.int8]:
+    """``FREE``, ``OCCUPIED`` or ``UNKNOWN`` per cell, by ``map_saver``'s thresholds."""
     p = 1.0 - 1.0 / (1.0 + np.exp(logodds.astype(np.float64)))
-    cells = np.full(rows * cols, UNKNOWN, dtype=np.int8)
+    cells = np.full(logodds.shape, UNKNOWN, dtype=np.int8)
     cells[seen & (p < c.free_thresh)] = FREE
     cells[seen & (p > c.occupied_thresh)] = OCCUPIED
-    return OccupancyMap(cells.reshape(rows, cols), res, x0, y0, "mapping")
+    return cells
 
 
 def _cells(x: FloatArray, y: FloatArray, x0: float, y0: float, res: float, cols: int

@@ -45,12 +45,17 @@ class Scan:
     max_range_m: float
     odom: Pose
     laser_offset: Pose = (0.0, 0.0, 0.0)
+    beam_angles_rad: FloatArray | None = None
+    """Each beam's own angle, for a sensor whose beams are not evenly spaced (the LD19's
+    turn as its driver assembles it); None: ``angle_min_rad + i * angle_increment_rad``."""
 
     def returns(self) -> npt.NDArray[np.bool_]:
         r = self.ranges_m
         return np.isfinite(r) & (r > 0.0) & (r < self.max_range_m)
 
     def angles_rad(self) -> FloatArray:
+        if self.beam_angles_rad is not None:
+            return self.beam_angles_rad
         out: FloatArray = (self.angle_min_rad
                            + self.angle_increment_rad * np.arange(self.ranges_m.size,
                                                                   dtype=np.float64))

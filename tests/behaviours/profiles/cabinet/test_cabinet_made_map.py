@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 
 from behaviours.nav.grid import Grid
+from behaviours.nav.mapping.map_save import write_map
 from behaviours.nav.outline import outline_segments
 from behaviours.profiles.cabinet.config import CabinetConfig
 from behaviours.profiles.cabinet.map_reader import SiteFileError, parse_site_map, read_json
 from behaviours.profiles.cabinet.site import load_site, site_problems
 from hal.occupancy_map import FREE, OCCUPIED, UNKNOWN, OccupancyMap
-from robotd.mapping.map_save import write_map
 
 SCENARIOS = Path(__file__).parents[4] / "sim" / "robots" / "cabinet" / "scenarios"
 MADE = SCENARIOS / "cabinet" / "made"

@@ -2,8 +2,11 @@
 
 ``EventHub`` feeds ``GET /api/events``. It reads the ``notifications`` table in id order (every
 notification is created in a serialized write transaction, so ids grow in commit order, across
-server processes too): at once when this process commits one, and every ``poll_s`` for those
-of other processes. It runs only while someone listens.
+server processes too): at once when this process commits one or is told of one another
+process committed (PostgreSQL ``LISTEN``, ``fleet.pg_listen``), and every ``poll_s`` besides.
+Each listener has its own cursor, the id of the last notification it was given: one that
+subscribes with ``after_id`` (the ``Last-Event-ID`` of a reconnecting stream) gets what it
+missed, then what comes, each once and in order. It runs only while someone listens.
 
 ``Webhooks`` POSTs each notification this process creates (so behind a load balancer each is
 sent once) to every URL of the ``WebhookUrls`` setting, from a bounded queue on its own task
@@ -36,6 +39,8 @@ Filter = Callable[[NotificationOut], bool]
 @dataclass(eq=False)
 class _Subscriber:
     wants: Filter
+    cursor: int
+    """The id of the last notification this listener was given (or passed over)."""
     queue: asyncio.Queue[NotificationOut | None] = field(
         default_factory=lambda: asyncio.Queue(maxsize=1000))
 
@@ -43,7 +48,8 @@ class _Subscriber:
 class EventHub:
     """Args:
         db: the fleet database.
-        poll_s: how often notifications of other server processes are looked for.
+        poll_s: how often notifications are looked for besides the wake-ups (this process's
+            commits, and other processes' as ``notified`` tells).
     """
 
     BATCH = 500
@@ -54,26 +60,31 @@ class EventHub:
         self._subscribers: set[_Subscriber] = set()
         self._wake = asyncio.Event()
         self._task: asyncio.Task[None] | None = None
-        self._last_id = 0
         db.after_commit.append(self._committed)
 
     def _committed(self, session: AsyncSession) -> None:
         if self._subscribers and session.info.get(CREATED):
             self._wake.set()
 
+    def notified(self, _notification_id: int | None = None) -> None:
+        """A notification was committed (by any process; None: perhaps some were missed)."""
+        if self._subscribers:
+            self._wake.set()
+
     @contextlib.asynccontextmanager
-    async def subscribe(self, wants: Filter) -> AsyncIterator[asyncio.Queue[
-            NotificationOut | None]]:
-        """A queue of the notifications created from now on that ``wants`` accepts (None:
-        the hub stopped, or the listener fell too far behind)."""
-        subscriber = _Subscriber(wants)
+    async def subscribe(self, wants: Filter, after_id: int | None = None) -> AsyncIterator[
+            asyncio.Queue[NotificationOut | None]]:
+        """A queue of the notifications that ``wants`` accepts, in id order: those created
+        from now on, or with ``after_id`` all those after it (None: the hub stopped, or the
+        listener fell too far behind)."""
+        cursor = after_id if after_id is not None else await self._newest_id()
+        subscriber = _Subscriber(wants, cursor)
+        self._subscribers.add(subscriber)
         if self._task is None or self._task.done():
-            self._last_id = await self._newest_id()
-            self._subscribers.add(subscriber)
             self._task = asyncio.create_task(self._pump())
-        else:
-            self._subscribers.add(subscriber)
-        log.info("fleet.events.subscribed", listeners=len(self._subscribers))
+        if after_id is not None:
+            self._wake.set()  # catch it up now
+        log.info("fleet.events.subscribed", listeners=len(self._subscribers), after_id=after_id)
         try:
             yield subscriber.queue
         finally:
@@ -97,24 +108,32 @@ class EventHub:
 
     async def _pump(self) -> None:
         while self._subscribers:
-            with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._wake.wait(), self.poll_s)
             self._wake.clear()
             try:
                 await self._deliver_new()
             except Exception:
                 log.exception("fleet.events.read_failed")
+            if not self._wake.is_set():
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(self._wake.wait(), self.poll_s)
 
     async def _deliver_new(self) -> None:
-        while True:
+        """Every listener gets, in id order, each notification after its cursor that it
+        wants; read from the lowest cursor, BATCH rows at a time."""
+        while self._subscribers:
+            listeners = list(self._subscribers)
+            floor = min(s.cursor for s in listeners)
             async with self._db.read() as session:
                 rows = (await session.execute(
-                    select(Notification).where(Notification.id > self._last_id)
+                    select(Notification).where(Notification.id > floor)
                     .order_by(Notification.id).limit(self.BATCH))).scalars().all()
             for row in rows:
-                out = notification_out(row)
-                self._last_id = row.id
-                for subscriber in list(self._subscribers):
+                out: NotificationOut | None = None
+                for subscriber in listeners:
+                    if row.id <= subscriber.cursor or subscriber not in self._subscribers:
+                        continue
+                    subscriber.cursor = row.id
+                    out = out or notification_out(row)
                     if subscriber.wants(out) and not _offer(subscriber, out):
                         self._subscribers.discard(subscriber)
                         log.warning("fleet.events.listener_dropped", reason="too far behind")

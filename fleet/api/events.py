@@ -4,15 +4,16 @@ from __future__ import annotations
 
 import asyncio
 from collections.abc import AsyncIterator
-from typing import Any
+from typing import Annotated, Any
 
-from fastapi import APIRouter
+from fastapi import APIRouter, Header
 from fastapi import Request as HttpRequest
 from fastapi.responses import StreamingResponse
 
 from fleet.api.auth import CustomerOrAdmin
 from fleet.api.deps import AUTH_ERRORS, server_of
 from fleet.api.schemas import NotificationOut
+from fleet.errors import Invalid
 from fleet.push import Filter
 from fleet.tokens import Principal, Role
 
@@ -29,13 +30,32 @@ _STREAM: dict[int | str, dict[str, Any]] = {200: {"description": (
 
 
 @router.get("/events", response_class=StreamingResponse, responses=_STREAM)
-async def events(http: HttpRequest, caller: CustomerOrAdmin) -> StreamingResponse:
+async def events(
+    http: HttpRequest, caller: CustomerOrAdmin,
+    last_event_id: Annotated[str | None, Header(
+        alias="Last-Event-ID", description=(
+            "a reconnecting stream: the id of the last event it got; the stream starts with "
+            "every notification after it, in order"))] = None,
+) -> StreamingResponse:
     """Notifications pushed as they are created, from the subscription on: a customer gets
-    its own (those addressed to it), the staff all. Missed ones (a dropped connection) are
-    in GET /api/notifications (staff) and in the request itself (customers)."""
+    its own (those addressed to it), the staff all. With `Last-Event-ID` (what an
+    EventSource sends when it reconnects) it starts after that id instead, so that nothing is
+    missed or repeated; a stream more than 1000 events behind is ended (GET
+    /api/notifications has them all)."""
+    after_id = _event_id(last_event_id)
     return StreamingResponse(
-        _stream(http, _filter(caller)), media_type="text/event-stream",
+        _stream(http, _filter(caller), after_id), media_type="text/event-stream",
         headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
+
+
+def _event_id(header: str | None) -> int | None:
+    if header is None or not header.strip():
+        return None
+    text = header.strip()
+    if not (text.isascii() and text.isdigit()) or len(text) > 18:
+        msg = f"Last-Event-ID: expected the id of a notification (a whole number), got {text!r}"
+        raise Invalid(msg)
+    return int(text)
 
 
 def _filter(caller: Principal) -> Filter:
@@ -45,8 +65,9 @@ def _filter(caller: Principal) -> Filter:
     return lambda n: n.Recipient == "customer" and n.CustomerId == customer_id
 
 
-async def _stream(http: HttpRequest, wants: Filter) -> AsyncIterator[bytes]:
-    async with server_of(http).events.subscribe(wants) as queue:
+async def _stream(http: HttpRequest, wants: Filter, after_id: int | None,
+                  ) -> AsyncIterator[bytes]:
+    async with server_of(http).events.subscribe(wants, after_id) as queue:
         yield b": subscribed\n\n"
         while True:
             try:

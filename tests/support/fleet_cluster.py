@@ -67,6 +67,7 @@ def haproxy_config(port: int, servers: list[tuple[str, int]], maxconn: int = 500
         "    timeout http-keep-alive 60s",
         "    timeout tunnel 1h",
         "    option redispatch",
+        "    option http-no-delay",
         "    retries 2",
         "frontend fleet",
         f"    bind 127.0.0.1:{port}",

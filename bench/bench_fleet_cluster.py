@@ -45,7 +45,6 @@ from bench_fleet import (  # noqa: E402
     exchange_body,
     http_request,
     pct,
-    report_all,
     robot_token,
     site_toml,
     with_state,
@@ -56,6 +55,22 @@ from pgtest import PgCluster, PgUnavailable  # noqa: E402
 WARMUP_S = 5.0
 REQUESTS_SERVED = 200
 """Requests made before the measurement (the robots named for them get room targets)."""
+
+
+async def report_each(port: int, robots: int, connections: int = 20) -> None:
+    """Every robot reports once, over ``connections`` connections at a time."""
+    async def some(first: int) -> None:
+        conn = Conn(port)
+        for i in range(first, robots, connections):
+            status, body = await conn.call(
+                "POST", f"/api/Robot/robot-{i}/data-exchange",
+                exchange_body(f"robot-{i}", i, state=with_state(i)), robot_token(i))
+            if status != 200:
+                msg = f"robot-{i}'s data exchange: HTTP {status} {body!r}"
+                raise RuntimeError(msg)
+        conn.close()
+
+    await asyncio.gather(*(some(c) for c in range(connections)))
 
 
 async def generate(port: int, first: int, count: int, start_wall: float, seconds: float,
@@ -152,6 +167,7 @@ class PushProbe:
                 return
             await asyncio.sleep(0.01)
         self.failed += 1
+        print(f"  no event for request {request_id} {kind} within 5 s", flush=True)
 
 
 async def run(pg: PgCluster, name: str, servers: int, args: argparse.Namespace
@@ -159,18 +175,24 @@ async def run(pg: PgCluster, name: str, servers: int, args: argparse.Namespace
     url = await pg.create_database(name)
     workdir = Path(tempfile.mkdtemp(prefix=f"bench-cluster-{name}-"))
     site = workdir / "site.toml"
-    site.write_text(site_toml(args.robots))
+    # Setting up 2000 robots takes longer than the default OfflineAfterS (30 s).
+    site.write_text(site_toml(args.robots, "OfflineAfterS = 300\n"))
     async with FleetCluster(url, site, servers=servers, args=("--log-level", "warning"),
                             workdir=workdir) as fleet:
         admin = Conn(fleet.port)
-        await report_all(admin, args.robots)
+        began = time.perf_counter()
+        await report_each(fleet.port, args.robots)
+        reported = time.perf_counter()
         for c in range(1, REQUESTS_SERVED + 1):
             status, body = await admin.call("POST", "/api/requests",
                                             json.dumps({"CustomerId": c}).encode())
             if status != 201:
                 msg = f"POST /api/requests for customer {c}: HTTP {status} {body!r}"
                 raise RuntimeError(msg)
-        await report_all(admin, args.robots)
+        print(f"  set-up: {args.robots} first reports in {reported - began:.1f} s, "
+              f"{REQUESTS_SERVED} requests in {time.perf_counter() - reported:.1f} s",
+              flush=True)
+        await report_each(fleet.port, args.robots)
         admin.close()
         probe = PushProbe(fleet.url, range(REQUESTS_SERVED + 1, args.robots + 1))
         listener = asyncio.create_task(probe.listen())
@@ -198,6 +220,8 @@ async def run(pg: PgCluster, name: str, servers: int, args: argparse.Namespace
                 msg = f"a load generator failed ({gen.returncode})"
                 raise RuntimeError(msg)
         load1 = os.getloadavg()[0]
+        if listener.done():
+            print(f"  the event stream ended: {listener.exception()!r}", flush=True)
         listener.cancel()
         with contextlib.suppress(asyncio.CancelledError, httpx.HTTPError):
             await listener

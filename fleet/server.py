@@ -21,7 +21,7 @@ from sqlalchemy import text
 from fleet.auth import Authenticator
 from fleet.cache import SiteCache
 from fleet.clock import Clock, system_clock
-from fleet.db import WRITE, Database
+from fleet.db import SITE, WRITE, Database
 from fleet.pg_listen import PgListener
 from fleet.push import EventHub, Webhooks
 from fleet.services.assignment import process_queue
@@ -113,13 +113,14 @@ class FleetServer:
         """Another server process committed a change: drop what it may have made stale."""
         if WRITE in topics:
             self.db.generation += 1  # the robots' snapshot (``RobotViews``)
+        if SITE in topics:
             self.cache.invalidate()
         if TOKENS in topics:
             self.auth.invalidate()
 
     def _listening(self) -> None:
         """(Re)connected to PostgreSQL's notifications: what came meanwhile was not heard."""
-        self._changed_elsewhere({WRITE, TOKENS})
+        self._changed_elsewhere({WRITE, SITE, TOKENS})
         self.events.notified(None)
 
     async def leads(self) -> bool:

@@ -226,6 +226,8 @@ async def run(pg: PgCluster, name: str, servers: int, args: argparse.Namespace
         with contextlib.suppress(asyncio.CancelledError, httpx.HTTPError):
             await listener
     latencies, errors, gen_cpu = _collect(outs)
+    if not probe.from_send:
+        probe.from_send = probe.from_answer = [float("nan")]
     requests = len(latencies)
     return {
         "servers": servers, "rps": requests / args.seconds, "errors": len(errors),

@@ -35,6 +35,15 @@ REPORT_S = 0.3
 SETTINGS = {"AutoAccept": True, "RequireWeightCheck": False, "OfflineAfterS": 5,
             "OfflineCheckPeriodS": 1, "TimeoutCheckPeriodS": 1}
 _databases = itertools.count()
+SERVER_ERRORS: list[str] = []
+"""5xx answers other than HAProxy's 502/503 while a server dies: a server's own failure."""
+
+
+def _note(answer: httpx.Response) -> httpx.Response:
+    if answer.status_code >= 500 and answer.status_code not in (502, 503):
+        SERVER_ERRORS.append(f"{answer.request.method} {answer.request.url.path}: "
+                             f"{answer.status_code} {answer.text[:200]}")
+    return answer
 
 
 def robot_token(i: int) -> str:
@@ -115,9 +124,9 @@ class SimRobot:
                                     for m in heard],
                 "IsInTarget": arrived, "WeightKg": 0.0, "UltrasonicDistance": 100.0}
         try:
-            answer = await self.http.post(
+            answer = _note(await self.http.post(
                 f"/api/Robot/{self.name}/data-exchange", json=body,
-                headers={"Authorization": f"Bearer {self.token}"})
+                headers={"Authorization": f"Bearer {self.token}"}))
         except httpx.HTTPError:
             return  # the robot tries again next period, as the real one does
         if answer.status_code != 200:
@@ -195,13 +204,13 @@ async def staff(http: httpx.AsyncClient) -> None:
     auth = {"Authorization": f"Bearer {ADMIN}"}
     while True:
         with contextlib.suppress(httpx.HTTPError, ValueError):
-            answer = await http.get("/api/requests?limit=100", headers=auth)
+            answer = _note(await http.get("/api/requests?limit=100", headers=auth))
             if answer.status_code == 200:
                 for request in answer.json():
                     action = actions.get(request["Status"])
                     if action and not (action == "washing-done" and request["DeliveryQueued"]):
-                        await http.post(f"/api/requests/{request['Id']}/{action}",
-                                        headers=auth)
+                        _note(await http.post(f"/api/requests/{request['Id']}/{action}",
+                                              headers=auth))
         await asyncio.sleep(0.2)
 
 
@@ -210,8 +219,8 @@ async def ask_pickup(http: httpx.AsyncClient, customer: int, created: dict[int, 
     auth = {"Authorization": f"Bearer {ADMIN}"}
     while True:
         with contextlib.suppress(httpx.HTTPError):
-            answer = await http.post("/api/requests", json={"CustomerId": customer},
-                                     headers=auth)
+            answer = _note(await http.post("/api/requests", json={"CustomerId": customer},
+                                           headers=auth))
             if answer.status_code == 201:
                 created[customer] = answer.json()["Id"]
                 return
@@ -254,6 +263,7 @@ class TestKilledProcess:
                 httpx.AsyncClient(base_url=fleet.url, timeout=10) as http:
             db = await asyncpg.connect(_plain(pg_url))
             tasks: list[asyncio.Task[None]] = []
+            SERVER_ERRORS.clear()
             try:
                 stream = Stream(fleet.url)
                 tasks.append(asyncio.create_task(stream.run()))
@@ -313,6 +323,7 @@ class TestKilledProcess:
             expected = "Cancelled" if customer == 1 else "Completed"
             assert ends[request_id] == expected, (customer, request_id, ends[request_id])
         assert stream.ids == stored
+        assert SERVER_ERRORS == []
 
 
 async def _true(value: object) -> bool:

@@ -51,10 +51,11 @@ def free_port() -> int:
 
 def haproxy_config(port: int, servers: list[tuple[str, int]], maxconn: int = 5000) -> str:
     """Round robin over ``servers`` (name, port), each checked with ``GET /health`` every
-    0.5 s (down after 2 failures, up after 2 successes). An event stream is a long response:
-    the client and server timeouts outlast its 15 s keepalive comments, and a stream through a
-    server marked down is cut (``shutdown-sessions``) so that its client reconnects at once.
-    A request whose connection to a server fails is sent to another (``redispatch``)."""
+    second (down after 3 failures, a check waiting up to 5 s: a busy server is slow, not
+    dead; up after 2 successes). An event stream is a long response: the client and server
+    timeouts outlast its 15 s keepalive comments, and ``http-no-delay`` sends each event as it
+    comes. A dead server's connections close with it, so its streams' clients reconnect at
+    once; a request whose connection to a server fails is sent to another (``redispatch``)."""
     lines = [
         "global",
         f"    maxconn {maxconn}",
@@ -76,7 +77,8 @@ def haproxy_config(port: int, servers: list[tuple[str, int]], maxconn: int = 500
         "    balance roundrobin",
         "    option httpchk GET /health",
         "    http-check expect status 200",
-        "    default-server inter 500ms fall 2 rise 2 on-marked-down shutdown-sessions",
+        "    timeout check 5s",
+        "    default-server inter 1s fall 3 rise 2",
         "    http-response set-header X-Fleet-Server %[srv_name]",
     ]
     lines += [f"    server {name} 127.0.0.1:{p} check" for name, p in servers]

@@ -398,3 +398,50 @@ class TestNotify:
                 await asyncio.gather(listener, return_exceptions=True)
                 await robot.http.aclose()
         assert at - answered < 1.0
+
+    async def test_a_process_that_lost_its_listening_connection_catches_up(
+            self, pg_url: str, tmp_path: Path) -> None:
+        """PostgreSQL drops process A's listening connection (``pg_terminate_backend``): A
+        connects again by itself, and a stream on A still gets what process B creates next,
+        long before the 30 s poll (heard on the new connection, or, if it was committed
+        before A listened again, read from the stream's last id on reconnecting)."""
+        async with cluster(pg_url, tmp_path, 2, "--events-poll-s", "30") as fleet, \
+                httpx.AsyncClient(timeout=10) as http:
+            a, b = fleet.procs
+            robot = SimRobot(httpx.AsyncClient(base_url=b.url, timeout=10), 1)
+            for _ in range(3):
+                await robot.report()
+            db = await asyncpg.connect(_plain(pg_url))
+            got: asyncio.Queue[dict[str, Any]] = asyncio.Queue()
+            subscribed = asyncio.Event()
+
+            async def listen() -> None:
+                async with http.stream("GET", f"{a.url}/api/events",
+                                       headers={"Authorization": f"Bearer {ADMIN}"}) as stream:
+                    async for line in stream.aiter_lines():
+                        if line.startswith(": subscribed"):
+                            subscribed.set()
+                        elif line.startswith("data: "):
+                            got.put_nowait(json.loads(line[6:]))
+
+            listener = asyncio.create_task(listen())
+            try:
+                await asyncio.wait_for(subscribed.wait(), 10)
+                cut = await db.fetchval(
+                    "SELECT count(pg_terminate_backend(pid)) FROM pg_stat_activity "
+                    "WHERE application_name = $1", f"robotd-fleet {a.pid}")
+                assert cut == 1
+                answer = await http.post(f"{b.url}/api/requests", json={"CustomerId": 4},
+                                         headers={"Authorization": f"Bearer {ADMIN}"})
+                assert answer.status_code == 201, answer.text
+                event = await asyncio.wait_for(got.get(), 10)
+                while event["RequestId"] != answer.json()["Id"]:
+                    event = await asyncio.wait_for(got.get(), 10)
+                log = (tmp_path / f"{a.name}.log").read_text()
+                assert log.count('"fleet.listen.connected"') == 2
+                assert '"fleet.listen.lost"' in log
+            finally:
+                listener.cancel()
+                await asyncio.gather(listener, return_exceptions=True)
+                await robot.http.aclose()
+                await db.close()

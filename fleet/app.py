@@ -69,6 +69,7 @@ def create_app(
     monitors: bool = True,
     inline_sqlite: bool = False,
     auth_failures_per_min: int = 30,
+    events_poll_s: float | None = None,
 ) -> FastAPI:
     """Args:
         db_url: ``sqlite:///PATH`` or ``postgresql://USER@HOST/DB`` (async drivers are chosen).
@@ -80,10 +81,13 @@ def create_app(
             single-process server on a local file; see ``fleet.sqlite_inline``).
         auth_failures_per_min: failed authentications a client address may make a minute
             before it gets 429 (0: no limit; ``fleet.ratelimit``).
+        events_poll_s: how often the event stream reads new notifications besides its
+            wake-ups (None: 1 s on SQLite, 10 s on PostgreSQL, where LISTEN/NOTIFY wakes it).
     """
     server = FleetServer(db_url, site=site, clock=clock, settings=settings,
                          inline_sqlite=inline_sqlite,
-                         auth_failures_per_min=auth_failures_per_min)
+                         auth_failures_per_min=auth_failures_per_min,
+                         events_poll_s=events_poll_s)
 
     @asynccontextmanager
     async def lifespan(_app: FastAPI) -> AsyncIterator[None]:

@@ -61,6 +61,10 @@ def _parser() -> argparse.ArgumentParser:
     serve.add_argument("--auth-failures-per-min", type=int, default=30, metavar="N",
                        help="failed authentications a client address may make a minute before "
                             "it gets 429 (0: no limit; counted per server process)")
+    serve.add_argument("--events-poll-s", type=_positive_s, default=None, metavar="S",
+                       help="how often event streams look for new notifications besides their "
+                            "wake-ups (default: 1 on SQLite; 10 on PostgreSQL, where every "
+                            "commit of any server process wakes them through LISTEN/NOTIFY)")
     cli_token.add_parser(sub, os.environ.get("ROBOTD_FLEET_DB", DEFAULT_DB))
     return parser
 
@@ -74,6 +78,17 @@ def _port(text: str) -> int:
         msg = f"expected a TCP port 1-65535, got {text!r}"
         raise argparse.ArgumentTypeError(msg)
     return port
+
+
+def _positive_s(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = 0.0
+    if not 0 < value <= 3600:
+        msg = f"expected seconds, more than 0 and at most 3600, got {text!r}"
+        raise argparse.ArgumentTypeError(msg)
+    return value
 
 
 def sqlite_dir_problem(db_url: str) -> str | None:
@@ -134,7 +149,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         site = load_site(args.site) if args.site else None
         app = create_app(args.db, site=site, inline_sqlite=args.sqlite_inline,
-                         auth_failures_per_min=args.auth_failures_per_min)
+                         auth_failures_per_min=args.auth_failures_per_min,
+                         events_poll_s=args.events_poll_s)
     except (SiteError, ValueError) as exc:
         print(f"robotd-fleet: {exc}", file=sys.stderr)
         return 2

@@ -4,6 +4,10 @@ SQLite (WAL) is the default; PostgreSQL runs the same code. Every transaction th
 request or an assignment is *serialized*: on SQLite by one process-wide lock plus
 ``BEGIN IMMEDIATE``; on PostgreSQL by a transaction-scoped advisory lock, so several server
 processes on one database never assign a robot twice.
+
+On PostgreSQL every serialized transaction also sends ``NOTIFY fleet_changed`` (in the same
+statement as its lock, so it costs no round trip and is delivered only if it commits): the
+other server processes drop their copies of what it may have changed (``fleet.pg_listen``).
 """
 
 from __future__ import annotations
@@ -11,7 +15,8 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import os
-from collections.abc import AsyncIterator, Callable
+import secrets
+from collections.abc import AsyncIterator, Awaitable, Callable
 from contextlib import asynccontextmanager
 from typing import Any, TypeVar
 
@@ -36,6 +41,21 @@ log = structlog.get_logger(__name__)
 T = TypeVar("T")
 
 _ADVISORY_LOCK_KEY = 0x726F_626F  # "robo"
+
+CHANGED_CHANNEL = "fleet_changed"
+"""PostgreSQL channel of committed changes; payload ``"<instance> <topic>[,<topic>...]"``."""
+WRITE = "write"
+"""Topic of every serialized transaction: requests or robots may have changed."""
+SITE = "site"
+"""Topic of a change of rooms, beacons, customers or settings (``fleet.cache.SiteCache``)."""
+_CHANGED = "fleet.changed"
+"""``session.info`` key: the topics ``announce`` added to a transaction."""
+
+
+def announce(session: AsyncSession, topic: str) -> None:
+    """Tell the other server processes, when this transaction commits, that ``topic``
+    changed (e.g. ``"tokens"``: they drop their token snapshot). Nothing on SQLite."""
+    session.info.setdefault(_CHANGED, set()).add(topic)
 
 
 def normalize_url(url: str) -> str:
@@ -140,6 +160,10 @@ async def _as_async_close() -> None:
         await asyncio.sleep(0)
 
 
+_LOCK_AND_NOTIFY = text("SELECT pg_advisory_xact_lock(:key), pg_notify(:channel, :payload)")
+_NOTIFY = text("SELECT pg_notify(:channel, :payload)")
+
+
 class Database:
     """The engines and sessions of one database URL.
 
@@ -157,6 +181,11 @@ class Database:
         # Called with the session after each ``write()`` transaction commits (what it added is
         # in ``session.info``, e.g. the notifications ``fleet.push`` delivers).
         self.after_commit: list[Callable[[AsyncSession], None]] = []
+        # PostgreSQL: awaited with the session of each ``write()`` transaction right before it
+        # commits (``fleet.pg_listen`` sends the NOTIFY of the notifications it created).
+        self.before_commit: list[Callable[[AsyncSession], Awaitable[None]]] = []
+        # Names this process in the NOTIFYs it sends, so that it can skip its own.
+        self.instance = f"{os.getpid()}.{secrets.token_hex(3)}"
         # With inline SQLite on a file: run_read's and run_write's synchronous engines.
         self._sync_read: Engine | None = None
         self._sync_write: Engine | None = None
@@ -232,13 +261,24 @@ class Database:
             async with self._writes() as session:
                 async with session.begin():
                     if serial:
-                        await session.execute(text("SELECT pg_advisory_xact_lock(:key)"),
-                                              {"key": _ADVISORY_LOCK_KEY})
+                        await session.execute(_LOCK_AND_NOTIFY, {
+                            "key": _ADVISORY_LOCK_KEY, "channel": CHANGED_CHANNEL,
+                            "payload": f"{self.instance} {WRITE}"})
                     yield session
+                    await self._before_commit(session)
                 self._committed(session)
         finally:
             if serial:
                 self.generation += 1
+
+    async def _before_commit(self, session: AsyncSession) -> None:
+        topics: set[str] | None = session.info.get(_CHANGED)
+        if topics:
+            await session.execute(_NOTIFY, {
+                "channel": CHANGED_CHANNEL,
+                "payload": f"{self.instance} {','.join(sorted(topics))}"})
+        for hook in self.before_commit:
+            await hook(session)
 
     def _committed(self, session: AsyncSession) -> None:
         """Tell the ``after_commit`` listeners (they must not raise or block)."""

@@ -2,11 +2,15 @@
 
 ``EventHub`` feeds ``GET /api/events``. It reads the ``notifications`` table in id order (every
 notification is created in a serialized write transaction, so ids grow in commit order, across
-server processes too): at once when this process commits one, and every ``poll_s`` for those
-of other processes. It runs only while someone listens. Listeners that follow them also get
-what its pollers find each pass (``add_poller``), at most about once every ``poll_s``: one cheap
-read a pass for the whole process: staff the console's ``robots`` event when a robot's state,
-place or fault changed, a customer the ``request`` event when one of its requests did.
+server processes too): at once when this process commits one or is told of one another
+process committed (PostgreSQL ``LISTEN``, ``fleet.pg_listen``), and every ``poll_s`` besides.
+Each listener has its own cursor, the id of the last notification it was given: one that
+subscribes with ``after_id`` (the ``Last-Event-ID`` of a reconnecting stream) gets what it
+missed, then what comes, each once and in order. It runs only while someone listens.
+Listeners that follow them also get what its pollers find (``add_poller``), about once every
+``watch_s``: one cheap read a pass for the whole process: staff the console's ``robots`` event
+when a robot's state, place or fault changed, a customer the ``request`` event when one of its
+requests did.
 
 ``Webhooks`` POSTs each notification this process creates (so behind a load balancer each is
 sent once) to every URL of the ``WebhookUrls`` setting, from a bounded queue on its own task
@@ -54,27 +58,35 @@ Poller = Callable[[], Awaitable[list[StaffEvent]]]
 @dataclass(eq=False)
 class _Subscriber:
     wants: Filter
+    cursor: int
+    """The id of the last notification this listener was given (or passed over)."""
     staff: bool = False
     customer_id: int | None = None
     queue: asyncio.Queue[Pushed | None] = field(
         default_factory=lambda: asyncio.Queue(maxsize=1000))
 
+    @property
+    def follows_pollers(self) -> bool:
+        return self.staff or self.customer_id is not None
+
 
 class EventHub:
     """Args:
         db: the fleet database.
-        poll_s: how often notifications of other server processes are looked for.
+        poll_s: how often notifications are looked for besides the wake-ups (this process's
+            commits, and other processes' as ``notified`` tells).
+        watch_s: how often the pollers look for changes while a listener follows them.
     """
 
     BATCH = 500
 
-    def __init__(self, db: Database, poll_s: float = 1.0) -> None:
+    def __init__(self, db: Database, poll_s: float = 1.0, watch_s: float = 1.0) -> None:
         self._db = db
         self.poll_s = poll_s
+        self.watch_s = watch_s
         self._subscribers: set[_Subscriber] = set()
         self._wake = asyncio.Event()
         self._task: asyncio.Task[None] | None = None
-        self._last_id = 0
         self._pollers: list[Poller] = []
         self._polled_at = float("-inf")
         db.after_commit.append(self._committed)
@@ -86,21 +98,27 @@ class EventHub:
         if self._subscribers and session.info.get(CREATED):
             self._wake.set()
 
+    def notified(self, _notification_id: int | None = None) -> None:
+        """A notification was committed (by any process; None: perhaps some were missed)."""
+        if self._subscribers:
+            self._wake.set()
+
     @contextlib.asynccontextmanager
-    async def subscribe(self, wants: Filter, *, staff: bool = False,
-                        customer_id: int | None = None
+    async def subscribe(self, wants: Filter, after_id: int | None = None, *,
+                        staff: bool = False, customer_id: int | None = None
                         ) -> AsyncIterator[asyncio.Queue[Pushed | None]]:
-        """A queue of the notifications created from now on that ``wants`` accepts, and the
-        pollers' events for staff (``staff``) or for this customer (``customer_id``) (None:
-        the hub stopped, or the listener fell too far behind)."""
-        subscriber = _Subscriber(wants, staff, customer_id)
+        """A queue of the notifications that ``wants`` accepts, in id order: those created
+        from now on, or with ``after_id`` all those after it; and the pollers' events for
+        staff (``staff``) or for this customer (``customer_id``) (None: the hub stopped, or
+        the listener fell too far behind)."""
+        cursor = after_id if after_id is not None else await self._newest_id()
+        subscriber = _Subscriber(wants, cursor, staff, customer_id)
+        self._subscribers.add(subscriber)
         if self._task is None or self._task.done():
-            self._last_id = await self._newest_id()
-            self._subscribers.add(subscriber)
             self._task = asyncio.create_task(self._pump())
-        else:
-            self._subscribers.add(subscriber)
-        log.info("fleet.events.subscribed", listeners=len(self._subscribers))
+        if after_id is not None:
+            self._wake.set()  # catch it up now
+        log.info("fleet.events.subscribed", listeners=len(self._subscribers), after_id=after_id)
         try:
             yield subscriber.queue
         finally:
@@ -124,19 +142,29 @@ class EventHub:
 
     async def _pump(self) -> None:
         while self._subscribers:
-            with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._wake.wait(), self.poll_s)
             self._wake.clear()
             try:
                 await self._deliver_new()
             except Exception:
                 log.exception("fleet.events.read_failed")
             await self._poll()
+            if not self._wake.is_set():
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(self._wake.wait(), self._wait_s())
+
+    def _watched(self) -> bool:
+        return bool(self._pollers) and any(s.follows_pollers for s in self._subscribers)
+
+    def _wait_s(self) -> float:
+        """Until the next look: the notifications' poll, or sooner the pollers' turn."""
+        if not self._watched():
+            return self.poll_s
+        due_s = self._polled_at + self.watch_s - asyncio.get_running_loop().time()
+        return max(0.0, min(self.poll_s, due_s))
 
     async def _poll(self) -> None:
         loop = asyncio.get_running_loop()
-        if not self._pollers or loop.time() - self._polled_at < self.poll_s * 0.9 or not any(
-                s.staff or s.customer_id is not None for s in self._subscribers):
+        if not self._watched() or loop.time() - self._polled_at < self.watch_s * 0.9:
             return
         self._polled_at = loop.time()
         for poller in self._pollers:
@@ -154,15 +182,22 @@ class EventHub:
                         log.warning("fleet.events.listener_dropped", reason="too far behind")
 
     async def _deliver_new(self) -> None:
-        while True:
+        """Every listener gets, in id order, each notification after its cursor that it
+        wants; read from the lowest cursor, BATCH rows at a time."""
+        while self._subscribers:
+            listeners = list(self._subscribers)
+            floor = min(s.cursor for s in listeners)
             async with self._db.read() as session:
                 rows = (await session.execute(
-                    select(Notification).where(Notification.id > self._last_id)
+                    select(Notification).where(Notification.id > floor)
                     .order_by(Notification.id).limit(self.BATCH))).scalars().all()
             for row in rows:
-                out = notification_out(row)
-                self._last_id = row.id
-                for subscriber in list(self._subscribers):
+                out: NotificationOut | None = None
+                for subscriber in listeners:
+                    if row.id <= subscriber.cursor or subscriber not in self._subscribers:
+                        continue
+                    subscriber.cursor = row.id
+                    out = out or notification_out(row)
                     if subscriber.wants(out) and not _offer(subscriber, out):
                         self._subscribers.discard(subscriber)
                         log.warning("fleet.events.listener_dropped", reason="too far behind")

@@ -21,7 +21,8 @@ from sqlalchemy import text
 from fleet.auth import Authenticator
 from fleet.cache import SiteCache
 from fleet.clock import Clock, system_clock
-from fleet.db import Database
+from fleet.db import SITE, WRITE, Database
+from fleet.pg_listen import PgListener
 from fleet.push import EventHub, Webhooks
 from fleet.services.assignment import process_queue
 from fleet.services.exchange import RobotViews
@@ -30,10 +31,14 @@ from fleet.services.site_status import StatusWrites
 from fleet.services.timeouts import any_timed_out, check_timeouts
 from fleet.settings import FleetSettings, load_settings, store_settings
 from fleet.site import Site, apply_site, load_site
+from fleet.tokens import TOKENS
 
 log = structlog.get_logger(__name__)
 
 PING_FLUSH_S = 1.0
+EVENTS_POLL_S = {"sqlite": 1.0, "postgresql": 10.0}
+"""How often the event hub reads the table besides its wake-ups, by default: on PostgreSQL
+every commit wakes it (LISTEN/NOTIFY) and the poll is only a safety net."""
 
 
 class FleetServer:
@@ -46,6 +51,8 @@ class FleetServer:
         inline_sqlite: run SQLite calls on the loop's thread (one process, a local file).
         auth_failures_per_min: failed authentications a client address may make a minute
             before it gets 429 (0: no limit).
+        events_poll_s: how often the event hub reads the notifications besides its wake-ups
+            (None: ``EVENTS_POLL_S`` of the database).
     """
 
     def __init__(
@@ -57,6 +64,7 @@ class FleetServer:
         *,
         inline_sqlite: bool = False,
         auth_failures_per_min: int = 30,
+        events_poll_s: float | None = None,
     ) -> None:
         self.db = Database(db_url, inline_sqlite=inline_sqlite)
         self.clock: Clock = clock or system_clock
@@ -69,8 +77,12 @@ class FleetServer:
         self.statuses = StatusWrites()
         """Quiet site status reports (issue 29), written with the pings."""
         self.auth = Authenticator(self.db, max_failures_per_min=auth_failures_per_min)
-        self.events = EventHub(self.db)
+        self.events = EventHub(self.db, poll_s=events_poll_s or EVENTS_POLL_S[self.db.dialect])
         self.webhooks = Webhooks(self.db, self.cache.settings)
+        # Several server processes on one PostgreSQL: LISTEN/NOTIFY and the sweeps' leader.
+        self.listener = PgListener(
+            self.db, on_notification=self.events.notified, on_changed=self._changed_elsewhere,
+            on_connected=self._listening) if self.db.dialect == "postgresql" else None
         self._tasks: list[asyncio.Task[None]] = []
         self.started = False
 
@@ -92,19 +104,44 @@ class FleetServer:
             self.webhooks.urls = (await load_settings(session)).webhook_urls
         self.cache.invalidate()
         self.auth.invalidate()
+        if self.listener is not None:
+            await self.listener.start()
         self.started = True
         if monitors:
             self.start_monitors()
-        log.info("fleet.started", dialect=self.db.dialect, monitors=monitors)
+        log.info("fleet.started", dialect=self.db.dialect, monitors=monitors,
+                 events_poll_s=self.events.poll_s, listening=self.listener is not None)
+
+    def _changed_elsewhere(self, topics: set[str]) -> None:
+        """Another server process committed a change: drop what it may have made stale."""
+        if WRITE in topics:
+            self.db.generation += 1  # the robots' snapshot (``RobotViews``)
+        if SITE in topics:
+            self.cache.invalidate()
+        if TOKENS in topics:
+            self.auth.invalidate()
+
+    def _listening(self) -> None:
+        """(Re)connected to PostgreSQL's notifications: what came meanwhile was not heard."""
+        self._changed_elsewhere({WRITE, SITE, TOKENS})
+        self.events.notified(None)
+
+    async def leads(self) -> bool:
+        """Whether this process runs the site's sweeps (timeouts, offline robots): on
+        PostgreSQL the one holding the leader lock (``fleet.pg_listen``); on SQLite, one
+        process, always."""
+        return self.listener is None or await self.listener.lead()
 
     def start_monitors(self) -> None:
         if self._tasks:
             return
         self._tasks = [
             asyncio.create_task(self._monitor(
-                "timeouts", lambda c: c.timeout_check_period_s, self.check_timeouts)),
+                "timeouts", lambda c: c.timeout_check_period_s, self.check_timeouts,
+                site_wide=True)),
             asyncio.create_task(self._monitor(
-                "offline", lambda c: c.offline_check_period_s, self.check_offline)),
+                "offline", lambda c: c.offline_check_period_s, self.check_offline,
+                site_wide=True)),
             asyncio.create_task(self._monitor("pings", lambda c: PING_FLUSH_S, self.flush_pings)),
         ]
 
@@ -117,6 +154,8 @@ class FleetServer:
         self._tasks = []
         await self.events.stop()
         await self.webhooks.stop()
+        if self.listener is not None:
+            await self.listener.stop()
         try:
             await self.flush_pings()
         except Exception:
@@ -157,8 +196,9 @@ class FleetServer:
 
     async def _monitor(
         self, name: str, period: Callable[[FleetSettings], float],
-        check: Callable[[], Awaitable[object]],
+        check: Callable[[], Awaitable[object]], *, site_wide: bool = False,
     ) -> None:
+        """``site_wide``: a sweep of the whole site, run only by the leader (``leads``)."""
         while True:
             try:
                 cfg = await self.cache.settings()
@@ -168,6 +208,8 @@ class FleetServer:
                 cfg = FleetSettings.model_validate({})
             await asyncio.sleep(period(cfg))
             try:
+                if site_wide and not await self.leads():
+                    continue
                 found = await check()
                 if found and isinstance(found, list):
                     log.info("fleet.monitor.acted", monitor=name, found=found)

@@ -11,6 +11,7 @@ from pydantic import BaseModel, ConfigDict, Field, StringConstraints, model_vali
 from sqlalchemy import Connection, select
 from sqlalchemy.ext.asyncio import AsyncConnection, AsyncSession
 
+from fleet.db import SITE, announce
 from fleet.models import Setting
 
 WebhookUrl = Annotated[str, StringConstraints(max_length=500, pattern=r"^https?://[^\s]+$")]
@@ -125,4 +126,5 @@ async def store_settings(session: AsyncSession, values: dict[str, Any]) -> Fleet
             session.add(Setting(key=key, value=value))
         else:
             row.value = value
+    announce(session, SITE)
     return merged

@@ -19,6 +19,7 @@ from enum import StrEnum
 from sqlalchemy import select
 from sqlalchemy.ext.asyncio import AsyncSession
 
+from fleet.db import announce
 from fleet.errors import Invalid, NotFound
 from fleet.models import Customer, Robot, Token
 
@@ -50,6 +51,10 @@ class Principal:
     @property
     def customer_id(self) -> int | None:
         return int(self.subject) if self.role == Role.CUSTOMER else None
+
+
+TOKENS = "tokens"
+"""The topic other server processes hear when a token is created or revoked."""
 
 
 def new_token() -> str:
@@ -113,6 +118,7 @@ async def create(session: AsyncSession, now: datetime, role: Role, subject: str,
     row = Token(role=str(role), subject=subject, token_hash=hashed, created_at=now)
     session.add(row)
     await session.flush()
+    announce(session, TOKENS)
     return row, token
 
 
@@ -127,4 +133,5 @@ async def revoke(session: AsyncSession, now: datetime, token_id: int) -> Token:
         raise NotFound(msg)
     if row.revoked_at is None:
         row.revoked_at = now
+        announce(session, TOKENS)  # the other server processes refuse it at once
     return row

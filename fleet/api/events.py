@@ -6,12 +6,13 @@ import asyncio
 from collections.abc import AsyncIterator
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Query
+from fastapi import APIRouter, Header, Query
 from fastapi import Request as HttpRequest
 from fastapi.responses import StreamingResponse
 
 from fleet.api.auth import CustomerOrAdmin
 from fleet.api.deps import AUTH_ERRORS, server_of
+from fleet.errors import Invalid
 from fleet.push import Filter, Pushed, StaffEvent
 from fleet.tokens import Principal, Role
 
@@ -22,10 +23,7 @@ KEEPALIVE_S = 15.0
 
 _STREAM: dict[int | str, dict[str, Any]] = {200: {"description": (
     "text/event-stream: one event per notification (`id`: its Id, `event`: its Kind, "
-    "`data`: the notification as JSON, as in GET /api/notifications); for staff with "
-    "`?robots=true` also `event: robots` (`data`: `{\"Robots\": [...]}`, the robots "
-    "whose state, place or fault changed), for a customer with `?requests=true` "
-    "`event: request` (`data`: `{\"Id\": N, \"Status\": S}`); comment lines "
+    "`data`: the notification as JSON, as in GET /api/notifications); comment lines "
     "(`: ...`) when subscribed and every 15 s"),
     "content": {"text/event-stream": {"schema": {"type": "string"}}}}}
 
@@ -39,16 +37,33 @@ async def events(
     requests: Annotated[bool, Query(description=(
         "customers only: also `event: request` whenever one of the caller's requests "
         "changes status (the console's phone page)"))] = False,
+    last_event_id: Annotated[str | None, Header(
+        alias="Last-Event-ID", description=(
+            "a reconnecting stream: the id of the last event it got; the stream starts with "
+            "every notification after it, in order"))] = None,
 ) -> StreamingResponse:
     """Notifications pushed as they are created, from the subscription on: a customer gets
-    its own (those addressed to it), the staff all. Missed ones (a dropped connection) are
-    in GET /api/notifications (staff) and in the request itself (customers)."""
+    its own (those addressed to it), the staff all. With `Last-Event-ID` (what an
+    EventSource sends when it reconnects) it starts after that id instead, so that nothing is
+    missed or repeated; a stream more than 1000 events behind is ended (GET
+    /api/notifications has them all)."""
+    after_id = _event_id(last_event_id)
     return StreamingResponse(
-        _stream(http, _filter(caller), staff=robots and caller.role == Role.ADMIN,
+        _stream(http, _filter(caller), after_id, staff=robots and caller.role == Role.ADMIN,
                 customer_id=caller.customer_id if requests and caller.role == Role.CUSTOMER
                 else None),
         media_type="text/event-stream",
         headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
+
+
+def _event_id(header: str | None) -> int | None:
+    if header is None or not header.strip():
+        return None
+    text = header.strip()
+    if not (text.isascii() and text.isdigit()) or len(text) > 18:
+        msg = f"Last-Event-ID: expected the id of a notification (a whole number), got {text!r}"
+        raise Invalid(msg)
+    return int(text)
 
 
 def _filter(caller: Principal) -> Filter:
@@ -58,9 +73,9 @@ def _filter(caller: Principal) -> Filter:
     return lambda n: n.Recipient == "customer" and n.CustomerId == customer_id
 
 
-async def _stream(http: HttpRequest, wants: Filter, *, staff: bool,
+async def _stream(http: HttpRequest, wants: Filter, after_id: int | None, *, staff: bool,
                   customer_id: int | None) -> AsyncIterator[bytes]:
-    async with server_of(http).events.subscribe(wants, staff=staff,
+    async with server_of(http).events.subscribe(wants, after_id, staff=staff,
                                                 customer_id=customer_id) as queue:
         yield b": subscribed\n\n"
         while True:

@@ -8,6 +8,7 @@ import structlog
 from sqlalchemy import select
 from sqlalchemy.ext.asyncio import AsyncSession
 
+from fleet.db import SITE, announce
 from fleet.errors import Conflict, NotFound
 from fleet.models import Beacon, Customer, Robot, Room
 from fleet.services.assignment import process_queue
@@ -46,6 +47,7 @@ async def put_room(session: AsyncSession, name: str, floor_color: str | None) ->
     else:
         room.floor_color = floor_color
     await session.flush()
+    announce(session, SITE)
     return room
 
 
@@ -67,6 +69,7 @@ async def put_beacon(
     beacon.is_base = is_base
     beacon.is_active = is_active
     await session.flush()
+    announce(session, SITE)
     return beacon
 
 
@@ -93,6 +96,7 @@ async def put_customer(
     customer.room_id = room_id
     customer.beacon_id = beacon_row.id if beacon_row is not None else None
     await session.flush()
+    announce(session, SITE)
     return customer
 
 

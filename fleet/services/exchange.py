@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from datetime import datetime, timedelta
 from typing import Any, cast
 
-from sqlalchemy import Connection, Table, bindparam, case, select, update
+from sqlalchemy import Connection, Table, bindparam, case, or_, select, update
 
 from fleet.cache import Cached, SiteCache, SiteView
 from fleet.clock import Clock
@@ -162,16 +162,26 @@ class RobotViews:
         self._pings.pop(robot_id, None)
 
     async def flush_pings(self) -> int:
-        """Write the pings noted since the last flush; returns how many robots."""
+        """Write the pings noted since the last flush; returns how many robots.
+
+        In robot id order: behind a load balancer every server process flushes pings of
+        the same robots each second, and rows locked in one order by all cannot deadlock.
+        A ping older than the one stored (written by another process meanwhile) changes
+        nothing. If the write fails the pings are kept for the next flush."""
         if not self._pings:
             return 0
-        pings, self._pings = list(self._pings.values()), {}
+        pending, self._pings = self._pings, {}
+        pings = [pending[rid] for rid in sorted(pending)]
 
         def write(conn: Connection) -> None:
             for start in range(0, len(pings), _PING_CHUNK):
                 conn.execute(_PING_UPDATE, pings[start:start + _PING_CHUNK])
 
-        await self._db.run_write(write, serial=False)
+        try:
+            await self._db.run_write(write, serial=False)
+        except Exception:
+            self._pings = pending | self._pings  # newer reports noted meanwhile win
+            raise
         return len(pings)
 
 
@@ -180,7 +190,8 @@ _robots = cast(Table, Robot.__table__)
 # quiet report's state path, battery and fault text ride along (they change nothing else; the
 # fault's code and the e-stop latch do, and are written by the report's own transaction).
 _PING_UPDATE = (
-    update(_robots).where(_robots.c.id == bindparam("rid")).values(
+    update(_robots).where(_robots.c.id == bindparam("rid"), or_(
+        _robots.c.last_ping_at.is_(None), _robots.c.last_ping_at <= bindparam("ping"))).values(
         last_ping_at=bindparam("ping"), weight_kg=bindparam("weight"),
         ultrasonic_distance=bindparam("distance"), is_in_target=bindparam("in_target"),
         state=bindparam("state"), battery_pct=bindparam("battery"),

@@ -46,9 +46,11 @@ async def serving(app: Any) -> AsyncIterator[str]:
 class Listener:
     """An SSE client: the events (kind, data) in order, each with when it came."""
 
-    def __init__(self, url: str, token: str) -> None:
+    def __init__(self, url: str, token: str, last_event_id: str | None = None) -> None:
         self.url = url
         self.token = token
+        self.headers = bearer(token) | (
+            {"Last-Event-ID": last_event_id} if last_event_id is not None else {})
         self.events: asyncio.Queue[tuple[float, str, dict[str, Any]]] = asyncio.Queue()
         self.subscribed = asyncio.Event()
         self.status: int | None = None
@@ -67,7 +69,7 @@ class Listener:
 
     async def _listen(self) -> None:
         async with httpx.AsyncClient(timeout=None) as client, client.stream(
-                "GET", f"{self.url}/api/events", headers=bearer(self.token)) as response:
+                "GET", f"{self.url}/api/events", headers=self.headers) as response:
             self.status = response.status_code
             assert response.headers["content-type"].startswith("text/event-stream")
             kind = ""
@@ -125,6 +127,36 @@ class TestServerSentEvents:
             came, kind, data = await listener.next()
             assert (kind, data["RequestId"]) == ("request.accepted", body["Id"])
             assert came - started < 2.5
+
+    async def test_a_stream_resumed_after_its_last_event_id_misses_nothing(self, fleet):
+        """A stream that reconnects with Last-Event-ID gets every notification after that id
+        that it may see, once and in id order, then the new ones as they come."""
+        made = [await fleet.request(c) for c in (1, 2, 3)]
+        async with serving(fleet.app) as url, httpx.AsyncClient() as client:
+            stored = (await client.get(f"{url}/api/notifications?limit=100",
+                                       headers=bearer(STAFF))).json()
+            ids = sorted(n["Id"] for n in stored)
+            async with Listener(url, STAFF, last_event_id=str(ids[0])) as listener:
+                missed = [(await listener.next())[2]["Id"] for _ in ids[1:]]
+                assert missed == ids[1:]
+                await fleet.do(made[0]["Id"], "cancel")
+                _, kind, live = await listener.next()
+                assert (kind, live["RequestId"]) == ("request.cancelled", made[0]["Id"])
+                assert listener.events.empty()
+            async with Listener(url, CUSTOMER_1, last_event_id="0") as mine:
+                _, _, first = await mine.next()
+                _, _, second = await mine.next()
+                assert [first["Kind"], second["Kind"]] == ["request.accepted",
+                                                           "request.cancelled"]
+                assert {first["CustomerId"], second["CustomerId"]} == {1}
+                assert mine.events.empty()
+
+    async def test_a_last_event_id_that_is_not_an_id_is_422(self, fleet):
+        async with serving(fleet.app) as url, httpx.AsyncClient() as client:
+            answer = await client.get(f"{url}/api/events",
+                                      headers=bearer(STAFF) | {"Last-Event-ID": "abc"})
+            assert answer.status_code == 422
+            assert "Last-Event-ID" in answer.json()["detail"]
 
     async def test_robots_may_not_listen_and_no_token_is_401(self, fleet):
         async with serving(fleet.app) as url, httpx.AsyncClient() as client:

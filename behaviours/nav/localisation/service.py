@@ -95,16 +95,19 @@ class LocalisationService:
 
     def _on_scan(self, scan: LidarScan) -> None:
         # The LiDAR's driver calls this within the loop step that parsed the scan's bytes; the
-        # filter's update (up to ~15 ms of CPU on a PC, x8 on a Pi 4) and the people tracker
-        # each get a step of their own, queued in order, with the odometry of the scan's time.
+        # filter's update (up to ~15 ms of CPU on a PC, x8 on a Pi 4), its resampling and the
+        # people tracker each get a step of their own, queued in order, with the odometry of
+        # the scan's time.
         loop = asyncio.get_running_loop()
         loop.call_soon(self._update, scan, self.odometry(), loop.time())
 
     def _update(self, scan: LidarScan, odom: OdomPose, now_s: float) -> None:
-        self.localiser.on_scan(odom, scan, now_s)  # counts and skips a malformed scan
+        # counts and skips a malformed scan; the resampling is the next step's
+        self.localiser.on_scan(odom, scan, now_s, defer_resample=True)
+        loop = asyncio.get_running_loop()
+        loop.call_soon(self.localiser.finish_update)
         if self.people is not None:
-            asyncio.get_running_loop().call_soon(
-                self._track_people, scan, self.localiser.pose_array(odom), now_s)
+            loop.call_soon(self._track_people, scan, self.localiser.pose_array(odom), now_s)
 
     def _track_people(self, scan: LidarScan, pose: FloatArray, now_s: float) -> None:
         assert self.people is not None

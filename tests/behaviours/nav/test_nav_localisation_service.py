@@ -115,9 +115,10 @@ class _Recording(Localiser):
         super().__init__(*args, **kwargs)  # type: ignore[arg-type]
         self.odoms: list[tuple[float, float, float]] = []
 
-    def on_scan(self, odom: tuple[float, float, float], scan: LidarScan, now_s: float) -> bool:
+    def on_scan(self, odom: tuple[float, float, float], scan: LidarScan, now_s: float, *,
+                defer_resample: bool = False) -> bool:
         self.odoms.append(odom)
-        return super().on_scan(odom, scan, now_s)
+        return super().on_scan(odom, scan, now_s, defer_resample=defer_resample)
 
 
 class _ScanSource:
@@ -134,9 +135,9 @@ class _ScanSource:
 
 class TestScanSteps:
     def test_the_update_runs_after_the_lidars_step_with_the_odometry_of_the_scan(self) -> None:
-        """The LiDAR's step only queues the filter's update and the people tracker's, each a
-        loop step of its own; the filter gets the odometry of the scan's moment, even when
-        the wheels have moved on by the time it runs."""
+        """The LiDAR's step only queues the filter's update; its resampling and the people
+        tracker are the next steps; the filter gets the odometry of the scan's moment, even
+        when the wheels have moved on by the time it runs."""
 
         async def main() -> None:
             source = _ScanSource()
@@ -154,9 +155,12 @@ class TestScanSteps:
             await asyncio.sleep(0)
             assert localiser.scans == 1
             assert localiser.odoms == [(0.0, 0.0, 0.0)]
+            assert localiser.updates == 1
             assert service.people_out.count == 0, "the people tracker's step comes next"
+            particles = localiser.particles.poses.copy()
             await asyncio.sleep(0)
             assert service.people_out.count == 1
+            assert not np.array_equal(localiser.particles.poses, particles), "resampled"
             task.cancel()
             await asyncio.gather(task, return_exceptions=True)
 

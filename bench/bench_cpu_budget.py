@@ -42,7 +42,12 @@ of Languages on Raspberry Pi", chaitanyamehta.github.io). Python there was Raspb
 of 2020 (3.7), slower than 3.11 by about a quarter on such code, so the factor overstates
 the Pi's cost by about that much: a margin, not an error.
 
+``--steps-ms MS`` runs each daemon with ``ROBOTD_STEP_CPU_MS=MS`` (``robotd/step_cpu.py``) and
+lists, per profile, the loop steps that took more than MS of the loop thread's CPU time, named
+by their task: what holds the loop, apart from the machine's other work.
+
     .venv/bin/python bench/bench_cpu_budget.py [--profiles delivery,cabinet] [--seconds 25]
+                                               [--steps-ms 2]
 """
 
 from __future__ import annotations

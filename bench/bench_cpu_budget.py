@@ -42,7 +42,12 @@ of Languages on Raspberry Pi", chaitanyamehta.github.io). Python there was Raspb
 of 2020 (3.7), slower than 3.11 by about a quarter on such code, so the factor overstates
 the Pi's cost by about that much: a margin, not an error.
 
+``--steps-ms MS`` runs each daemon with ``ROBOTD_STEP_CPU_MS=MS`` (``robotd/step_cpu.py``) and
+lists, per profile, the loop steps that took more than MS of the loop thread's CPU time, named
+by their task: what holds the loop, apart from the machine's other work.
+
     .venv/bin/python bench/bench_cpu_budget.py [--profiles delivery,cabinet] [--seconds 25]
+                                               [--steps-ms 2]
 """
 
 from __future__ import annotations
@@ -163,7 +168,7 @@ def idle_and_mission(seconds: float, notes: list[str]) -> Step:
     return step
 
 
-def measure_fed(profile: str, seconds: float, notes: list[str]
+def measure_fed(profile: str, seconds: float, notes: list[str], steps_ms: float = 0.0
                 ) -> tuple[dict[str, Phase], dict[str, Any], dict[str, Any]]:
     """``robotd run`` on its real drivers, fed by ``python -m sim.feed`` in its own process;
     also the feeder's figures (what its devices sent)."""
@@ -183,7 +188,7 @@ def measure_fed(profile: str, seconds: float, notes: list[str]
             config = line.removeprefix("config ")
             argv = [str(Path(sys.executable).with_name("robotd")), "run", "--config", config]
             phases, status = measure_process(argv, str(work / "feed" / "control.sock"), work,
-                                             idle_and_mission(seconds, notes))
+                                             idle_and_mission(seconds, notes), steps_ms)
         finally:
             feed.send_signal(signal.SIGINT)
             try:
@@ -233,11 +238,12 @@ def measure_run(profile: str, seconds: float) -> tuple[dict[str, Phase], dict[st
                 board.wait()
 
 
-def measure_process(argv: list[str], sock: str, work: Path,
-                    done: Step) -> tuple[dict[str, Phase], dict[str, Any]]:
+def measure_process(argv: list[str], sock: str, work: Path, done: Step, steps_ms: float = 0.0
+                    ) -> tuple[dict[str, Phase], dict[str, Any]]:
     errors = work / "stderr"
+    env = {**os.environ, "ROBOTD_STEP_CPU_MS": str(steps_ms) if steps_ms > 0 else ""}
     with errors.open("w") as err:
-        proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=err, cwd=work)
+        proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=err, cwd=work, env=env)
     try:
         conn = _connect(sock, proc, errors)
         phases: dict[str, Phase] = {}
@@ -358,6 +364,9 @@ def main() -> int:
     parser.add_argument("--seconds", type=float, default=25.0,
                         help="real seconds measured per state class and profile (and for the "
                              "reference)")
+    parser.add_argument("--steps-ms", type=float, default=0.0,
+                        help="also list the daemon's loop steps that took more CPU than this "
+                             "(ROBOTD_STEP_CPU_MS; the timing adds a little CPU)")
     parser.add_argument("--upper-bound", action="store_true",
                         help="also the robotd sim --realtime rows and robotd run idle/square")
     args = parser.parse_args()
@@ -389,7 +398,7 @@ def main() -> int:
         notes: list[str] = []
         what = f"{profile}: robotd run, fed"
         try:
-            phases, _status, figures = measure_fed(profile, args.seconds, notes)
+            phases, status, figures = measure_fed(profile, args.seconds, notes, args.steps_ms)
         except NoDaemon as exc:
             print(f"{what}: not measured: {exc}")
             verdicts.append(f"{profile}: robotd run not measured")
@@ -413,11 +422,23 @@ def main() -> int:
         worst = sorted((w for p in phases.values() for w in p.worst), reverse=True)[:3]
         print(f"{'':34} longest lags: " + ", ".join(
             f"{lag:.1f} ms at {t:.1f} s in {state}" for lag, t, state in worst))
+        if args.steps_ms > 0:
+            print_slow_steps(status.get("slow_steps", {}))
     if args.upper_bound:
         upper_bound_rows(profiles, args.seconds, row)
     print("targets: delivery <= 10 % of a core here, every lag p99 <= 5 ms: "
           + ("met" if not verdicts else "not met: " + "; ".join(verdicts)))
     return 0
+
+
+def print_slow_steps(slow: dict[str, Any]) -> None:
+    """The daemon's loop steps over ``--steps-ms`` of CPU, over its whole run."""
+    steps = slow.get("steps", {})
+    print(f"{'':34} steps over {slow.get('threshold_ms', '?')} ms of CPU: "
+          f"{'none' if not steps else ''}")
+    for name, f in list(steps.items())[:12]:
+        print(f"{'':36} {f['count']:5d} x, {f['cpu_ms']:8.1f} ms CPU, max {f['max_cpu_ms']:6.1f}"
+              f" ms CPU / {f['max_wall_ms']:6.1f} ms wall  {name}")
 
 
 def upper_bound_rows(profiles: list[str], seconds: float,

@@ -144,6 +144,7 @@ def cmd_run(args: argparse.Namespace, profile: str | None = None) -> int:
     from robotd.daemon import Daemon
     from robotd.hardware import HardwareMissing, build_devices
     from robotd.logs import configure_logging
+    from robotd.step_cpu import StepCpu
     from robotd.viz.runtime import open_daemon_viz, run_daemon, telemetry_of
 
     config_path = Path(args.config or os.environ.get("ROBOTD_CONFIG") or DEFAULT_CONFIG)
@@ -162,6 +163,11 @@ def cmd_run(args: argparse.Namespace, profile: str | None = None) -> int:
         values["robot"]["profile"] = profile
     settings = Settings(values, source=str(config_path))
     configure_logging(settings.get("logging.level"))
+    try:
+        step_cpu = StepCpu.from_env()  # debug: the loop's long steps by CPU time
+    except ValueError as exc:
+        print(f"robotd: {exc}", file=sys.stderr)
+        return 2
     if settings.get("hal.backend") == "sim":
         print(f"{config_path}: hal.backend is 'sim': use `robotd sim` for the simulator",
               file=sys.stderr)
@@ -193,7 +199,14 @@ def cmd_run(args: argparse.Namespace, profile: str | None = None) -> int:
         print(f"robotd: cannot open the state store in {state_dir}: {exc} (check "
               "robot.state_dir; under systemd StateDirectory= provides it)", file=sys.stderr)
         return 1
-    code = asyncio.run(run_daemon(daemon, viz))
+    daemon.step_cpu = step_cpu
+    if step_cpu is not None:
+        step_cpu.install()
+    try:
+        code = asyncio.run(run_daemon(daemon, viz))
+    finally:
+        if step_cpu is not None:
+            step_cpu.uninstall()
     for failure in daemon.start_problems:
         print(f"robotd: could not start: {failure}", file=sys.stderr)
     return code

@@ -31,6 +31,7 @@ from robotd.health import LoopMonitor, WatchdogFeeder
 from robotd.logs import set_level
 from robotd.sdnotify import Notifier
 from robotd.site_link import site_report_services
+from robotd.step_cpu import StepCpu
 from robotd.store import StateStore
 from robotd.supervisor import DeviceService, RestartPolicy, StartFailed, Supervisor
 
@@ -89,6 +90,7 @@ class Daemon:
         self.machine = RobotMachine(profile, self.context, on_transition=self._on_transition,
                                     stop_motors=self.stop_motors)
         self.monitor = LoopMonitor(lambda: float(settings.get("supervisor.lag_warn_ms")))
+        self.step_cpu: StepCpu | None = None  # `robotd run` sets it: ROBOTD_STEP_CPU_MS
         self.control: ControlServer | None = None
         if socket_path is not None:
             self.control = ControlServer(

@@ -42,6 +42,7 @@ from behaviours.nav.localisation.filter import (
     UNCERTAIN,
     LocalisedPose,
     Localiser,
+    OdomPose,
 )
 from behaviours.nav.localisation.likelihood_field import DistanceGrid
 from behaviours.nav.localisation.motion_model import compose, inverse
@@ -282,9 +283,14 @@ class NavStack:
         return self._stop_scans
 
     def _on_scan(self, scan: LidarScan) -> None:
+        # In a loop step of its own, after the localisation's update of this scan (queued
+        # first: its listener was registered first), with the odometry of the scan's time.
+        asyncio.get_running_loop().call_soon(self._see_obstacles, scan, self._odom())
+
+    def _see_obstacles(self, scan: LidarScan, odom: OdomPose) -> None:
         if self.localiser.status != LOCALISED:
             return  # unexplained points of a wrong pose are the map's walls, misplaced
-        pose = self.localiser.pose_array(self._odom())
+        pose = self.localiser.pose_array(odom)
         pts = unexplained_points(scan, pose, self.distance, self.people_config)
         if pts.shape[0] == 0:
             return

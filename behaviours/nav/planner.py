@@ -100,8 +100,12 @@ class Planner:
         return (self.keepout is not None and self.grid.inside(row, col)
                 and bool(self.keepout.inside[row, col]))
 
-    def plan(self, start: Point, goal: Point) -> Plan:
-        """The cheapest path from ``start`` to ``goal``; NoPath says why there is none."""
+    def plan(self, start: Point, goal: Point, *, smooth: bool = True) -> Plan:
+        """The cheapest path from ``start`` to ``goal``; NoPath says why there is none.
+
+        ``smooth=False`` leaves the cell centres as they are (``smoothed`` does the rest), for
+        a caller that spreads the work over loop steps.
+        """
         start_cell = self._standing_cell(start, "start")
         goal_cell = self._standing_cell(goal, "goal")
         cols = self.grid.cols
@@ -119,10 +123,15 @@ class Planner:
         # The start lies in the first cell and the goal in the last: the legs to and from
         # their centres stay inside cells the robot may stand on.
         points = _dedupe([start, *centres, goal])
-        if self.config.smoothing:
-            points = shorten(self.grid, self.free, points)
-        return Plan(points, found.cost, path_length_m(points), found.expanded,
-                    len(found.cells))
+        plan = Plan(points, found.cost, path_length_m(points), found.expanded, len(found.cells))
+        return self.smoothed(plan) if smooth else plan
+
+    def smoothed(self, plan: Plan) -> Plan:
+        """``plan`` with its corners cut where the grid allows (``PlannerConfig.smoothing``)."""
+        if not self.config.smoothing:
+            return plan
+        points = shorten(self.grid, self.free, plan.points)
+        return Plan(points, plan.cost, path_length_m(points), plan.expanded, plan.cells)
 
     def _search(self, cost: npt.NDArray[np.float64], start: int, goal: int) -> Search:
         """A* on the grid; on a large map (``HIERARCHY_CELLS``) first on blocks of

@@ -78,6 +78,7 @@ class _Methods:
             "pid": os.getpid(),
             "version": __version__,
             **_mission(d.profile),
+            **({} if d.step_cpu is None else {"slow_steps": d.step_cpu.figures()}),
         }
 
     async def sensors(self, _params: dict[str, Any], _client: Client) -> dict[str, Any]:

@@ -45,12 +45,12 @@ kp = 0.7
 class Robotd:
     """A ``robotd run`` process with a real NOTIFY_SOCKET to hear READY=1 from."""
 
-    def __init__(self, workdir: Path, config: Path) -> None:
+    def __init__(self, workdir: Path, config: Path, **extra_env: str) -> None:
         notify_path = workdir / f"notify-{len(list(workdir.glob('notify-*')))}"
         self.notify = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
         self.notify.bind(str(notify_path))
         self.notify.settimeout(START_GUARD_S)
-        env = dict(os.environ, NOTIFY_SOCKET=str(notify_path))
+        env = dict(os.environ, NOTIFY_SOCKET=str(notify_path), **extra_env)
         env.pop("JOURNAL_STREAM", None)
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "robotd.cli", "run", "--config", str(config)],
@@ -108,6 +108,33 @@ class TestRobotdRun:
         assert "daemon.stopped" in stderr
         assert "Traceback" not in stderr
         assert not Path(robot.socket_path).exists(), "the socket is removed at exit"
+
+    def test_step_cpu_debug_puts_the_long_steps_in_status(self, workdir: Path) -> None:
+        """ROBOTD_STEP_CPU_MS: ``status`` lists the loop's steps over it, by name."""
+        robot = Robotd(workdir, write_config(workdir), ROBOTD_STEP_CPU_MS="0.001")
+        robot.wait_ready()
+        status = result(robot.call("status"))
+        code, _stderr = robot.stop()
+        slow = status["slow_steps"]
+        assert isinstance(slow, dict)
+        assert slow["threshold_ms"] == 0.001
+        assert slow["steps"], "start-up takes more than 1 us of CPU in some step"
+        assert code == 0
+
+    def test_status_has_no_step_figures_unless_asked(self, workdir: Path) -> None:
+        robot = Robotd(workdir, write_config(workdir), ROBOTD_STEP_CPU_MS="")
+        robot.wait_ready()
+        status = result(robot.call("status"))
+        robot.stop()
+        assert "slow_steps" not in status
+
+    def test_a_bad_step_cpu_threshold_is_one_clear_line(self, workdir: Path) -> None:
+        done = subprocess.run([sys.executable, "-m", "robotd.cli", "run", "--config",
+                               str(write_config(workdir))], capture_output=True, text=True,
+                              timeout=60, check=False,
+                              env=dict(os.environ, ROBOTD_STEP_CPU_MS="fast"))
+        assert done.returncode == 2
+        assert done.stderr == "robotd: ROBOTD_STEP_CPU_MS: 'fast' is not a number of ms\n"
 
     def test_sighup_with_a_broken_file_keeps_the_old_config(self, workdir: Path) -> None:
         config = write_config(workdir)

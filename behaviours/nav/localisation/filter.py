@@ -103,6 +103,7 @@ class Localiser:
         self.divergences = 0
         self.lidar_only: LidarOnlyMotion | None = None  # encoders failed: lidar_only.py
         self._settle = 0  # updates still owed to a re-seeded filter standing still
+        self._resample_due = False  # on_scan(defer_resample=True) left it to finish_update()
         self._settled = False  # localised since the last (re)start: jumps count from then
         self.jumps = 0
         self.last_jump: tuple[float, float] = (0.0, 0.0)
@@ -113,6 +114,7 @@ class Localiser:
     def start_at(self, x_m: float, y_m: float, theta_rad: float, sigma_m: float | None = None,
                  sigma_rad: float | None = None) -> None:
         """Particles in a Gaussian cloud around a pose (AMCL's initial pose)."""
+        self.finish_update()  # the random draws stay in the order they had without deferral
         c = self.config
         s_m = c.initial_sigma_m if sigma_m is None else sigma_m
         s_rad = c.initial_sigma_rad if sigma_rad is None else sigma_rad
@@ -126,6 +128,7 @@ class Localiser:
 
     def start_global(self) -> None:
         """Particles spread uniformly over the map's free space (global localisation)."""
+        self.finish_update()
         poses = self.sample_free(self.config.global_particles)
         self._restart(poses, None)
         log.info("localisation.start_global", particles=len(self.particles),
@@ -134,6 +137,7 @@ class Localiser:
     def start_from(self, poses: FloatArray) -> None:
         """Particles given (a global search's candidates): the next scan weighs them all, then
         the filter runs on ``max_particles``, as after a global start."""
+        self.finish_update()
         self._restart(np.asarray(poses, dtype=np.float64).reshape(-1, 3), None)
         log.info("localisation.start_from", particles=len(self.particles))
 
@@ -169,12 +173,16 @@ class Localiser:
 
     # --- scans ----------------------------------------------------------------------------
 
-    def on_scan(self, odom: OdomPose, scan: LidarScan, now_s: float) -> bool:
+    def on_scan(self, odom: OdomPose, scan: LidarScan, now_s: float, *,
+                defer_resample: bool = False) -> bool:
         """Take one scan with the odometry pose of its time; True if the filter updated.
 
         A malformed scan (angles and ranges of different shapes) or a non-finite odometry
-        pose is counted in ``rejected`` and skipped.
+        pose is counted in ``rejected`` and skipped. ``defer_resample`` leaves the resampling
+        (a third of an update's work) to ``finish_update``, for a caller that runs it as a
+        loop step of its own: the pose, the estimate and the status are already this scan's.
         """
+        self.finish_update()
         if (scan.angles_rad.shape != scan.ranges_m.shape or scan.ranges_m.ndim != 1
                 or not all(math.isfinite(v) for v in odom)):
             self.rejected += 1
@@ -187,12 +195,12 @@ class Localiser:
         beams = select_beams(scan, self.config.max_beams, self.config.laser_max_range_m)
         updated = False
         if len(self.particles) and (self.lidar_only is not None or self._moved_enough(odom)):
-            self._update(odom, beams)
+            self._update(odom, beams, defer_resample)
             updated = True
         elif len(self.particles) and self._settle > 0:
             self._settle -= 1
             self._roughen()
-            self._update(odom, beams)
+            self._update(odom, beams, defer_resample)
             updated = True
         self.match_fraction = self.field.match_fraction(
             self.pose_array(odom), beams, self.config.match_distance_m)
@@ -213,7 +221,7 @@ class Localiser:
         ps.poses = ps.poses + noise * np.array([_ROUGHEN_M, _ROUGHEN_M, _ROUGHEN_RAD])
         ps.poses[:, 2] = wrap(ps.poses[:, 2])
 
-    def _update(self, odom: OdomPose, beams: FloatArray) -> None:
+    def _update(self, odom: OdomPose, beams: FloatArray, defer_resample: bool = False) -> None:
         c = self.config
         ps = self.particles
         if self.lidar_only is not None:
@@ -229,11 +237,21 @@ class Localiser:
         if self.lidar_only is not None:
             self.lidar_only.estimated(self.estimate.as_array())
         self.correction = compose(self.estimate.as_array(), inverse(np.asarray(odom)))
-        ps.resample(self.rng, self.sample_free, kld_err=c.kld_err, kld_z=c.kld_z,
-                    min_particles=c.min_particles, max_particles=c.max_particles,
-                    recover=c.alpha_slow > 0 and c.alpha_fast > 0)
+        self._resample_due = True
+        if not defer_resample:
+            self.finish_update()
         self._odom_at_update = odom
         self.updates += 1
+
+    def finish_update(self) -> None:
+        """The resampling the last update owes, if any (``on_scan(defer_resample=True)``)."""
+        if not self._resample_due:
+            return
+        self._resample_due = False
+        c = self.config
+        self.particles.resample(self.rng, self.sample_free, kld_err=c.kld_err, kld_z=c.kld_z,
+                                min_particles=c.min_particles, max_particles=c.max_particles,
+                                recover=c.alpha_slow > 0 and c.alpha_fast > 0)
 
     def _note_jump(self, before: FloatArray) -> None:
         est = self.estimate

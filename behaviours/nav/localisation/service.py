@@ -17,7 +17,7 @@ from typing import Any
 import structlog
 
 from behaviours.motion.odometry import Odometry
-from behaviours.nav.localisation.filter import LocalisedPose, Localiser, OdomPose
+from behaviours.nav.localisation.filter import FloatArray, LocalisedPose, Localiser, OdomPose
 from behaviours.nav.localisation.people import PeopleTracker, Person
 from hal.devices import Lidar
 from hal.latest import LatestValue
@@ -94,12 +94,24 @@ class LocalisationService:
             stop_listening()
 
     def _on_scan(self, scan: LidarScan) -> None:
-        now_s = asyncio.get_running_loop().time()
-        odom = self.odometry()
-        self.localiser.on_scan(odom, scan, now_s)  # counts and skips a malformed scan
+        # The LiDAR's driver calls this within the loop step that parsed the scan's bytes; the
+        # filter's update (up to ~15 ms of CPU on a PC, x8 on a Pi 4), its resampling and the
+        # people tracker each get a step of their own, queued in order, with the odometry of
+        # the scan's time.
+        loop = asyncio.get_running_loop()
+        loop.call_soon(self._update, scan, self.odometry(), loop.time())
+
+    def _update(self, scan: LidarScan, odom: OdomPose, now_s: float) -> None:
+        # counts and skips a malformed scan; the resampling is the next step's
+        self.localiser.on_scan(odom, scan, now_s, defer_resample=True)
+        loop = asyncio.get_running_loop()
+        loop.call_soon(self.localiser.finish_update)
         if self.people is not None:
-            pose = self.localiser.pose_array(odom)
-            self.people_out.publish(self.people.update(scan, pose, now_s))
+            loop.call_soon(self._track_people, scan, self.localiser.pose_array(odom), now_s)
+
+    def _track_people(self, scan: LidarScan, pose: FloatArray, now_s: float) -> None:
+        assert self.people is not None
+        self.people_out.publish(self.people.update(scan, pose, now_s))
 
     def status(self) -> dict[str, Any]:
         """For ``robotctl status``/``sensors``: the pose, its spread and the filter's figures."""

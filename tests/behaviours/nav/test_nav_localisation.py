@@ -142,6 +142,34 @@ class TestDeterminism:
         assert not np.array_equal(a, self._run(room_grid, 6))
 
 
+class TestDeferredResampling:
+    def _run(self, room_grid: DistanceGrid, *, defer: bool) -> list[np.ndarray]:
+        rng = np.random.default_rng(99)
+        loc = Localiser(room_grid, LocalisationConfig(seed=5))
+        loc.start_at(2.1, 0.4, 0.05)
+        truth = drive(ROUTE[:3])
+        odom = odometry_of(truth, rng)
+        poses = []
+        for i, (t, o) in enumerate(zip(truth, odom, strict=True)):
+            loc.on_scan(o, scan_at(t, rng), i * SCAN_PERIOD_S, defer_resample=defer)
+            poses.append(loc.pose_array(o))
+            if i == 20:
+                loc.start_at(*t)  # a restart with a resampling owed
+            if defer and i % 2:
+                loc.finish_update()  # every other scan: the next on_scan finishes the rest
+        loc.finish_update()
+        return [*poses, loc.particles.poses]
+
+    def test_resampling_in_a_later_step_changes_nothing(self, room_grid: DistanceGrid) -> None:
+        """on_scan(defer_resample=True) then finish_update() (the localisation service's two
+        loop steps), or the next scan or a restart coming first: the same poses and
+        particles, to the bit, as resampling within on_scan."""
+        at_once, deferred = (self._run(room_grid, defer=d) for d in (False, True))
+        assert len(at_once) == len(deferred)
+        for a, b in zip(at_once, deferred, strict=True):
+            assert np.array_equal(a, b)
+
+
 class TestBadInput:
     def test_a_malformed_scan_is_counted_not_raised(self, room_grid: DistanceGrid) -> None:
         """Angles and ranges of different lengths, or a NaN odometry pose: skipped, counted."""

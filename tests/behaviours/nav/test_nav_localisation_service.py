@@ -4,13 +4,15 @@ from __future__ import annotations
 
 import asyncio
 import math
+from collections.abc import Callable
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from nav_room import WALLS, grid
+from nav_room import INSIDE, WALLS, grid, scan_at
 
-from behaviours.nav.localisation.config import LocalisationConfig
+from behaviours.nav.localisation.config import LocalisationConfig, PeopleConfig
 from behaviours.nav.localisation.filter import (
     LIDAR_LOST,
     LOCALISED,
@@ -18,8 +20,11 @@ from behaviours.nav.localisation.filter import (
     LocalisedPose,
     Localiser,
 )
+from behaviours.nav.localisation.people import PeopleTracker
 from behaviours.nav.localisation.service import LocalisationService, start_filter
 from drivers.lidar import Ld19Lidar, LidarConfig
+from hal.latest import LatestValue
+from hal.readings import LidarScan
 from sim import vclock
 from sim.devices.ld19 import SimLd19, walls
 from sim.devices.sim_serial import SimSerialPorts
@@ -101,3 +106,62 @@ class TestLocalisationService:
         poses, _ = run_10hz
         count = sum(1 for p in poses if start_s <= p.t_s <= start_s + 1.0)
         assert count >= 10
+
+
+class _Recording(Localiser):
+    """The real filter, remembering the odometry each scan was taken with."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+        self.odoms: list[tuple[float, float, float]] = []
+
+    def on_scan(self, odom: tuple[float, float, float], scan: LidarScan, now_s: float, *,
+                defer_resample: bool = False) -> bool:
+        self.odoms.append(odom)
+        return super().on_scan(odom, scan, now_s, defer_resample=defer_resample)
+
+
+class _ScanSource:
+    """Scans handed to listeners as the LD19 driver does, within the caller's loop step."""
+
+    stale = False
+
+    def __init__(self) -> None:
+        self.latest: LatestValue[LidarScan] = LatestValue()
+
+    def listen(self, callback: Callable[[LidarScan], object]) -> Callable[[], None]:
+        return self.latest.listen(callback)
+
+
+class TestScanSteps:
+    def test_the_update_runs_after_the_lidars_step_with_the_odometry_of_the_scan(self) -> None:
+        """The LiDAR's step only queues the filter's update; its resampling and the people
+        tracker are the next steps; the filter gets the odometry of the scan's moment, even
+        when the wheels have moved on by the time it runs."""
+
+        async def main() -> None:
+            source = _ScanSource()
+            localiser = _Recording(grid(), LocalisationConfig(
+                initial_x_m=INSIDE[0], initial_y_m=INSIDE[1], initial_sigma_m=0.05))
+            start_filter(localiser)
+            odom = [(0.0, 0.0, 0.0)]
+            service = LocalisationService(localiser, source, lambda: odom[-1],  # type: ignore[arg-type]
+                                          people=PeopleTracker(PeopleConfig(), None))
+            task = asyncio.create_task(service.run(lambda: None))
+            await asyncio.sleep(0)
+            source.latest.publish(scan_at((*INSIDE, 0.0), np.random.default_rng(1)))
+            assert localiser.scans == 0, "not in the LiDAR's own step"
+            odom.append((0.3, 0.0, 0.0))  # the wheels turn before the update runs
+            await asyncio.sleep(0)
+            assert localiser.scans == 1
+            assert localiser.odoms == [(0.0, 0.0, 0.0)]
+            assert localiser.updates == 1
+            assert service.people_out.count == 0, "the people tracker's step comes next"
+            particles = localiser.particles.poses.copy()
+            await asyncio.sleep(0)
+            assert service.people_out.count == 1
+            assert not np.array_equal(localiser.particles.poses, particles), "resampled"
+            task.cancel()
+            await asyncio.gather(task, return_exceptions=True)
+
+        vclock.run(main())

@@ -126,6 +126,14 @@ class TestPlanner:
         plan = planner.plan((1, 1), (3, 1))
         assert len(plan.points) == plan.cells + 2
 
+    def test_a_plan_smoothed_afterwards_is_the_plan_smoothed_at_once(self) -> None:
+        """plan(smooth=False) then smoothed() (the path follower's two loop steps) gives the
+        same plan as plan()."""
+        planner = Planner(Grid.from_segments(ROOM, 0.05))
+        raw = planner.plan((1.013, 1.0), (7.0, 1.21), smooth=False)
+        assert len(raw.points) == raw.cells + 2
+        assert planner.smoothed(raw) == planner.plan((1.013, 1.0), (7.0, 1.21))
+
 
 @st.composite
 def rooms_and_points(draw: st.DrawFn) -> tuple[Grid, tuple[float, float], tuple[float, float]]:

@@ -356,15 +356,17 @@ async def _all_ended(db: Any, count: int) -> dict[int, str] | None:
 class TestNotify:
     async def test_a_stream_on_one_process_hears_a_commit_on_another_at_once(
             self, pg_url: str, tmp_path: Path) -> None:
-        """With the event poll at 30 s, a stream on process A gets the notifications of a
-        request created through process B within a second: only LISTEN/NOTIFY can bring it."""
-        async with cluster(pg_url, tmp_path, 2, "--events-poll-s", "30") as fleet, \
+        """With the event poll at 60 s, a stream on process A gets the notifications of a
+        request created through process B long before any poll: only LISTEN/NOTIFY can bring
+        it. (It takes milliseconds; the bound is 10 s so that a loaded CI machine's queues do
+        not fail it, and still far below the poll.)"""
+        async with cluster(pg_url, tmp_path, 2, "--events-poll-s", "60") as fleet, \
                 httpx.AsyncClient(timeout=10) as http:
             for server in fleet.procs:
                 started = [json.loads(line) for line in
                            (tmp_path / f"{server.name}.log").read_text().splitlines()
                            if '"fleet.started"' in line]
-                assert started and started[-1]["events_poll_s"] == 30.0
+                assert started and started[-1]["events_poll_s"] == 60.0
             a, b = fleet.procs[0].url, fleet.procs[1].url
             robot = SimRobot(httpx.AsyncClient(base_url=b, timeout=10), 1)
             for _ in range(3):  # online, sent to base, there
@@ -390,14 +392,14 @@ class TestNotify:
                 answered = loop.time()
                 assert answer.status_code == 201, answer.text
                 request_id = answer.json()["Id"]
-                at, event = await asyncio.wait_for(got.get(), 10)
+                at, event = await asyncio.wait_for(got.get(), 20)
                 while event["RequestId"] != request_id:
-                    at, event = await asyncio.wait_for(got.get(), 10)
+                    at, event = await asyncio.wait_for(got.get(), 20)
             finally:
                 listener.cancel()
                 await asyncio.gather(listener, return_exceptions=True)
                 await robot.http.aclose()
-        assert at - answered < 1.0
+        assert at - answered < 10.0
 
     async def test_a_process_that_lost_its_listening_connection_catches_up(
             self, pg_url: str, tmp_path: Path) -> None:

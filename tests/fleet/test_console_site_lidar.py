@@ -177,10 +177,20 @@ def near(frame: SiteMapFrame, at: tuple[float, float, dict[str, str]] | None,
     return math.dist(want, at[:2]) <= PIXELS
 
 
+def watch_alerts(driver: Any) -> None:
+    """Note the code of every alert the board shows from now on, however briefly (a fault
+    that clears resolves its alert): an observer of the page's DOM, gone with a reload."""
+    driver.execute_script(
+        "window.alertCodes = new Set();"
+        "const note = () => document.querySelectorAll('#alerts article.alert')"
+        "  .forEach((a) => window.alertCodes.add(a.dataset.code));"
+        "new MutationObserver(note).observe(document.body, {childList: true, subtree: true});"
+        "note();")
+
+
 def alert_codes(driver: Any) -> set[str]:
-    return set(driver.execute_script(
-        "return Array.from(document.querySelectorAll('#alerts article.alert'))"
-        ".map((a) => a.dataset.code);"))
+    """The codes of the alerts the board has shown since ``watch_alerts``."""
+    return set(driver.execute_script("return Array.from(window.alertCodes || []);"))
 
 
 class TestLidarRobotsOnTheSiteMap:
@@ -198,6 +208,7 @@ class TestLidarRobotsOnTheSiteMap:
                       *logs)
             log_in(staff, url, STAFF_TOKEN)
             mark(staff)
+            watch_alerts(staff)
             board = staff.current_window_handle
             staff.switch_to.new_window("window")
             staff.get(f"{url}/site")
@@ -227,7 +238,7 @@ class TestLidarRobotsOnTheSiteMap:
 
 
             # Each fault is an alert on the board while it lasts (RelayBot's resolves itself
-            # once it is home again, before the vacuum gives up).
+            # once it is home again, perhaps before the vacuum gives up).
             staff.switch_to.window(board)
             for code in ("stuck", "docking_gave_up"):
                 until(lambda c=code: c in alert_codes(staff), FAULT_WAIT_S,

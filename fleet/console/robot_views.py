@@ -114,7 +114,7 @@ async def robot_views(session: AsyncSession, now: datetime | None = None) -> lis
     offline_after = timedelta(seconds=cfg.offline_after_s)
     views = []
     rows = (await session.execute(_ROWS)).all()
-    reported = ({s.name: s for s in await robot_statuses(session, now)}
+    reported = ({s.name: s for s in await robot_statuses(session, now, reporting_only=True)}
                 if any(row[-1] is not None for row in rows) else {})
     for (name, state, ordered_stop, latched, fault_code, fault_message, battery, offline,
          ping, base_place, request_id, status, room_id, status_at) in rows:

@@ -5,8 +5,11 @@ While a staff page listens, each server process reads every robot's view once a 
 listens, the active requests (``RequestChanges``). This times one pass, nothing changed (the
 common case), on SQLite in one process, beside a plain read of the robots table in the same
 run (the database's own cost), for 100, 500 and 2000 robots, half of them serving a request.
+With ``--reporting F`` that fraction of the robots (those serving no request) report a site
+status instead (a vacuum's: profile, pose on ``odom``), read through ``robot_statuses``.
 
     .venv/bin/python bench/bench_console_push.py [--robots 100,500,2000] [--passes 200]
+        [--reporting 0.5]
 """
 
 from __future__ import annotations
@@ -55,7 +58,7 @@ async def _timed(call: Callable[[], Awaitable[object]], passes: int) -> tuple[fl
     return statistics.median(times), times[int(len(times) * 0.99) - 1]
 
 
-async def bench(robots: int, passes: int) -> None:
+async def bench(robots: int, passes: int, reporting: float = 0.0) -> None:
     with tempfile.TemporaryDirectory() as folder:
         server = FleetServer(f"sqlite:///{folder}/fleet.db",
                              site=parse_site(site_toml(robots), "bench"))
@@ -73,6 +76,10 @@ async def bench(robots: int, passes: int) -> None:
             for i, request_id in enumerate(list(ids)):
                 await session.execute(update(Robot).where(Robot.name == f"robot-{i}")
                                       .values(current_request_id=request_id))
+            for i in range(robots - int(robots * reporting), robots):
+                await session.execute(update(Robot).where(Robot.name == f"robot-{i}").values(
+                    status_at=now, profile="vacuum", pose_x_m=1.0, pose_y_m=2.0,
+                    pose_theta_rad=0.5, map_name="odom"))
 
         async def plain() -> None:
             async with server.db.read() as session:
@@ -86,7 +93,8 @@ async def bench(robots: int, passes: int) -> None:
         views = await _timed(robot_changes, passes)
         requests = await _timed(request_changes, passes)
         await server.stop()
-    print(f"{robots:5d} robots  robots table read p50 {base[0]:6.2f} ms p99 {base[1]:6.2f} ms"
+    print(f"{robots:5d} robots ({reporting:.0%} site status)"
+          f"  robots table read p50 {base[0]:6.2f} ms p99 {base[1]:6.2f} ms"
           f" | robots pass p50 {views[0]:6.2f} ms p99 {views[1]:6.2f} ms"
           f" | requests pass p50 {requests[0]:6.2f} ms p99 {requests[1]:6.2f} ms")
 
@@ -95,9 +103,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robots", default="100,500,2000")
     parser.add_argument("--passes", type=int, default=200)
+    parser.add_argument("--reporting", type=float, default=0.0,
+                        help="the fraction of robots that report a site status")
     args = parser.parse_args()
     for robots in (int(n) for n in args.robots.split(",")):
-        asyncio.run(bench(robots, args.passes))
+        asyncio.run(bench(robots, args.passes, args.reporting))
 
 
 if __name__ == "__main__":

@@ -25,6 +25,8 @@ room = "Room 101"              # optional (the beacon's room by default)
 
 [[robots]]
 name = "robot-1"
+odom_on_map = [2.0, 1.5, 90.0]  # optional: where its odometry frame (a pose on map "odom",
+                            # e.g. a vacuum's) lies on the site map: x_m, y_m, theta_deg
 
 [[lines]]                   # rooms on one painted line: one robot at a time travels it
 name = "main"
@@ -39,6 +41,7 @@ token = "..."               # at least 24 characters; stored hashed
 
 from __future__ import annotations
 
+import math
 import tomllib
 from dataclasses import dataclass, field
 from datetime import datetime
@@ -59,7 +62,7 @@ _KEYS: dict[str, dict[str, type]] = {
     "beacons": {"mac": str, "name": str, "room": str, "rssi_threshold_dbm": int, "base": bool,
                 "active": bool},
     "customers": {"id": int, "name": str, "beacon": str, "room": str},
-    "robots": {"name": str},
+    "robots": {"name": str, "odom_on_map": list},
     "lines": {"name": str, "rooms": list},
     "tokens": {"role": str, "subject": str, "token": str},
 }
@@ -87,6 +90,13 @@ class Site:
     source: str = "<site>"
     map: Path | None = None
     """The site map's YAML file (``map = "..."``), relative paths from the site file's folder."""
+
+    def odom_placements(self) -> dict[str, tuple[float, float, float]]:
+        """Each robot's odometry frame on the site map (``odom_on_map``): name -> (x_m, y_m,
+        theta_rad)."""
+        return {str(r["name"]): (float(r["odom_on_map"][0]), float(r["odom_on_map"][1]),
+                                 math.radians(float(r["odom_on_map"][2])))
+                for r in self.robots if "odom_on_map" in r}
 
 
 def parse_site(text: str, source: str = "<site>") -> Site:
@@ -138,7 +148,9 @@ def _entries(source: str, section: str, value: Any) -> list[dict[str, Any]]:
             if limit is not None and isinstance(item, str) and len(item) > limit:
                 msg = f"{where}.{key}: at most {limit} characters, got {len(item)}"
                 raise SiteError(msg)
-            if isinstance(item, list):
+            if key == "odom_on_map":
+                _check_placement(f"{where}.{key}", item)
+            elif isinstance(item, list):
                 _check_room_names(f"{where}.{key}", item)
         missing = _REQUIRED[section] - entry.keys()
         if missing:
@@ -153,6 +165,14 @@ def _check_room_names(where: str, rooms: list[Any]) -> None:
             msg = (f"{where}[{j}]: must be a room name (1-{_MAX_CHARS['room']} characters), "
                    f"got {room!r}")
             raise SiteError(msg)
+
+
+def _check_placement(where: str, value: object) -> None:
+    if not isinstance(value, list) or len(value) != 3 or not all(
+            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+            for v in value):
+        msg = f"{where}: must be [x_m, y_m, theta_deg] (three numbers), got {value!r}"
+        raise SiteError(msg)
 
 
 def load_site(path: str | Path) -> Site:

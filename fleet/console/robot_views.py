@@ -2,11 +2,13 @@
 
 The board's robot table, the site map, the robot page and the pushed ``robots`` events all
 read ``robot_views(session)``; what a robot reports of itself reaches every page through it
-(more profiles and fields: this function is the one to extend). Today the robots that report
-are the laundry seed's: their state path, e-stop latch, fault and battery as they send them;
-their place is what the server knows of them (at base, at the customer's room, or on the way
-between the two, from the request they serve); a line robot has no pose (``x_m`` and the
-like stay None).
+(more profiles and fields: this function is the one to extend). A laundry robot of the data
+exchange shows its state path, e-stop latch, fault and battery as it sends them; its place is
+what the server knows of it (at base, at the customer's room, or on the way between the two,
+from the request it serves); a line robot has no pose (``x_m`` and the like stay None). A
+robot that reports its site status (``POST /api/Robot/{name}/status``, any profile) shows
+what ``robot_statuses`` makes of it: profile, state, e-stop, fault, battery, pose and its
+map, place, job, online by its reports.
 
 ``place`` is a room's name (the robot is there) or ``"FROM -> TO"`` (on its way);
 ``place_rooms`` reads it back.
@@ -14,7 +16,7 @@ like stay None).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from datetime import datetime, timedelta
 from typing import Literal
 
@@ -22,6 +24,7 @@ from sqlalchemy import select
 from sqlalchemy.ext.asyncio import AsyncSession
 
 from fleet.models import Beacon, Customer, Request, Robot, Room
+from fleet.services.robot_status import RobotStatus, robot_statuses
 from fleet.settings import load_settings
 from fleet.status import Status
 
@@ -30,7 +33,8 @@ ON_THE_WAY = " -> "
 UNKNOWN = "the line"
 """Where a robot sent back to base with no request comes from (the server does not know)."""
 PROFILE = "laundry"
-"""Every robot of the data exchange is a laundry robot (seed 000, section 8)."""
+"""Every robot of the data exchange is a laundry robot (seed 000, section 8); one never heard
+from has no profile yet."""
 
 _TO_ROOM = frozenset(str(s) for s in (Status.ACCEPTED, Status.GOING_TO_ROOM))
 _AT_ROOM = frozenset(str(s) for s in (Status.ARRIVED_AT_ROOM, Status.ARRIVED_FOR_DELIVERY))
@@ -92,7 +96,7 @@ def place_rooms(place: str | None) -> tuple[str | None, str | None]:
 _ROWS = (
     select(Robot.name, Robot.state, Robot.emergency_stop, Robot.estop_active, Robot.fault_code,
            Robot.fault_message, Robot.battery_pct, Robot.is_offline, Robot.last_ping_at,
-           Robot.base_place, Request.id, Request.status, Customer.room_id)
+           Robot.base_place, Request.id, Request.status, Customer.room_id, Robot.status_at)
     .outerjoin(Request, Request.id == Robot.current_request_id)
     .outerjoin(Customer, Customer.id == Request.customer_id)
     .order_by(Robot.id))
@@ -109,13 +113,20 @@ async def robot_views(session: AsyncSession, now: datetime | None = None) -> lis
     base = (await session.execute(_BASE)).scalar()
     offline_after = timedelta(seconds=cfg.offline_after_s)
     views = []
+    rows = (await session.execute(_ROWS)).all()
+    reported = ({s.name: s for s in await robot_statuses(session, now, reporting_only=True)}
+                if any(row[-1] is not None for row in rows) else {})
     for (name, state, ordered_stop, latched, fault_code, fault_message, battery, offline,
-         ping, base_place, request_id, status, room_id) in await session.execute(_ROWS):
+         ping, base_place, request_id, status, room_id, status_at) in rows:
+        if status_at is not None and name in reported:
+            views.append(_reported(reported[name]))
+            continue
         online = not offline and ping is not None and (
             now is None or now - ping <= offline_after)
         room = rooms.get(room_id) if room_id is not None else None
         views.append(RobotView(
-            name=name, profile=PROFILE, state=state, estop=bool(ordered_stop or latched),
+            name=name, profile=PROFILE if ping is not None else None, state=state,
+            estop=bool(ordered_stop or latched),
             fault_code=fault_code,
             fault_message=fault_message if fault_code is not None else None,
             battery_pct=battery, x_m=None, y_m=None, theta_rad=None, map_name=None,
@@ -123,6 +134,11 @@ async def robot_views(session: AsyncSession, now: datetime | None = None) -> lis
             job=f"request {request_id}: {status}" if request_id is not None else None,
             online=online, last_seen=ping))
     return views
+
+
+def _reported(status: RobotStatus) -> RobotView:
+    """A robot that reports its site status, as the server's status of it says."""
+    return RobotView(**{f.name: getattr(status, f.name) for f in fields(RobotView)})
 
 
 def _place(at_base: bool, status: str | None, room: str | None,

@@ -64,10 +64,13 @@ async def _drawing(http: HttpRequest, views: list[RobotView]) -> str:
     except MapError as exc:
         return f'<p class="error">{esc(exc)}</p>' + await _schematic(http, views)
     if site_map is not None:
-        unposed = [v.name for v in views if v.x_m is None or v.y_m is None]
+        site = server_of(http).site
+        placements = site.odom_placements() if site is not None else {}
+        unposed = [v.name for v in views
+                   if site_svg.on_site_map(v, site_map, placements) is None]
         note = (f'<p class="note" id="no-pose">Without a pose on the map (see the table): '
                 f'{esc(", ".join(unposed))}</p>' if unposed else "")
-        return site_svg.picture(site_map, views) + note
+        return site_svg.picture(site_map, views, placements) + note
     return await _schematic(http, views)
 
 

@@ -7,15 +7,18 @@ fraction ``t`` of the loop (``data-t``). A robot in a room stands at the room's 
 one behind the other); one on its way from A to B halfway along the loop from A to B. The
 page's script (``console.js``) places markers by the same rule when a ``robots`` event comes.
 
-Map: the picture (``/console/site/map.png``) in map pixels, a robot with a pose at its pixel
-with a stroke for its heading (``map_image.SiteMap.pixel``); robots without one are listed
-beside it.
+Map: the picture (``/console/site/map.png``) in map pixels, a robot with a pose on it at its
+pixel with a stroke for its heading (``map_image.SiteMap.pixel``): a pose on the site map's
+own map (its YAML's stem), or on map ``odom`` for a robot whose odometry frame the site file
+places (``odom_on_map``, ``on_site_map``); other robots are listed beside it. The script
+places pushed poses by the same rule (``data-map``, ``data-placements``).
 """
 
 from __future__ import annotations
 
+import json
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 from fleet.console.html import esc
 from fleet.console.map_image import SiteMap
@@ -25,6 +28,10 @@ WIDTH, HEIGHT = 960, 380
 LOOP = (110.0, 120.0, 850.0, 260.0)
 """The loop's rectangle (x0, y0, x1, y1) in the drawing's units."""
 BOX_W, BOX_H = 130.0, 46.0
+ODOM = "odom"
+"""The map name of a pose in the robot's own odometry frame (the vacuum's)."""
+Placements = Mapping[str, tuple[float, float, float]]
+"""Robot name -> its odometry frame on the site map (x_m, y_m, theta_rad)."""
 QUEUE_STEP = 0.025
 """How far apart (a fraction of the loop) robots at one place stand."""
 
@@ -85,19 +92,31 @@ def _room(name: str, t: float, base: bool) -> str:
             "</g>")
 
 
-def marker(view: RobotView, x: float, y: float, heading_rad: float | None = None) -> str:
-    """A robot's marker: a dot in its condition's colour, its name, battery and fault."""
+def glyph_scale(site_map: SiteMap) -> float:
+    """A marker on a map picture is drawn at this scale: as large beside the picture as on
+    the schematic, whatever the map's size in pixels."""
+    return max(site_map.width_px, site_map.height_px) / WIDTH
+
+
+def marker(view: RobotView, x: float, y: float, heading_rad: float | None = None,
+           scale: float = 1.0) -> str:
+    """A robot's marker: a dot in its condition's colour, its name, battery and fault; on a
+    map picture (``heading_rad`` given) it carries the pose it is drawn for, as reported
+    (``data-x``, ``data-y``, ``data-theta``, ``data-map``), as the script's markers do."""
     battery = "" if view.battery_pct is None else f" {view.battery_pct:.0f}%"
     fault = f" {view.fault_code}" if view.fault_code else ""
-    heading = ""
+    heading = pose = ""
     if heading_rad is not None:
+        pose = (f'data-x="{view.x_m}" data-y="{view.y_m}" data-theta="{view.theta_rad or 0.0}" '
+                f'data-map="{esc(view.map_name or "")}" ')
         heading = (f'<line class="heading" x1="0" y1="0" x2="{22 * math.cos(heading_rad):.1f}" '
                    f'y2="{-22 * math.sin(heading_rad):.1f}"/>')
     return (f'<g class="robot c-{view.condition}" id="marker-{esc(view.name)}" '
             f'data-robot="{esc(view.name)}" data-condition="{view.condition}" '
-            f'data-place="{esc(view.place or "")}" transform="translate({x:.1f},{y:.1f})">'
+            f'data-place="{esc(view.place or "")}" {pose}transform="translate({x:.1f},{y:.1f})">'
+            f'<g class="glyph" transform="scale({scale:.4g})">'
             f'{heading}<circle r="11"/><text class="name" y="-16">{esc(view.name)}</text>'
-            f'<text class="about" x="16" y="5">{esc((battery + fault).strip())}</text>'
+            f'<text class="about" x="16" y="5">{esc((battery + fault).strip())}</text></g>'
             f"<title>{esc(view.name)}: {esc(view.state or '?')} ({view.condition})</title></g>")
 
 
@@ -125,18 +144,39 @@ def schematic(rooms: Sequence[str], base: str | None, views: Sequence[RobotView]
             "</svg>")
 
 
-def picture(site_map: SiteMap, views: Sequence[RobotView]) -> str:
-    """The site's map picture with every robot that has a pose drawn at it."""
+def on_site_map(view: RobotView, site_map: SiteMap, placements: Placements
+                ) -> tuple[float, float, float] | None:
+    """The robot's pose on the site map (x_m, y_m, theta_rad), or None: no pose, or one on a
+    map that is neither the site's nor its placed odometry frame."""
+    if view.x_m is None or view.y_m is None:
+        return None
+    theta = view.theta_rad or 0.0
+    if view.map_name == site_map.name:
+        return view.x_m, view.y_m, theta
+    placed = placements.get(view.name)
+    if view.map_name != ODOM or placed is None:
+        return None
+    px, py, pt = placed
+    c, s = math.cos(pt), math.sin(pt)
+    return px + c * view.x_m - s * view.y_m, py + s * view.x_m + c * view.y_m, pt + theta
+
+
+def picture(site_map: SiteMap, views: Sequence[RobotView], placements: Placements) -> str:
+    """The site's map picture with every robot that has a pose on it drawn there."""
     drawn = [f'<image href="/console/site/map.png" x="0" y="0" width="{site_map.width_px}" '
              f'height="{site_map.height_px}"/>']
     for view in views:
-        if view.x_m is None or view.y_m is None:
+        pose = on_site_map(view, site_map, placements)
+        if pose is None:
             continue
-        col, row = site_map.pixel(view.x_m, view.y_m)
-        drawn.append(marker(view, col, row, view.theta_rad))
+        col, row = site_map.pixel(pose[0], pose[1])
+        drawn.append(marker(view, col, row, pose[2], glyph_scale(site_map)))
+    placed = json.dumps({name: list(p) for name, p in placements.items()})
     return (f'<svg id="site-map" class="picture" '
             f'viewBox="0 0 {site_map.width_px} {site_map.height_px}" '
             f'data-origin="{site_map.origin_x_m},{site_map.origin_y_m}" '
             f'data-resolution="{site_map.resolution_m}" data-height="{site_map.height_px}" '
+            f'data-map="{esc(site_map.name)}" data-placements="{esc(placed)}" '
+            f'data-glyph-scale="{glyph_scale(site_map):.4g}" '
             f'role="img" aria-label="the site map {esc(site_map.name)} and the robots">'
             f'{"".join(drawn)}</svg>')

@@ -71,7 +71,8 @@ def robots(rows: list[RobotOut]) -> str:
     if not rows:
         return '<p class="empty">No robots registered.</p>'
     body = "".join(_robot_row(r) for r in rows)
-    return ("<table><thead><tr><th>Robot</th><th>Status</th><th>State</th><th>Battery</th>"
+    return ("<table><thead><tr><th>Robot</th><th>Profile</th><th>Status</th><th>State</th>"
+            "<th>Battery</th>"
             "<th>Fault</th><th>Waiting for</th><th>Request</th></tr></thead>"
             f"<tbody>{body}</tbody></table>")
 
@@ -80,8 +81,11 @@ def _robot_row(robot: RobotOut) -> str:
     battery = "-" if robot.BatteryPct is None else f"{robot.BatteryPct:.0f} %"
     fault = ("-" if robot.Fault is None
              else f"{esc(robot.Fault.Code)}: {esc(robot.Fault.Message)}")
+    # A robot of the data exchange is a laundry robot (seed 000); others say their profile.
+    profile = robot.Profile or ("laundry" if robot.LastPingAt is not None else "-")
     return (f'<tr id="robot-{esc(robot.Name)}" data-status="{esc(robot.Status)}">'
             f'<td><a href="/robots/{esc(quote(robot.Name, safe=""))}">{esc(robot.Name)}</a></td>'
+            f"<td>{esc(profile)}</td>"
             f'<td><span class="status r-{esc(robot.Status)}">{esc(robot.Status)}</span></td>'
             f"<td>{esc(robot.State or '-')}</td><td>{esc(battery)}</td><td>{fault}</td>"
             f"<td>{esc(robot.WaitingFor or '-')}</td>"
@@ -101,8 +105,10 @@ def _alert(alert: AlertOut, csrf: str) -> str:
     about = " ".join(part for part in (
         f"robot {esc(alert.RobotName)}" if alert.RobotName else "",
         f"request {alert.RequestId}" if alert.RequestId is not None else "") if part)
-    return (f'<article id="alert-{alert.Id}" class="alert {esc(alert.Level)}">'
-            f"<h3>{esc(alert.Kind)} <small>{esc(about)}</small></h3>"
+    code = f" {alert.Code}" if alert.Code else ""
+    return (f'<article id="alert-{alert.Id}" class="alert {esc(alert.Level)}" '
+            f'data-code="{esc(alert.Code or "")}">'
+            f"<h3>{esc(alert.Kind + code)} <small>{esc(about)}</small></h3>"
             f"<p>{esc(alert.Message)}</p><p class=\"note\">{esc(when(alert.CreatedAt))}</p>"
             f'<div class="actions">{seen}{_resolve_form(alert, csrf)}</div></article>')
 

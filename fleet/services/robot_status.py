@@ -60,11 +60,15 @@ def robot_status(robot: Robot, now: datetime, offline_after_s: float) -> RobotSt
         last_seen=last_seen)
 
 
-async def robot_statuses(session: AsyncSession, now: datetime | None = None
-                         ) -> list[RobotStatus]:
-    """Every registered robot, in the order they were registered. ``now``: the server's
-    clock (default the system's, UTC)."""
+async def robot_statuses(session: AsyncSession, now: datetime | None = None, *,
+                         reporting_only: bool = False) -> list[RobotStatus]:
+    """Every registered robot, in the order they were registered (``reporting_only``: those
+    that have reported a site status). ``now``: the server's clock (default the system's,
+    UTC)."""
     settings = await load_settings(session)
-    robots = (await session.execute(select(Robot).order_by(Robot.id))).scalars().all()
+    query = select(Robot).order_by(Robot.id)
+    if reporting_only:
+        query = query.where(Robot.status_at.is_not(None))
+    robots = (await session.execute(query)).scalars().all()
     at = now if now is not None else system_clock()
     return [robot_status(r, at, settings.offline_after_s) for r in robots]

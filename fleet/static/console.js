@@ -109,7 +109,12 @@
     about.setAttribute("class", "about");
     about.setAttribute("x", "16");
     about.setAttribute("y", "5");
-    g.append(circle, label, about);
+    // On a map picture the marker is drawn at the picture's scale (site_svg.glyph_scale).
+    const glyph = document.createElementNS(SVG, "g");
+    glyph.setAttribute("class", "glyph");
+    glyph.setAttribute("transform", `scale(${svg.dataset.glyphScale || 1})`);
+    glyph.append(circle, label, about);
+    g.appendChild(glyph);
     svg.appendChild(g);
     return g;
   }
@@ -119,7 +124,12 @@
     g.setAttribute("class", "robot c-" + robot.Condition);
     g.dataset.condition = robot.Condition;
     g.dataset.place = robot.Place || "";
-    if (robot.X !== null) { g.dataset.x = robot.X; g.dataset.y = robot.Y; }
+    if (robot.X !== null && robot.Y !== null) {
+      g.dataset.x = robot.X;
+      g.dataset.y = robot.Y;
+      g.dataset.theta = robot.Theta === null ? 0 : robot.Theta;
+      g.dataset.map = robot.Map || "";
+    } else delete g.dataset.x;
     const battery = robot.BatteryPct === null ? "" : Math.round(robot.BatteryPct) + "%";
     g.querySelector("text.about").textContent = [battery, robot.FaultCode || ""].join(" ").trim();
   }
@@ -150,15 +160,42 @@
     });
   }
 
+  // A pose on the site map's own map, or on "odom" for a robot whose odometry frame the site
+  // file places (site_svg.on_site_map); null: not on this picture.
+  function onSiteMap(svg, g) {
+    if (g.dataset.x === undefined) return null;
+    const [x, y, theta] = [g.dataset.x, g.dataset.y, g.dataset.theta].map(Number);
+    if (g.dataset.map === svg.dataset.map) return [x, y, theta];
+    const placed = JSON.parse(svg.dataset.placements || "{}")[g.dataset.robot];
+    if (g.dataset.map !== "odom" || placed === undefined) return null;
+    const [px, py, pt] = placed;
+    const c = Math.cos(pt), s = Math.sin(pt);
+    return [px + c * x - s * y, py + s * x + c * y, pt + theta];
+  }
+
   function layoutPicture(svg) {
     const [ox, oy] = svg.dataset.origin.split(",").map(Number);
     const resolution = Number(svg.dataset.resolution);
     const height = Number(svg.dataset.height);
     svg.querySelectorAll("g.robot").forEach((g) => {
-      if (g.dataset.x === undefined) return;
-      const x = (Number(g.dataset.x) - ox) / resolution;
-      const y = height - (Number(g.dataset.y) - oy) / resolution;
+      if (g.dataset.x === undefined && g.dataset.map === undefined) return;  // drawn as served
+      const pose = onSiteMap(svg, g);
+      if (pose === null) { g.style.display = "none"; return; }
+      const x = (pose[0] - ox) / resolution;
+      const y = height - (pose[1] - oy) / resolution;
+      g.style.display = "";
       g.setAttribute("transform", `translate(${x.toFixed(1)},${y.toFixed(1)})`);
+      let heading = g.querySelector("line.heading");
+      if (heading === null) {
+        heading = document.createElementNS(SVG, "line");
+        heading.setAttribute("class", "heading");
+        heading.setAttribute("x1", "0");
+        heading.setAttribute("y1", "0");
+        const glyph = g.querySelector("g.glyph") || g;
+        glyph.insertBefore(heading, glyph.firstChild);
+      }
+      heading.setAttribute("x2", (22 * Math.cos(pose[2])).toFixed(1));
+      heading.setAttribute("y2", (-22 * Math.sin(pose[2])).toFixed(1));
     });
   }
 

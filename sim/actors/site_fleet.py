@@ -13,6 +13,11 @@ orders = [                  # the staff's orders from the server, at scenario ti
 ]
 ```
 
+With ``robotd sim --fleet-url URL --fleet-token-file FILE`` the robots report to that outside
+server instead (``OutsideSiteFleet``): its staff are real people at its console, so the
+table's ``orders`` are not played and nothing of the server is recorded (FILE may name each
+robot as ``{robot}``).
+
 What the staff see goes into the run's events: ``fleet.robot`` each time a robot's state,
 fault or e-stop in the robot list changes (with its pose and job), ``fleet.alert`` for each
 new alert, ``fleet.order`` for each order given (with the HTTP status).
@@ -153,12 +158,50 @@ class SiteFleetActors:
                                  "robot": alert.get("RobotName"), "message": alert["Message"]})
 
 
-def site_fleet_for(ctx: ActorContext, robots: list[tuple[str, bool]]) -> SiteFleetActors | None:
+class OutsideSiteFleet:
+    """The robots named report to an outside fleet server (``robotd sim --fleet-url``)."""
+
+    def __init__(self, url: str, token_file: str | None, robots: tuple[str, ...]) -> None:
+        self.url = url
+        self.token_file = token_file
+        self.robots = robots
+
+    async def start(self) -> None:
+        """Nothing to start: the server runs on its own."""
+
+    def configure_robot(self, settings: Settings) -> None:
+        name = settings.get("robot.name")
+        if name not in self.robots:
+            return
+        settings.set("fleet.url", self.url)
+        if self.token_file:
+            settings.set("fleet.token_file", self.token_file.replace("{robot}", name))
+
+    def attach(self, rig: SimRig) -> None:
+        """The robots reach the server through the operating system's network."""
+
+    def people(self) -> list[ActorTask]:
+        return []
+
+    def background(self) -> list[ActorTask]:
+        return []
+
+    def failures(self) -> list[str]:
+        return []
+
+    async def close(self) -> None:
+        """Nothing to close."""
+
+
+def site_fleet_for(ctx: ActorContext, robots: list[tuple[str, bool]]
+                   ) -> SiteFleetActors | OutsideSiteFleet | None:
     """The site fleet of the scenario's ``[fleet]`` table for the robots (name, whether its
-    slice runs its own fleet) that have none of their own; None without such a table or
-    such robots."""
+    slice runs its own fleet) that have none of their own, or the outside server of
+    ``--fleet-url``; None without such a table or such robots."""
     table = ctx.scenario.raw.get("fleet")
     mine = tuple(name for name, own in robots if not own)
     if not isinstance(table, dict) or not mine:
         return None
+    if ctx.fleet_url:
+        return OutsideSiteFleet(ctx.fleet_url, ctx.fleet_token_file, mine)
     return SiteFleetActors(ctx, table, mine)

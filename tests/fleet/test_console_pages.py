@@ -5,6 +5,7 @@ form, and the pushed ``robots`` event."""
 from __future__ import annotations
 
 import json
+import math
 import re
 from pathlib import Path
 
@@ -181,7 +182,42 @@ class TestSiteMap:
         site_map = load_map(tmp_path / "yard.yaml")
         posed = RobotView("r", "x", "s", False, None, None, 50.0, 1.0, 0.0, 0.0, "yard", None,
                           None, True, None)
-        assert 'transform="translate(20.0,20.0)"' in picture(site_map, [posed])
+        assert 'transform="translate(20.0,20.0)"' in picture(site_map, [posed], {})
+
+    def test_an_odometry_pose_is_drawn_where_the_site_file_places_its_frame(
+            self, tmp_path: Path) -> None:
+        """A vacuum's pose on map ``odom`` goes through its ``odom_on_map``: frame at (1, 0),
+        turned 90 degrees, so odom (1, 0) is map (1, 1); a robot on another map, or an odom
+        pose without a placement, is not drawn."""
+        from fleet.console.map_image import load_map
+        from fleet.console.site_svg import on_site_map, picture
+        cv2.imwrite(str(tmp_path / "yard.pgm"), np.full((40, 60), 254, np.uint8))
+        (tmp_path / "yard.yaml").write_text("image: yard.pgm\nresolution: 0.1\n"
+                                            "origin: [-1.0, -2.0, 0.0]\n")
+        site_map = load_map(tmp_path / "yard.yaml")
+        site = parse_site('[[robots]]\nname = "vac"\nodom_on_map = [1.0, 0.0, 90]\n'
+                          '[[robots]]\nname = "other"\n')
+        placements = site.odom_placements()
+
+        def view(name: str, map_name: str) -> RobotView:
+            return RobotView(name, "vacuum", "s", False, None, None, None, 1.0, 0.0, 0.5,
+                             map_name, None, None, True, None)
+
+        x, y, theta = on_site_map(view("vac", "odom"), site_map, placements) or (0, 0, 0)
+        assert (round(x, 6), round(y, 6)) == (1.0, 1.0)
+        assert theta == pytest.approx(0.5 + math.pi / 2)
+        assert on_site_map(view("other", "odom"), site_map, placements) is None
+        assert on_site_map(view("vac", "warehouse"), site_map, placements) is None
+        drawn = picture(site_map, [view("vac", "odom"), view("other", "odom")], placements)
+        assert 'transform="translate(20.0,10.0)"' in drawn
+        assert "marker-other" not in drawn
+
+    def test_a_bad_odometry_placement_is_named(self) -> None:
+        with pytest.raises(SiteError, match=r"site: robots\[0\]\.odom_on_map: must be "
+                                            r"\[x_m, y_m, theta_deg\]"):
+            parse_site('[[robots]]\nname = "vac"\nodom_on_map = [1.0, "a", 0]\n', "site")
+        with pytest.raises(SiteError, match=r"robots\[0\]\.odom_on_map: must be list"):
+            parse_site('[[robots]]\nname = "vac"\nodom_on_map = 3\n', "site")
 
 
     def test_a_bad_map_is_named_and_the_schematic_shown(self, tmp_path: Path) -> None:

@@ -148,5 +148,6 @@ class TestStaffInTheBrowser:
             subscribed(staff)
             click(staff, '#robot-view [data-action="estop"]')
             assert wait_for(staff, '#robot-view[data-condition="estop"]')
-            assert staff.find_element(By.CSS_SELECTOR, '[data-action="resume"]').is_enabled()
+            # The robot's view is re-rendered when pushed: wait on it, never hold an element.
+            wait_for(staff, '[data-action="resume"]:not([disabled])')
             screenshot(staff, "console-robot.png")

@@ -89,6 +89,28 @@ class TestStored:
             views = {v.name: v for v in await robot_statuses(session, site.clock())}
         assert not views["vac-1"].online
 
+    async def test_the_console_shows_what_a_reporting_robot_says_of_itself(self, site):
+        """The console's robot views take a reporting robot's status (its profile, pose and
+        map, fault, job); a laundry robot keeps the place the server knows; a robot that
+        never reported has no profile yet."""
+        from fleet.console.robot_views import robot_views
+
+        await post_status(site, **vacuum_status(
+            State="recovery", Fault={"Code": "dock_failed", "Message": "fallbacks spent"}))
+        await site.server.flush_pings()
+        async with site.server.db.read() as session:
+            views = {v.name: v for v in await robot_views(session, site.clock())}
+        vac = views["vac-1"]
+        assert (vac.profile, vac.state, vac.battery_pct, vac.x_m, vac.y_m, vac.theta_rad,
+                vac.map_name) == ("vacuum", "recovery", 76.5, 1.25, -0.5, 0.7854, "odom")
+        assert (vac.condition, vac.fault_code, vac.online) == ("fault", "dock_failed", True)
+        assert (views["robot-1"].profile, views["robot-1"].place) == ("laundry", "Laundry")
+        assert views["relay-1"].profile is None and not views["relay-1"].online
+        site.clock.advance(31)
+        async with site.server.db.read() as session:
+            later = {v.name: v for v in await robot_views(session, site.clock())}
+        assert later["vac-1"].condition == "offline"
+
     async def test_a_robot_that_only_reports_status_is_never_sent_a_request(self, db_url):
         """A vacuum is not a laundry robot: with no laundry robot online, no request can be
         served, however well the vacuum reports."""

@@ -11,11 +11,11 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from gave_up_scenario import gave_up_scenario
 
 from robotd.cli import main
 
 Events = list[dict[str, Any]]
-VACUUM_SCENARIOS = Path(__file__).parents[2] / "sim" / "robots" / "vacuum" / "scenarios"
 
 
 def _run(out: Path, scenario: str) -> Events:
@@ -80,23 +80,7 @@ class TestDockingGaveUp:
         long contacts fault, seed 2): the seed's retries and fallbacks spent, the robot in
         recovery with the fault dock_failed (until recovery's timeout e-stops it); on a site
         with a fleet server that is an alert the staff see, code docking_gave_up."""
-        text = (VACUUM_SCENARIOS / "docking-rear.toml").read_text()
-        head, _, _ = text.partition("[success]")
-        path = tmp_path / "gave-up.toml"
-        path.write_text(head.replace('name = "docking-rear"', 'name = "gave-up"') + """
-[[script]]
-at_s = 0.5
-action = "dock.contacts_fault"
-
-[fleet]
-watch_s = 1.0
-
-[success]
-time_limit_s = 1500
-final_state = "estop"
-no_estop = false
-no_collisions = false
-""")
+        path = gave_up_scenario(tmp_path)
         out = tmp_path / "out"
         assert main(["sim", str(path), "--seed", "2", "--quiet", "--report", str(out)]) == 0
         events = [json.loads(line) for line in (out / "events.jsonl").read_text().splitlines()]
@@ -135,3 +119,29 @@ class TestRelayBotOnTheFleet:
         assert ("mission.navigating_to_warehouse", "navigation_error",
                 "mission.error_recovery") in moves
         assert moves[-1] == ("mission.error_recovery", "recovery_complete", "mission.waiting")
+
+
+class TestAnOutsideFleetServer:
+    def test_the_robots_report_to_it_and_no_staff_orders_are_played(
+            self, tmp_path: Path) -> None:
+        """``--fleet-url``: docking-fleet's vacuum gets that URL and its token file (``{robot}``
+        its name); the scenario's in-process server and its staff orders are not started (the
+        staff are people at the outside server's console)."""
+        from datetime import UTC, datetime
+
+        from sim.actors import ActorContext
+        from sim.actors.site_fleet import OutsideSiteFleet, site_fleet_for
+        from sim.config import robot_settings
+        from sim.scenario import load_scenario
+
+        scenario = load_scenario("docking-fleet")
+        ctx = ActorContext(scenario, tmp_path, datetime(2026, 1, 1, tzinfo=UTC),
+                           lambda _e: None, lambda _r, _kg: None,
+                           fleet_url="http://127.0.0.1:9", fleet_token_file="/run/{robot}.token")
+        fleet = site_fleet_for(ctx, [("vac-1", False)])
+        assert isinstance(fleet, OutsideSiteFleet)
+        assert fleet.background() == [] and fleet.people() == []
+        settings = robot_settings(scenario, scenario.robots[0], None)
+        fleet.configure_robot(settings)
+        assert settings.get("fleet.url") == "http://127.0.0.1:9"
+        assert settings.get("fleet.token_file") == "/run/vac-1.token"

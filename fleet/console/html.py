@@ -63,7 +63,7 @@ def button_form(action: str, label: str, csrf: str, *, fields: dict[str, str] | 
 def login_page(form_csrf: str, message: str | None = None) -> str:
     """The login form: a token from ``robotd-fleet token create`` (customer or admin)."""
     problem = f'<p class="error" role="alert">{esc(message)}</p>' if message else ""
-    return page("Laundry - log in", f"""{problem}
+    return page("Site console - log in", f"""{problem}
 <form method="post" action="/login" class="login">
 <input type="hidden" name="csrf" value="{esc(form_csrf)}">
 <label for="token">Your access token</label>

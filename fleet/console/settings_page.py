@@ -117,7 +117,7 @@ async def _page(http: HttpRequest, login: Login, *, sent: dict[str, str] | None 
     saved = '<p class="note" id="saved">Saved.</p>' if http.query_params.get("saved") else ""
     body = (banner(message) + saved + '<section id="settings"><h2>Site settings</h2>'
             + settings_form(current, login.csrf_token, sent, problems) + "</section>")
-    return html(page("Laundry - settings", body, user=login.principal.subject,
+    return html(page("Site console - settings", body, user=login.principal.subject,
                      csrf=login.csrf_token, staff=True), status_code)
 
 

@@ -102,7 +102,7 @@ async def _site(http: HttpRequest, login: Login) -> Response:
                f'<div class="drawing">{await _drawing(http, views)}</div></section>')
     body = drawing + section("robot-list", "/console/site/robots", "Robots",
                              views_table(views))
-    return html(page("Laundry - site map", body, user=login.principal.subject,
+    return html(page("Site console - site map", body, user=login.principal.subject,
                      csrf=login.csrf_token, live=True, staff=True))
 
 

@@ -67,7 +67,7 @@ async def _console(http: HttpRequest, login: Login, message: str | None = None,
             + section("board", "/console/board", "Requests", await _board(http, login))
             + section("alerts", "/console/alerts", "Open alerts", await _alerts(http, login))
             + section("robots", "/console/robots", "Robots", await _robots(http)))
-    return html(page("Laundry - staff console", body, user=login.principal.subject,
+    return html(page("Site console - requests", body, user=login.principal.subject,
                      csrf=login.csrf_token, live=True, staff=True), status_code)
 
 

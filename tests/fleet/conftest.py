@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import asyncpg
+import hypothesis_profile  # noqa: F401  (the settings every test folder shares)
 import pytest
 from fleet_harness import Fleet
 from pgtest import PgCluster, PgUnavailable

@@ -6,15 +6,12 @@ from __future__ import annotations
 
 import asyncio
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
 import pytest
-from install_helpers import ROOT, VENV, install_robot
-
-sys.path.insert(0, str(ROOT / "tests" / "robotd"))
 from daemon_harness import running_daemon
+from install_helpers import VENV, install_robot
 
 
 @pytest.fixture

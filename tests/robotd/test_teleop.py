@@ -7,12 +7,12 @@ import asyncio
 from typing import Any
 
 import pytest
+from daemon_harness import RecordingMotors, RpcClient, running_daemon
 
 from hal.backend import Devices
 from robotd.control.teleop import HOLD_S
 from robotd.ctl import build_parser
 from sim import vclock
-from tests.robotd.daemon_harness import RecordingMotors, RpcClient, running_daemon
 
 
 async def _session(steps: Any) -> tuple[RecordingMotors, list[dict[str, Any]], Any]:

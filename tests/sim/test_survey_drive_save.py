@@ -12,6 +12,8 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from daemon_harness import RpcClient
+
 from behaviours.motion.odometry import Odometry
 from behaviours.nav.navigator import NavStack
 from behaviours.profiles.survey import SurveyProfile
@@ -25,7 +27,6 @@ from sim.rig import open_sim_rig
 from sim.scenario import load_scenario
 from sim.world.body import DiffDriveBody
 from sim.world.geometry import Pose
-from tests.robotd.daemon_harness import RpcClient
 
 
 async def _drive(client: RpcClient, linear: float, angular: float, seconds: float) -> None:

@@ -39,7 +39,10 @@ BY_PROFILE = {
 }
 BY_SCENARIO = {"delivery": {"delivery/box": "robotd.delivery.box"}}  # the box opens there
 LONG = {"map-depot": "6-8 minutes of exploring: tests/robotd/test_mapping_mcap.py records 90 s "
-                     "of the same survey and reads its /scan and /odom back"}
+                     "of the same survey and reads its /scan and /odom back",
+        "laundry-console": "made for an outside fleet server (--fleet-url): alone it ends at base "
+                           "in 0.5 s, before its first camera frame; its robot and channels are "
+                           "laundry's, recorded by the laundry scenarios here"}
 _WALL_EPOCH_NS = 10**18  # 2001-09-09: any wall-clock time is past it, virtual times are not
 
 

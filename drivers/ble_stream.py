@@ -20,7 +20,6 @@ import asyncio
 import contextlib
 import json
 import os
-import stat
 from pathlib import Path
 from typing import Any
 
@@ -28,7 +27,7 @@ import structlog
 from bleak import BleakScanner
 from bleak.backends.scanner import AdvertisementData, AdvertisementDataCallback, BaseBleakScanner
 
-from hal.devices import DeviceUnavailable
+from drivers.pipe_source import open_line_pipe
 
 log = structlog.get_logger(__name__)
 
@@ -75,16 +74,9 @@ class StreamScannerBackend(BaseBleakScanner):
         self._partial = b""
 
     async def start(self) -> None:
-        try:
-            mode = self.path.stat().st_mode
-        except OSError as exc:
-            msg = f"ble: cannot open {self.path} ({exc}); check ble.stream"
-            raise DeviceUnavailable(msg) from exc
-        if not stat.S_ISFIFO(mode):
-            msg = f"ble: {self.path} is not a named pipe (make it with mkfifo); check ble.stream"
-            raise DeviceUnavailable(msg)
+        fd = open_line_pipe(self.path, "ble", "ble.stream")
         self.seen_devices = {}
-        self._fd = os.open(self.path, os.O_RDWR | os.O_NONBLOCK)
+        self._fd = fd
         asyncio.get_running_loop().add_reader(self._fd, self._on_readable)
 
     async def stop(self) -> None:

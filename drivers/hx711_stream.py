@@ -20,14 +20,13 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import os
-import stat
 import time
 from collections.abc import Callable
 from pathlib import Path
 
 import structlog
 
-from hal.devices import DeviceUnavailable
+from drivers.pipe_source import open_line_pipe
 
 log = structlog.get_logger(__name__)
 
@@ -61,16 +60,7 @@ class StreamHx711Lines:
         self._sck = False
         self._partial = b""
         self._alerts: list[Callable[[], None]] = []
-        try:
-            mode = self.path.stat().st_mode
-        except OSError as exc:
-            msg = f"hx711: cannot open {self.path} ({exc}); check hx711.stream"
-            raise DeviceUnavailable(msg) from exc
-        if not stat.S_ISFIFO(mode):
-            msg = (f"hx711: {self.path} is not a named pipe (make it with mkfifo); "
-                   "check hx711.stream")
-            raise DeviceUnavailable(msg)
-        self._fd = os.open(self.path, os.O_RDWR | os.O_NONBLOCK)
+        self._fd = open_line_pipe(self.path, "hx711", "hx711.stream")
         loop.add_reader(self._fd, self._on_readable)
 
     def _on_readable(self) -> None:

@@ -20,14 +20,13 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import os
-import stat
 import time
 from collections.abc import Callable
 from pathlib import Path
 
 import structlog
 
-from hal.devices import DeviceUnavailable
+from drivers.pipe_source import open_line_pipe
 from hal.ports import IrEdge
 
 log = structlog.get_logger(__name__)
@@ -65,16 +64,7 @@ class StreamIrEdges:
         self._buffer: list[IrEdge] = []
         self._partial = b""
         self._wake = asyncio.Event()
-        try:
-            mode = self.path.stat().st_mode
-        except OSError as exc:
-            msg = f"dock_ir: cannot open {self.path} ({exc}); check docking.ir_stream"
-            raise DeviceUnavailable(msg) from exc
-        if not (stat.S_ISFIFO(mode) or stat.S_ISCHR(mode)):
-            msg = (f"dock_ir: {self.path} is not a named pipe (make it with mkfifo); "
-                   "check docking.ir_stream")
-            raise DeviceUnavailable(msg)
-        self._fd = os.open(self.path, os.O_RDWR | os.O_NONBLOCK)
+        self._fd = open_line_pipe(self.path, "dock_ir", "docking.ir_stream", char_device=True)
         loop.add_reader(self._fd, self._on_readable)
 
     def _on_readable(self) -> None:

@@ -43,24 +43,9 @@ _TO_BASE = frozenset(str(s) for s in (Status.LAUNDRY_LOADED, Status.GOING_TO_BAS
 
 
 @dataclass(frozen=True)
-class RobotView:
-    """One robot on the console (None: not known)."""
-
-    name: str
-    profile: str | None
-    state: str | None
-    estop: bool
-    fault_code: str | None
-    fault_message: str | None
-    battery_pct: float | None
-    x_m: float | None
-    y_m: float | None
-    theta_rad: float | None
-    map_name: str | None
-    place: str | None
-    job: str | None
-    online: bool
-    last_seen: datetime | None
+class RobotView(RobotStatus):
+    """One robot on the console (None: not known): a robot status (its fields are
+    ``RobotStatus``'s), with what the pages make of it."""
 
     @property
     def condition(self) -> Condition:
